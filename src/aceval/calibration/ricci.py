@@ -1,0 +1,210 @@
+"""Ricci et al. 2014: functional axes by SVD, reliability index rho, rho-weighted LM (Sec. 2.2.2-2.2.4).
+
+* :func:`functional_axis`: unit-normalise the samples (Sec. 2.2.2), take the first right singular
+  vector as the axis and ``rho = s1 / (s1 + s2 + s3)`` as its reliability (Eq. 1-2).
+* :func:`lm_fit`: the rotation ``R`` (sensor frame -> functional/body frame) that minimises the
+  weighted cost ``C = e^T W e`` with ``e = v_ref - Q(R) v_est`` (Eq. 3-7), by Levenberg-Marquardt on
+  a quaternion (Eq. 8-11): Marquardt's diagonal damping, q0 = identity, lambda = 1e-3, stop when the
+  relative cost change is below 1e-4, renormalise q after each step.
+* :func:`wahba_fit`: the closed-form optimum of the same cost (``Rotation.align_vectors``), the
+  cross-check of the LM and a method of its own in the comparisons.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..errors import TooFewAxesError, TooFewSamplesError, check_samples
+
+
+@dataclass(frozen=True)
+class AxisEstimate:
+    """A functional axis (unit, sensor frame), its reliability rho and the singular values."""
+
+    axis: np.ndarray
+    rho: float
+    singular_values: np.ndarray
+    n_samples: int
+
+
+def functional_axis(samples, min_samples: int = 3, min_norm: float = 1e-9) -> AxisEstimate:
+    """Axis and reliability index of gyroscope or accelerometer samples (Ricci Eq. 1-2).
+
+    Samples with norm below ``min_norm`` cannot be unit-normalised and are dropped (trim rest
+    periods first). Sign (SVD leaves it arbitrary): the axis points to the side where the samples'
+    mean projection is positive - for a static posture, along the measured vector; for a
+    back-and-forth rotation, along the larger share of the motion. On an exact tie the largest
+    component is made positive. Callers needing an anatomical direction flip it with a hint.
+    """
+    samples = check_samples(samples, name="functional-axis samples", min_samples=1)
+    norms = np.linalg.norm(samples, axis=1)
+    keep = norms >= min_norm
+    if keep.sum() < min_samples:
+        raise TooFewSamplesError(
+            f"functional axis: {int(keep.sum())} samples with norm >= {min_norm}, "
+            f"at least {min_samples} are needed"
+        )
+    unit = samples[keep] / norms[keep, None]
+    _, singular_values, vt = np.linalg.svd(unit, full_matrices=False)
+    axis = vt[0]
+    projection = float(np.mean(unit @ axis))
+    if abs(projection) > 1e-12:
+        axis = axis * np.sign(projection)
+    elif axis[np.argmax(np.abs(axis))] < 0:
+        axis = -axis
+    rho = float(singular_values[0] / singular_values.sum())
+    return AxisEstimate(axis=axis, rho=rho, singular_values=singular_values, n_samples=int(keep.sum()))
+
+
+@dataclass
+class LMResult:
+    """Outcome of the rho-weighted LM fit (Ricci Eq. 3-11)."""
+
+    rotation: Rotation
+    quaternion_wxyz: np.ndarray
+    n_iterations: int
+    converged: bool
+    cost_history: np.ndarray
+    quaternion_history: np.ndarray
+    residual_angle_before_deg: np.ndarray
+    residual_angle_after_deg: np.ndarray
+
+    @property
+    def R(self) -> np.ndarray:
+        return self.rotation.as_matrix()
+
+
+def quaternion_matrix(q_wxyz: np.ndarray) -> np.ndarray:
+    """Ricci Eq. 8: the quadratic rotation matrix of a (not necessarily unit) quaternion [w x y z]."""
+    w, x, y, z = q_wxyz
+    return np.array([
+        [w*w + x*x - y*y - z*z, 2*x*y - 2*z*w, 2*x*z + 2*y*w],
+        [2*x*y + 2*z*w, w*w + y*y - x*x - z*z, 2*y*z - 2*x*w],
+        [2*x*z - 2*y*w, 2*y*z + 2*x*w, w*w + z*z - x*x - y*y],
+    ])
+
+
+def _residual_jacobian(q: np.ndarray, v_est: np.ndarray) -> np.ndarray:
+    """d e / d q, shape (3N, 4), for e = v_ref - R(q) v_est with R(q) of Eq. 8.
+
+    R(q) v = (w^2 - |u|^2) v + 2 (u.v) u + 2 w (u x v), u = (x, y, z); differentiated analytically.
+    """
+    w, u = q[0], q[1:]
+    n = len(v_est)
+    jac = np.empty((n, 3, 4))
+    jac[:, :, 0] = 2 * w * v_est + 2 * np.cross(u, v_est)
+    u_dot_v = v_est @ u
+    eye = np.eye(3)
+    skew_v = np.zeros((n, 3, 3))
+    skew_v[:, 0, 1], skew_v[:, 0, 2] = -v_est[:, 2], v_est[:, 1]
+    skew_v[:, 1, 0], skew_v[:, 1, 2] = v_est[:, 2], -v_est[:, 0]
+    skew_v[:, 2, 0], skew_v[:, 2, 1] = -v_est[:, 1], v_est[:, 0]
+    jac[:, :, 1:] = (
+        -2 * v_est[:, :, None] * u[None, None, :]
+        + 2 * u[None, :, None] * v_est[:, None, :]
+        + 2 * u_dot_v[:, None, None] * eye
+        - 2 * w * skew_v
+    )
+    return -jac.reshape(3 * n, 4)
+
+
+def _check_axes(v_ref, v_est, weights):
+    v_ref = np.atleast_2d(np.asarray(v_ref, dtype=float))
+    v_est = np.atleast_2d(np.asarray(v_est, dtype=float))
+    if v_ref.shape != v_est.shape or v_ref.shape[-1] != 3:
+        raise ValueError(f"v_ref {v_ref.shape} and v_est {v_est.shape} must both be (N, 3)")
+    if len(v_ref) < 2:
+        raise TooFewAxesError(
+            f"{len(v_ref)} axis pair(s) given: at least 2 non-aligned axes define a rotation"
+        )
+    for name, vectors in (("v_ref", v_ref), ("v_est", v_est)):
+        if not np.isfinite(vectors).all():
+            raise ValueError(f"{name} contains NaN or inf")
+        norms = np.linalg.norm(vectors, axis=1)
+        if np.any(norms < 1e-9):
+            raise ValueError(f"{name} contains a zero-length axis")
+    weights = np.ones(len(v_ref)) if weights is None else np.asarray(weights, dtype=float)
+    if weights.shape != (len(v_ref),) or np.any(weights < 0) or not np.isfinite(weights).all():
+        raise ValueError(f"weights must be {len(v_ref)} finite non-negative numbers, got {weights}")
+    v_ref = v_ref / np.linalg.norm(v_ref, axis=1, keepdims=True)
+    v_est = v_est / np.linalg.norm(v_est, axis=1, keepdims=True)
+    return v_ref, v_est, weights
+
+
+def _residual_angles_deg(v_ref, v_est, R) -> np.ndarray:
+    cos = np.clip(np.sum(v_ref * (v_est @ R.T), axis=1), -1.0, 1.0)
+    return np.degrees(np.arccos(cos))
+
+
+def lm_fit(
+    v_ref,
+    v_est,
+    weights=None,
+    q0_wxyz=(1.0, 0.0, 0.0, 0.0),
+    damping: float = 1e-3,
+    rel_tol: float = 1e-4,
+    max_iter: int = 100,
+    abs_tol: float = 1e-15,
+) -> LMResult:
+    """Rotation R (sensor -> functional frame) with ``v_ref ~ R v_est``, by Ricci's LM (Eq. 3-11).
+
+    v_ref, v_est: (N, 3) axes (unit-normalised here), N >= 2; weights: (N,) rho of each axis
+    (Eq. 7; default 1). Each iteration: ``F = J^T W J + lambda diag(J^T W J)``,
+    ``Delta = F^-1 J^T W e``, ``q* = q - Delta``, ``q = q*/|q*|`` (Eq. 9-10); stop when
+    ``|C_k - C_k+1| / C_k < rel_tol`` (Eq. 11) or the cost is below ``abs_tol`` (an exact fit, where
+    the relative change is undefined). ``n_iterations`` counts the steps taken.
+    """
+    v_ref, v_est, weights = _check_axes(v_ref, v_est, weights)
+    W = np.repeat(weights, 3)
+    q = np.asarray(q0_wxyz, dtype=float)
+    q = q / np.linalg.norm(q)
+
+    def residual(q):
+        return (v_ref - v_est @ quaternion_matrix(q).T).ravel()
+
+    e = residual(q)
+    cost = float(e @ (W * e))
+    costs, quaternions = [cost], [q.copy()]
+    converged = cost < abs_tol
+    n_iter = 0
+    while not converged and n_iter < max_iter:
+        J = _residual_jacobian(q, v_est)
+        JtW = J.T * W
+        JtWJ = JtW @ J
+        F = JtWJ + damping * np.diag(np.diag(JtWJ))
+        step = np.linalg.solve(F, JtW @ e)
+        q_new = q - step
+        q = q_new / np.linalg.norm(q_new)
+        n_iter += 1
+        e = residual(q)
+        new_cost = float(e @ (W * e))
+        costs.append(new_cost)
+        quaternions.append(q.copy())
+        converged = abs(cost - new_cost) / cost < rel_tol or new_cost < abs_tol
+        cost = new_cost
+
+    if q[0] < 0:  # same rotation, canonical sign
+        q = -q
+    rotation = Rotation.from_quat(q, scalar_first=True)
+    return LMResult(
+        rotation=rotation,
+        quaternion_wxyz=q,
+        n_iterations=n_iter,
+        converged=converged,
+        cost_history=np.array(costs),
+        quaternion_history=np.array(quaternions),
+        residual_angle_before_deg=_residual_angles_deg(
+            v_ref, v_est, quaternion_matrix(np.asarray(q0_wxyz, float) / np.linalg.norm(q0_wxyz))
+        ),
+        residual_angle_after_deg=_residual_angles_deg(v_ref, v_est, rotation.as_matrix()),
+    )
+
+
+def wahba_fit(v_ref, v_est, weights=None) -> Rotation:
+    """Closed-form weighted optimum of the LM cost: ``Rotation.align_vectors(v_ref, v_est, w)``."""
+    v_ref, v_est, weights = _check_axes(v_ref, v_est, weights)
+    rotation, _ = Rotation.align_vectors(v_ref, v_est, weights=weights)
+    return rotation

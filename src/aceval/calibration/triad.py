@@ -1,0 +1,42 @@
+"""TRIAD: the rotation from two non-aligned axes, the first (primary) kept exactly."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import AlignedAxesError, TooFewAxesError
+
+
+def _frame(primary: np.ndarray, secondary: np.ndarray, min_sin: float, name: str) -> np.ndarray:
+    t1 = primary / np.linalg.norm(primary)
+    cross = np.cross(t1, secondary / np.linalg.norm(secondary))
+    sin = float(np.linalg.norm(cross))
+    if sin < min_sin:
+        raise AlignedAxesError(
+            f"TRIAD: the two {name} axes are {np.degrees(np.arcsin(min(sin, 1.0))):.2f} deg apart "
+            f"(< {np.degrees(np.arcsin(min_sin)):.1f} deg): no second direction"
+        )
+    t2 = cross / sin
+    return np.column_stack([t1, t2, np.cross(t1, t2)])
+
+
+def triad(v_ref, v_est, min_angle_deg: float = 5.0) -> np.ndarray:
+    """Rotation R (3x3) with ``R @ v_est[0] == v_ref[0]`` exactly and ``R @ v_est[1]`` in the plane
+    of ``v_ref[0], v_ref[1]``. ``v_ref`` are axes in the body/functional frame, ``v_est`` the same
+    axes measured in the sensor frame, each of shape (2, 3): row 0 primary, row 1 secondary.
+    """
+    v_ref = np.atleast_2d(np.asarray(v_ref, dtype=float))
+    v_est = np.atleast_2d(np.asarray(v_est, dtype=float))
+    if len(v_ref) < 2 or len(v_est) < 2:
+        raise TooFewAxesError(
+            f"TRIAD needs a primary and a secondary axis, got {len(v_ref)} reference and "
+            f"{len(v_est)} measured axes"
+        )
+    if v_ref.shape != (2, 3) or v_est.shape != (2, 3):
+        raise ValueError(f"TRIAD takes exactly 2 axes, got {v_ref.shape} and {v_est.shape}")
+    if not (np.isfinite(v_ref).all() and np.isfinite(v_est).all()):
+        raise ValueError("TRIAD: axes contain NaN or inf")
+    min_sin = np.sin(np.radians(min_angle_deg))
+    ref_frame = _frame(v_ref[0], v_ref[1], min_sin, "reference")
+    est_frame = _frame(v_est[0], v_est[1], min_sin, "measured")
+    return ref_frame @ est_frame.T

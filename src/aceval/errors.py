@@ -1,0 +1,63 @@
+"""Exceptions raised for bad input. Each names its cause; callers add the file/sensor context."""
+
+
+class CalibrationError(ValueError):
+    """Base class: the input cannot give a trustworthy calibration."""
+
+    #: short machine-readable code, used as the flag in flagged (non-raising) results
+    code = "calibration_error"
+
+
+class TooFewSamplesError(CalibrationError):
+    code = "too_few_samples"
+
+
+class NonFiniteError(CalibrationError):
+    code = "non_finite"
+
+
+class ZeroGravityError(CalibrationError):
+    code = "zero_gravity"
+
+
+class NoMovementError(CalibrationError):
+    code = "no_movement"
+
+
+class NotPlanarError(CalibrationError):
+    code = "not_planar"
+
+
+class NormalParallelToVerticalError(CalibrationError):
+    code = "normal_parallel_to_vertical"
+
+
+class TooFewAxesError(CalibrationError):
+    code = "too_few_axes"
+
+
+class AlignedAxesError(CalibrationError):
+    code = "aligned_axes"
+
+
+def check_samples(samples, *, name: str, min_samples: int, ndim_last: int = 3):
+    """Return ``samples`` as a float (N, 3) array after checking shape, count and finiteness.
+
+    Raises TooFewSamplesError / NonFiniteError naming ``name`` and the cause.
+    """
+    import numpy as np
+
+    array = np.asarray(samples, dtype=float)
+    if array.ndim != 2 or array.shape[1] != ndim_last:
+        raise ValueError(f"{name}: expected an (N, {ndim_last}) array, got shape {array.shape}")
+    if array.shape[0] < min_samples:
+        raise TooFewSamplesError(
+            f"{name}: {array.shape[0]} samples, at least {min_samples} are needed"
+        )
+    bad = ~np.isfinite(array).all(axis=1)
+    if bad.any():
+        first = int(np.flatnonzero(bad)[0])
+        raise NonFiniteError(
+            f"{name}: {int(bad.sum())} samples contain NaN or inf (first at sample {first})"
+        )
+    return array

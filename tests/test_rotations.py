@@ -1,0 +1,44 @@
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from aceval.rotations import axis_vector, error_angle_deg, random_rotations, vertical_share
+
+
+def test_error_angle_of_known_rotation():
+    R1 = Rotation.from_euler("z", 7.5, degrees=True).as_matrix()
+    assert error_angle_deg(R1, np.eye(3)) == pytest.approx(7.5)
+    assert error_angle_deg(np.eye(3), R1) == pytest.approx(7.5)
+
+
+def test_error_angle_is_the_angle_of_R1_R2T_on_stacks():
+    R1 = random_rotations(20, seed=1)
+    R2 = random_rotations(20, seed=2)
+    expected = np.degrees(Rotation.from_matrix(R1 @ np.swapaxes(R2, 1, 2)).magnitude())
+    np.testing.assert_allclose(error_angle_deg(R1, R2), expected)
+    # broadcasting: one against many, and a (4, 5) stack
+    assert error_angle_deg(R1[0], R2).shape == (20,)
+    assert error_angle_deg(R1.reshape(4, 5, 3, 3), R2.reshape(4, 5, 3, 3)).shape == (4, 5)
+    np.testing.assert_allclose(error_angle_deg(R1, R1), 0.0, atol=1e-6)
+
+
+def test_error_angle_invariant_to_common_sensor_rotation():
+    # the same sensor re-expressed in another sensor frame: R -> R Q^T for both; angle unchanged
+    R1, R2 = random_rotations(2, seed=3)
+    Q = random_rotations(1, seed=4)[0]
+    assert error_angle_deg(R1 @ Q.T, R2 @ Q.T) == pytest.approx(error_angle_deg(R1, R2))
+
+
+def test_vertical_share():
+    about_z = Rotation.from_euler("z", 3, degrees=True).as_matrix()
+    about_x = Rotation.from_euler("x", 3, degrees=True).as_matrix()
+    assert vertical_share(about_z, np.eye(3)) == pytest.approx(1.0)
+    assert vertical_share(about_x, np.eye(3)) == pytest.approx(0.0, abs=1e-12)
+    assert np.isnan(vertical_share(np.eye(3), np.eye(3)))
+
+
+def test_axis_vector():
+    np.testing.assert_array_equal(axis_vector("-y"), [0, -1, 0])
+    np.testing.assert_array_equal(axis_vector("x"), [1, 0, 0])
+    with pytest.raises(ValueError, match="right_axis 'up'"):
+        axis_vector("up")
