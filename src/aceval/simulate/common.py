@@ -1,0 +1,48 @@
+"""Options shared by the simulated protocols, and the step from segment pose to sensor signals."""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+
+import numpy as np
+
+from .engine import OVERSAMPLE, ImuErrorModel, band_noise, measure, small_rotations
+
+
+@dataclass(frozen=True)
+class SimOptions:
+    """Switches of the physical effects (all on by default). ``offplane`` and ``wobble`` scale
+    out-of-sagittal-plane motion and soft-tissue wobble (1 = physiological value, 0 = off)."""
+
+    fs_hz: float = 100.0
+    noise: bool = True
+    offplane: float = 1.0
+    wobble: float = 1.0
+    misalignment_sd_deg: float = 10.0
+    repetitions: int = 5
+
+
+def sensor_signals(rng, R_seg, origin, mount, position, envelope, wobble_deg, options, acc_range_g,
+                   error_model=ImuErrorModel()):
+    """Measured (gyr rad/s, acc m/s^2) of a sensor mounted with ``mount`` (sensor -> segment) at
+    ``position`` (segment frame, m) on a segment with pose ``R_seg``/``origin`` on the fine grid.
+
+    Soft-tissue wobble: a small rotation of the sensor on its segment, 0.5-3 Hz, RMS ``wobble_deg``
+    while the segment moves (scaled by the movement ``envelope``), zero at rest.
+    """
+    R_ws = R_seg @ mount
+    amplitude = np.radians(wobble_deg) * options.wobble
+    if amplitude > 0:
+        t = np.arange(len(R_seg), dtype=float) / (options.fs_hz * OVERSAMPLE)
+        envelope = np.clip(np.broadcast_to(envelope, t.shape), 0.0, 1.0)
+        rotvec = np.column_stack([band_noise(rng, t, 0.5, 3.0) for _ in range(3)]) / np.sqrt(3)
+        R_ws = R_ws @ small_rotations(amplitude * envelope[:, None] * rotvec)
+    p_w = origin + R_seg @ np.asarray(position, dtype=float)
+    gyr, acc = measure(R_ws, p_w, options.fs_hz)
+    return error_model.apply(rng, gyr, acc, options.fs_hz, acc_range_g, enabled=options.noise)
+
+
+def progress(label: str, done: int, total: int) -> None:
+    """One-line progress on stderr for long generations."""
+    print(f"\r{label}: {done}/{total}", end="\n" if done == total else "", file=sys.stderr, flush=True)

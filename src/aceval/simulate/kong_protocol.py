@@ -1,0 +1,205 @@
+"""Kong et al. 2016 Section 2.2: the seven tests as segment kinematics, one repetition at a time.
+
+Each builder draws its repetition's own parameters (per-repetition variability) from ``rng`` and
+returns the :class:`Posture` on the fine time grid plus the fixed ankle (if any). ``offplane``
+scales every out-of-sagittal-plane component (1 = physiological values, 0 = pure sagittal motion).
+Parameter values and their sources are tabled in docs/simulation.md.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .body import Anthropometry
+from .engine import band_noise, fine_time
+from .motion import Posture, bell, sitting_hip, standing_hip, step
+
+D2R = np.pi / 180.0
+TRUNK = ("waist", "chest", "head")
+
+
+def _vary(rng, value, cv=0.1):
+    """A repetition's value: nominal times a normal factor with coefficient of variation ``cv``."""
+    return value * max(0.3, rng.normal(1.0, cv))
+
+
+def _sway(rng, posture, t, offplane):
+    """Quiet-stance sway as an inverted pendulum about the ankles: AP pitch RMS 0.3 deg, ML roll RMS
+    0.2 deg, 0.1-0.7 Hz (Winter 1995, Gait Posture 3:193; Prieto et al. 1996)."""
+    pitch = 0.3 * D2R * band_noise(rng, t, 0.1, 0.7)
+    roll = 0.2 * D2R * offplane * band_noise(rng, t, 0.1, 0.7)
+    for seg in ("waist", "chest", "head", "thigh_r", "shank_r", "thigh_l", "shank_l"):
+        posture.add(seg, pitch=pitch, roll=roll)
+
+
+def _sitting(posture):
+    for s in ("r", "l"):
+        posture.add(f"thigh_{s}", pitch=90 * D2R)
+
+
+def t0_quiet_standing(rng, body, fs, offplane):
+    t = fine_time(20.0, fs)
+    posture = Posture(t, envelope=np.zeros_like(t))
+    _sway(rng, posture, t, offplane)
+    return posture, "r"
+
+
+def _bow(rng, body, fs, offplane, amplitude_deg, seated):
+    rest, duration = _vary(rng, 1.5), _vary(rng, 3.5)
+    t = fine_time(2 * rest + duration, fs)
+    profile = bell(t, rest, duration)
+    amplitude = _vary(rng, amplitude_deg) * D2R
+    # lumbo-pelvic rhythm: pelvis ~2/3, lumbar spine ~1/3 of trunk flexion (Esola et al. 1996,
+    # Spine 21:71); the head follows the chest with a little extra neck flexion
+    posture = Posture(t, envelope=profile)
+    posture.add("waist", pitch=-amplitude * 0.67 * profile)
+    posture.add("chest", pitch=-amplitude * profile)
+    posture.add("head", pitch=-amplitude * 1.1 * profile)
+    roll, yaw = offplane * rng.normal(0, 3 * D2R, 2)  # asymmetric bending, a few degrees
+    for seg in TRUNK:
+        posture.add(seg, roll=roll * profile, yaw=yaw * profile)
+    if seated:
+        _sitting(posture)
+        posture.hip = sitting_hip(body)
+        return posture, None
+    return posture, "r"
+
+
+def t1_bow_standing(rng, body, fs, offplane):
+    return _bow(rng, body, fs, offplane, 60.0, seated=False)
+
+
+def t2_bow_sitting(rng, body, fs, offplane):
+    return _bow(rng, body, fs, offplane, 40.0, seated=True)
+
+
+def t3_sit_to_stand(rng, body, fs, offplane):
+    """Sit, lean forward, rise, stand, sit down (Schenkman et al. 1990, Phys Ther 70:638: trunk
+    flexion ~40 deg, rise ~1.5 s, knees moving forward ~15 deg over the feet)."""
+    sit, rise, stand, descend = _vary(rng, 1.0), _vary(rng, 1.6), _vary(rng, 1.5), _vary(rng, 1.9)
+    t = fine_time(2 * sit + rise + stand + descend, fs)
+    up = step(t, sit, rise) - step(t, sit + rise + stand, descend)
+    lean = bell(t, sit, rise) + bell(t, sit + rise + stand, descend)
+    knee_forward = bell(t, sit, rise) + bell(t, sit + rise + stand, descend)
+    trunk_lean = _vary(rng, 40.0) * D2R
+    posture = Posture(t, envelope=np.clip(up + lean, 0, 1))
+    for s in ("r", "l"):
+        posture.add(f"thigh_{s}", pitch=90 * D2R * (1 - up))
+        posture.add(f"shank_{s}", pitch=-_vary(rng, 15.0) * D2R * knee_forward)
+        posture.add(f"foot_{s}")
+    # the trunk leans forward to move the centre of mass over the feet; pelvis tilts with the
+    # thighs while seated (posterior tilt ~0) and the trunk stays upright when standing
+    posture.add("waist", pitch=-trunk_lean * 0.6 * lean)
+    posture.add("chest", pitch=-trunk_lean * lean)
+    posture.add("head", pitch=-trunk_lean * 0.8 * lean)
+    roll = offplane * rng.normal(0, 2 * D2R)
+    for seg in TRUNK:
+        posture.add(seg, roll=roll * lean)
+    return posture, "r"
+
+
+def t4_shank_lift(rng, body, fs, offplane):
+    """Seated knee extension, left then right, shank and foot as one rigid body (Kong Sec. 2.2)."""
+    rest, lift = _vary(rng, 1.0), _vary(rng, 2.5)
+    t = fine_time(3 * rest + 2 * lift, fs)
+    posture = Posture(t, hip=sitting_hip(body), envelope=np.zeros_like(t))
+    _sitting(posture)
+    for k, s in enumerate(("l", "r")):
+        profile = bell(t, rest + k * (rest + lift), lift)
+        amplitude = _vary(rng, 70.0) * D2R
+        sign = 1.0 if s == "r" else -1.0
+        rot = offplane * rng.normal(0, 4 * D2R)  # hip rotation during the lift
+        for seg in (f"shank_{s}", f"foot_{s}"):
+            posture.add(seg, pitch=amplitude * profile, yaw=sign * rot * profile)
+        posture.add(f"foot_{s}", pitch=0.05 * amplitude * profile)  # imperfect rigidity
+        posture.envelope = posture.envelope + profile
+    return posture, None
+
+
+def t5_leg_swing(rng, body, fs, offplane):
+    """Standing leg swing, left then right: the leg (thigh, shank, foot rigid) swings ~35 deg
+    forward and ~15 deg back about the hip; pelvis tilts and shifts weight a few degrees."""
+    rest, swing = _vary(rng, 1.0), _vary(rng, 2.0)
+    t = fine_time(3 * rest + 2 * swing, fs)
+    # the hip centre stays put: each stance leg is still while the other swings
+    posture = Posture(t, hip=standing_hip(body), envelope=np.zeros_like(t))
+    for k, s in enumerate(("l", "r")):
+        start = rest + k * (rest + swing)
+        forward = bell(t, start, swing / 2)
+        backward = bell(t, start + swing / 2, swing / 2)
+        pitch = _vary(rng, 35.0) * D2R * forward - _vary(rng, 15.0) * D2R * backward
+        abduction = offplane * rng.normal(0, 5 * D2R) * (forward + backward)
+        sign = 1.0 if s == "r" else -1.0
+        for seg in (f"thigh_{s}", f"shank_{s}", f"foot_{s}"):
+            posture.add(seg, pitch=pitch, roll=-sign * abduction)
+        posture.add(f"shank_{s}", pitch=-0.1 * np.abs(pitch))  # knee not perfectly straight
+        posture.add("waist", pitch=-0.1 * pitch, roll=offplane * sign * 3 * D2R * (forward + backward))
+        posture.envelope = posture.envelope + forward + backward
+    return posture, None
+
+
+def _gait_angles(phase):
+    """Sagittal joint angles (rad) over a stride (phase 0-1, heel strike at 0), shaped after the
+    normative curves of Winter (2009, Ch. 1; Perry & Burnfield 2010): hip +30 -> -10 deg, knee
+    5-15 deg in stance and 60 deg in swing, ankle -5 / +10 / -15 deg."""
+    def bump(center, width):
+        d = (phase - center + 0.5) % 1.0 - 0.5
+        return np.exp(-0.5 * (d / width) ** 2)
+
+    hip = (10 + 20 * np.cos(2 * np.pi * (phase - 0.9))) * D2R
+    knee = (5 + 12 * bump(0.15, 0.07) + 55 * bump(0.72, 0.11)) * D2R
+    ankle = (-5 * bump(0.06, 0.04) + 10 * bump(0.45, 0.10) - 17 * bump(0.63, 0.05)) * D2R
+    return hip, knee, ankle
+
+
+def t6_walk(rng, body, fs, offplane):
+    """7 m straight walk at preferred speed (1.3 m/s, cadence 110 steps/min; Perry & Burnfield
+    2010), standing 1 s before and after, 0.8 s ramps at start and end."""
+    speed, cadence = _vary(rng, 1.3, 0.08), _vary(rng, 110.0, 0.05)
+    stride = 120.0 / cadence
+    ramp, pause = 0.8, 1.0
+    walking = 7.0 / speed + ramp
+    t = fine_time(2 * pause + walking, fs)
+    gait = step(t, pause, ramp) - step(t, pause + walking - ramp, ramp)
+    progress = np.cumsum(gait) * (t[1] - t[0]) * speed
+    phase_r = (t - pause) / stride
+    posture = Posture(t, envelope=gait)
+    amplitude = _vary(rng, 1.0, 0.05)
+    for s, shift in (("r", 0.0), ("l", 0.5)):
+        hip, knee, ankle = _gait_angles((phase_r + shift) % 1.0)
+        hip0, knee0, ankle0 = _gait_angles(np.zeros(1) + shift)
+        thigh = amplitude * gait * hip
+        shank = thigh - amplitude * gait * knee
+        foot = shank + amplitude * gait * ankle
+        posture.add(f"thigh_{s}", pitch=thigh)
+        posture.add(f"shank_{s}", pitch=shank)
+        posture.add(f"foot_{s}", pitch=foot)
+        sign = 1.0 if s == "r" else -1.0
+        # hip ab/adduction ~ +-5 deg over the stride (Perry & Burnfield 2010)
+        posture.add(f"thigh_{s}", roll=offplane * sign * 5 * D2R * gait * np.sin(2 * np.pi * (phase_r + shift)))
+    stride_wave = 2 * np.pi * phase_r
+    # pelvis: rotation +-4 deg, obliquity +-3 deg, tilt +-1.5 deg at step frequency (Perry &
+    # Burnfield 2010); trunk counter-rotates; COM moves +-2.5 cm vertically and +-2 cm sideways
+    posture.add("waist", pitch=1.5 * D2R * gait * np.sin(2 * stride_wave),
+                roll=offplane * 3 * D2R * gait * np.sin(stride_wave),
+                yaw=offplane * 4 * D2R * gait * np.cos(stride_wave))
+    posture.add("chest", pitch=-3 * D2R * gait, yaw=-offplane * 3 * D2R * gait * np.cos(stride_wave))
+    posture.add("head", pitch=-3 * D2R * gait)
+    base = standing_hip(body)
+    posture.hip = np.column_stack([
+        base[0] + progress,
+        base[1] + offplane * 0.02 * gait * np.sin(stride_wave),
+        base[2] + 0.025 * gait * np.cos(2 * stride_wave),
+    ])
+    return posture, None
+
+
+PROTOCOL = {
+    "T0": (t0_quiet_standing, "static", "quiet standing, 20 s"),
+    "T1": (t1_bow_standing, "motion", "bowing while standing"),
+    "T2": (t2_bow_sitting, "motion", "bowing while sitting"),
+    "T3": (t3_sit_to_stand, "motion", "standing up and sitting down"),
+    "T4": (t4_shank_lift, "motion", "lifting shanks while sitting, left then right"),
+    "T5": (t5_leg_swing, "motion", "swinging legs while standing, left then right"),
+    "T6": (t6_walk, "motion", "walking straight 7 m at preferred speed"),
+}

@@ -1,0 +1,54 @@
+"""Write a simulated dataset in the on-disk contract (DESIGN.md section 1), streaming to disk."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+RECORDING_COLUMNS = ["t", "acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z"]
+UNIT_SCALE = {"g": 9.81, "m/s^2": 1.0, "deg/s": np.pi / 180.0, "rad/s": 1.0}
+
+
+def write_sheet(path: Path, columns: list[str], rows: list) -> None:
+    with open(path, "w", newline="") as handle:
+        writer = csv.writer(handle, delimiter="\t", lineterminator="\n")
+        writer.writerow(columns)
+        writer.writerows(rows)
+
+
+class DatasetWriter:
+    """Writes sheets and one CSV per recording; recordings.tsv is appended as files are written."""
+
+    def __init__(self, root: Path, meta: dict):
+        self.root = Path(root)
+        self.root.mkdir(parents=True, exist_ok=True)
+        self.meta = meta
+        self.acc_scale = UNIT_SCALE[meta["units"]["acc"]]
+        self.gyr_scale = UNIT_SCALE[meta["units"]["gyr"]]
+        with open(self.root / "dataset.yaml", "w") as handle:
+            yaml.safe_dump(meta, handle, sort_keys=False)
+        self._recordings = open(self.root / "recordings.tsv", "w", newline="")
+        self._recordings.write("subject\tsensor_set\ttest\trep\timu\tpath\n")
+        self._ground_truth: list = []
+
+    def recording(self, subject, sensor_set, test, rep, imu, gyr, acc) -> None:
+        """Write one recording (SI in, dataset.yaml's units out)."""
+        rel = Path("data") / subject / sensor_set / f"{test}_R{rep}_{imu}.csv"
+        path = self.root / rel
+        path.parent.mkdir(parents=True, exist_ok=True)
+        t = np.arange(len(acc)) / self.meta["sampling_rate_hz"]
+        table = np.column_stack([t, acc / self.acc_scale, gyr / self.gyr_scale])
+        np.savetxt(path, table, fmt="%.6g", delimiter=",", header=",".join(RECORDING_COLUMNS), comments="")
+        self._recordings.write(f"{subject}\t{sensor_set}\t{test}\t{rep}\t{imu}\t{rel.as_posix()}\n")
+
+    def ground_truth(self, subject, sensor_set, imu, R: np.ndarray) -> None:
+        self._ground_truth.append([subject, sensor_set, imu, *[f"{v:.10f}" for v in R.ravel()]])
+
+    def close(self) -> None:
+        self._recordings.close()
+        if self._ground_truth:
+            columns = ["subject", "sensor_set", "imu"] + [f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
+            write_sheet(self.root / "ground_truth.tsv", columns, self._ground_truth)
