@@ -368,12 +368,22 @@ def check_recording(dataset: Dataset, row, report: ValidationReport) -> None:
             report.warning(where, f"{n_sat} samples at the gyroscope range +-{gyr_range} deg/s (saturated)")
 
 
+def known_recordings(dataset: Dataset) -> pd.DataFrame:
+    """Recordings whose subject, set, test and IMU the sheets define (the rest are reported)."""
+    recordings = dataset.recordings
+    known = (recordings["subject"].isin(dataset.subjects.index)
+             & recordings["test"].isin(dataset.tests.index)
+             & pd.Series([key in dataset.imus.index for key in zip(recordings["sensor_set"], recordings["imu"])],
+                         index=recordings.index))
+    return recordings[known]
+
+
 def validate(root: str | Path, check_files: bool = True) -> tuple[Dataset | None, ValidationReport]:
     """Full validation: sheets, then every recording file. Returns the dataset (None if the sheets
     are unusable) and the report; ``report.ok`` is False when there are errors."""
     dataset, report = read_sheets(root)
     if dataset is not None and check_files:
-        for _, row in dataset.recordings.iterrows():
+        for _, row in known_recordings(dataset).iterrows():
             check_recording(dataset, row, report)
     return dataset, report
 
