@@ -1,0 +1,27 @@
+"""Recovery accuracy of the Kong calibration (all 5 repetitions) against a simulated dataset's
+ground truth. Run: ``python benchmarks/simulation_accuracy.py DATASET_DIR``."""
+
+import sys
+
+import pandas as pd
+
+from aceval.dataset import load_dataset
+from aceval.pipeline import calibrate, summarise_recordings
+
+
+def main(root: str) -> None:
+    dataset = load_dataset(root)
+    calibrations = calibrate(dataset, summarise_recordings(dataset), subsets="full")
+    segments = dataset.imus.reset_index()[["sensor_set", "imu", "segment"]]
+    calibrations = calibrations.merge(segments, on=["sensor_set", "imu"])
+    pd.set_option("display.width", 200)
+    by_segment = calibrations.groupby(["segment", "sensor_set"])["error_deg"].agg(["median", "mean", "max", "count"])
+    print("error to ground truth (deg) by segment and sensor set")
+    print(by_segment.round(2).unstack())
+    print("\nmedian error (deg) by segment and test")
+    print(calibrations.pivot_table(index="segment", columns="test", values="error_deg", aggfunc="median").round(2))
+    print(f"\nall {len(calibrations)} calibrations: median {calibrations['error_deg'].median():.2f} deg")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])
