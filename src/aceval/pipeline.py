@@ -73,11 +73,14 @@ def calibrate(dataset: Dataset, summaries: pd.DataFrame, subsets: str = "all",
     """Kong calibrations for every (subject, set, IMU, test) in ``summaries`` and every subset of
     its usable repetitions (``subsets='all'``) or all of them together (``'full'``).
 
-    One row per calibration: key columns, ``repetitions`` ('R1+R3+R4'), ``n_reps``, r11..r33,
+    z0 comes from the IMU's static recording(s) (Kong Eq. 2; several are averaged). One row per
+    calibration: key columns, ``repetitions`` ('R1+R3+R4'), ``n_reps``, r11..r33,
     diagnostics, ``flag`` ('' when valid) and, with ground truth, ``error_deg``.
     """
     static = summaries[(summaries["kind"] == "static") & (summaries["flag"] == "")]
-    z0 = static.groupby(KEY)[["z0_x", "z0_y", "z0_z"]].first()  # one static recording per IMU
+    # several static recordings of one IMU (e.g. Ricci's 3 trials): their z0 averaged, renormalised
+    z0 = static.groupby(KEY)[["z0_x", "z0_y", "z0_z"]].mean()
+    z0 = z0.div(np.linalg.norm(z0.to_numpy(), axis=1), axis=0)
     motion = summaries[(summaries["kind"] == "motion") & (summaries["flag"] == "")]
     out = []
     for (subject, sensor_set, imu, test), group in motion.groupby(KEY + ["test"], sort=True):

@@ -10,9 +10,9 @@ import numpy as np
 from .body import Placement, random_mount
 from .common import SimOptions, progress, sensor_signals
 from .engine import band_noise, euler_pitch_roll_yaw, fine_time, small_rotations
-from .kong import ACC_RANGE_G, IMUS
+from .kong import ACC_RANGE_G, GYR_RANGE_DPS, IMUS, SENSOR_SETS, UNITS
 from .motion import bell
-from .writer import DatasetWriter, write_sheet
+from .writer import DatasetWriter, simulated_meta, write_sheet
 
 #: box size (m): Kong does not give it; a hand-held aluminium box of this size is assumed
 BOX = np.array([0.30, 0.20, 0.15])
@@ -68,24 +68,16 @@ TESTS = {
 
 def simulate_box(out: Path, seed: int, n_subjects: int = 1, options: SimOptions = SimOptions()) -> Path:
     out = Path(out)
-    meta = {
-        "name": "box_sim",
-        "description": "SIMULATED rigid aluminium box of Kong et al. 2016 Sec. 3 (aceval simulate box, "
-                       f"seed {seed}); not the paper's recordings",
-        "simulated": True,
-        "sampling_rate_hz": options.fs_hz,
-        "units": {"acc": "g", "gyr": "deg/s"},
-        "sensor_sets": ["frontal", "lateral"],
-        "acc_range_g": ACC_RANGE_G,
-        "gyr_range_dps": 400.0,
-    }
+    meta = simulated_meta("box_sim", "the rigid aluminium box of Kong et al. 2016 Sec. 3", "box", seed,
+                          options.fs_hz, units=UNITS, sensor_sets=SENSOR_SETS, acc_range_g=ACC_RANGE_G,
+                          gyr_range_dps=GYR_RANGE_DPS)
     writer = DatasetWriter(out, meta)
     placements = _placements()
     subjects = [f"BOX{k + 1}" for k in range(n_subjects)]
     write_sheet(out / "subjects.tsv", ["subject", "description"], [[s, "rigid aluminium box"] for s in subjects])
-    write_sheet(out / "tests.tsv", ["test", "kind", "repetitions", "description"],
-                [[test, kind, 1 if kind == "static" else options.repetitions, text] for test, (_, kind, text) in TESTS.items()])
-    write_sheet(out / "calibrates.tsv", ["test", "imu"], [["EDGE", imu] for imu, *_ in IMUS])
+    writer.protocol_sheets({test: (kind, text) for test, (_, kind, text) in TESTS.items()},
+                           {test: 1 if test == "T0" else options.repetitions for test in TESTS},
+                           {"EDGE": [imu for imu, *_ in IMUS]})
     write_sheet(out / "imus.tsv", ["imu", "sensor_set", "segment", "side", "region", "right_axis"],
                 [[imu, sensor_set, "box", "center", region, placements[sensor_set][imu].right_axis()]
                  for sensor_set in meta["sensor_sets"] for imu, _, _, region in IMUS])

@@ -12,7 +12,7 @@ from .common import SimOptions, progress, sensor_signals
 from .engine import euler_pitch_roll_yaw
 from .kong_protocol import PROTOCOL
 from .motion import segment_poses
-from .writer import DatasetWriter, write_sheet
+from .writer import DatasetWriter, simulated_meta, write_sheet
 
 IMUS = [  # Kong Sec. 2.3 and Fig. 4
     ("IMU1", "head", "center", "upper_body"),
@@ -36,6 +36,9 @@ SUBJECTS = [  # Kong Table 1
     ("S1", 27, 174, 90), ("S2", 23, 173, 80), ("S3", 23, 166, 68), ("S4", 22, 169, 56), ("S5", 26, 187, 84),
 ]
 ACC_RANGE_G = {"upper_body": 4.0, "lower_body": 8.0}  # Kong Sec. 2.3
+GYR_RANGE_DPS = 400.0  # Kong Sec. 2.3
+UNITS = {"acc": "g", "gyr": "deg/s"}
+SENSOR_SETS = ["frontal", "lateral"]
 #: soft-tissue wobble RMS (deg) by segment and set: stiffer over bone (head, shank front, foot
 #: dorsum), larger over fat and muscle (lateral waist, thighs); see docs/simulation.md
 WOBBLE_DEG = {
@@ -69,25 +72,14 @@ def _stance_offsets(rng, offplane: float) -> dict[str, np.ndarray]:
 
 def simulate_kong(out: Path, seed: int, n_subjects: int = 5, options: SimOptions = SimOptions()) -> Path:
     out = Path(out)
-    meta = {
-        "name": "kong_sim",
-        "description": "SIMULATED data in the protocol of Kong et al. 2016 (aceval simulate kong, "
-                       f"seed {seed}); not the paper's recordings",
-        "simulated": True,
-        "sampling_rate_hz": options.fs_hz,
-        "units": {"acc": "g", "gyr": "deg/s"},
-        "sensor_sets": ["frontal", "lateral"],
-        "acc_range_g": ACC_RANGE_G,
-        "gyr_range_dps": 400.0,
-    }
+    meta = simulated_meta("kong_sim", "Kong et al. 2016", "kong", seed, options.fs_hz, units=UNITS,
+                          sensor_sets=SENSOR_SETS, acc_range_g=ACC_RANGE_G, gyr_range_dps=GYR_RANGE_DPS)
     writer = DatasetWriter(out, meta)
     subject_rng = np.random.default_rng([seed, 0])
     subjects = _subjects(n_subjects, subject_rng)
     write_sheet(out / "subjects.tsv", ["subject", "age", "height_cm", "weight_kg"], subjects)
-    write_sheet(out / "tests.tsv", ["test", "kind", "repetitions", "description"],
-                [[test, kind, 1 if kind == "static" else options.repetitions, text]
-                 for test, (_, kind, text) in PROTOCOL.items()])
-    write_sheet(out / "calibrates.tsv", ["test", "imu"], [[t, i] for t, imus in CALIBRATES.items() for i in imus])
+    writer.protocol_sheets({test: (kind, text) for test, (_, kind, text) in PROTOCOL.items()},
+                           {test: 1 if test == "T0" else options.repetitions for test in PROTOCOL}, CALIBRATES)
     probe = kong_placements(Anthropometry(1.75))
     write_sheet(out / "imus.tsv", ["imu", "sensor_set", "segment", "side", "region", "right_axis"],
                 [[imu, sensor_set, segment.split("_")[0], side, region, probe[sensor_set][segment].right_axis()]

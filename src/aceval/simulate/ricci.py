@@ -13,12 +13,13 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from .body import Placement, random_mount
 from .common import SimOptions, progress, sensor_signals
-from .engine import band_noise, euler_pitch_roll_yaw, fine_time, small_rotations
+from .engine import ImuErrorModel, band_noise, euler_pitch_roll_yaw, fine_time, small_rotations
 from .motion import bell
-from .writer import DatasetWriter, write_sheet
+from .writer import DatasetWriter, simulated_meta, write_sheet
 
 SEGMENTS = ["thorax", "upper_arm_r", "upper_arm_l", "forearm_r", "forearm_l"]
 IMUS = [  # Ricci Fig. 2: 1 thorax, 2/3 right/left upper arm, 4/5 right/left forearm
@@ -40,6 +41,9 @@ MOVEMENTS = {
     "PS": ("forearm prono-supination, arms extended", "forearms_twist", "z", 70.0, 1.4, "free"),
     "FFEB": ("forearm flexion-extension holding a bar", "forearms", "y", 110.0, 2.5, "bar"),
 }
+TRIALS = 3  # Ricci Sec. 2.2.1: the complete protocol is 3 trials
+ACC_RANGE_G, GYR_RANGE_DPS = 8.0, 1000.0  # assumption: Ricci does not give the ranges
+WOBBLE_DEG = 1.0  # soft-tissue wobble RMS on thorax and arms (as Kong's chest; docs/simulation.md)
 CALIBRATES = {
     "TR": ["SU1"], "TFE": ["SU1"],
     "AA": ["SU2", "SU3", "SU4", "SU5"], "FE": ["SU2", "SU3", "SU4", "SU5"], "FEB": ["SU2", "SU3", "SU4", "SU5"],
@@ -128,7 +132,7 @@ def _trial(rng, child, test, fs, offplane):
         for s, sign in (("r", 1.0), ("l", -1.0)):
             rotation = movement()
             if axis == "x":  # abduction: right arm about -x, left about +x
-                rotation = small_rotations(-sign * small_to_rotvec(rotation))
+                rotation = small_rotations(-sign * Rotation.from_matrix(rotation).as_rotvec())
             relative[f"upper_arm_{s}"] = rotation
     elif moving == "forearms":
         for s in ("r", "l"):
@@ -141,12 +145,6 @@ def _trial(rng, child, test, fs, offplane):
     base = np.tile(np.eye(3), (len(t), 1, 1))
     R, origin = _poses(child, relative, base)
     return t, R, origin, np.clip(profile, 0, 1)
-
-
-def small_to_rotvec(matrices):
-    from scipy.spatial.transform import Rotation
-
-    return Rotation.from_matrix(matrices).as_rotvec()
 
 
 def functional_axes() -> list[list[str]]:
@@ -162,35 +160,24 @@ def functional_axes() -> list[list[str]]:
 
 def simulate_ricci(out: Path, seed: int, n_subjects: int = 40, options: SimOptions = SimOptions()) -> Path:
     out = Path(out)
-    meta = {
-        "name": "ricci_sim",
-        "description": "SIMULATED data in the protocol of Ricci et al. 2014 (aceval simulate ricci, "
-                       f"seed {seed}); not the paper's recordings",
-        "simulated": True,
-        "sampling_rate_hz": options.fs_hz,
-        "units": {"acc": "m/s^2", "gyr": "rad/s"},
-        "sensor_sets": ["main"],
-        "acc_range_g": {"upper_body": 8.0},
-        "gyr_range_dps": 1000.0,
-    }
+    meta = simulated_meta("ricci_sim", "Ricci et al. 2014", "ricci", seed, options.fs_hz,
+                          units={"acc": "m/s^2", "gyr": "rad/s"}, sensor_sets=["main"],
+                          acc_range_g={"upper_body": ACC_RANGE_G}, gyr_range_dps=GYR_RANGE_DPS)
     writer = DatasetWriter(out, meta)
     rng0 = np.random.default_rng([seed, 0])
     subjects = []
     for k in range(n_subjects):  # 6-8 years (Ricci Sec. 2.1); height ~122 +- 5 cm at age 7 (WHO)
         subjects.append([f"C{k + 1:02d}", round(float(rng0.uniform(6.0, 8.0)), 1), round(float(rng0.normal(122, 5)))])
     write_sheet(out / "subjects.tsv", ["subject", "age", "height_cm"], subjects)
-    tests = [["S", "static", 3, "supine, arms alongside the body, palms down, 5 s"]]
-    tests += [[test, "motion", 3, m[0]] for test, m in MOVEMENTS.items()]
-    write_sheet(out / "tests.tsv", ["test", "kind", "repetitions", "description"], tests)
-    write_sheet(out / "calibrates.tsv", ["test", "imu"], [[t, i] for t, imus in CALIBRATES.items() for i in imus])
+    tests = {"S": ("static", "supine, arms alongside the body, palms down, 5 s")}
+    tests.update({test: ("motion", m[0]) for test, m in MOVEMENTS.items()})
+    writer.protocol_sheets(tests, {test: TRIALS for test in tests}, CALIBRATES)
     probe = Child(1.22).placements()
     write_sheet(out / "imus.tsv", ["imu", "segment", "side", "region", "right_axis"],
                 [[imu, segment, side, "upper_body", probe[imu].right_axis()] for imu, segment, side in IMUS])
     write_sheet(out / "functional_axes.tsv", ["test", "segment", "axis"], functional_axes())
-    from .engine import ImuErrorModel
-
-    error_model = ImuErrorModel(gyr_range_dps=meta["gyr_range_dps"])
-    runs = [(test, trial) for test in ["S", *MOVEMENTS] for trial in (1, 2, 3)]
+    error_model = ImuErrorModel(gyr_range_dps=GYR_RANGE_DPS)
+    runs = [(test, trial) for test in tests for trial in range(1, TRIALS + 1)]
     for k, (subject, _, height_cm) in enumerate(subjects):
         rng = np.random.default_rng([seed, 1, k])
         child = Child(height_cm / 100.0)
@@ -204,7 +191,7 @@ def simulate_ricci(out: Path, seed: int, n_subjects: int = 40, options: SimOptio
             for imu, *_ in IMUS:
                 placement = placements[imu]
                 gyr, acc = sensor_signals(run_rng, R[placement.segment], origin[placement.segment], mounts[imu],
-                                          placement.position, envelope, 1.0, options, 8.0, error_model)
+                                          placement.position, envelope, WOBBLE_DEG, options, ACC_RANGE_G, error_model)
                 writer.recording(subject, "main", test, trial, imu, gyr, acc)
         progress(f"ricci_sim {out}", k + 1, len(subjects))
     writer.close()

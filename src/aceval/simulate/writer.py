@@ -19,6 +19,22 @@ def write_sheet(path: Path, columns: list[str], rows: list) -> None:
         writer.writerows(rows)
 
 
+def simulated_meta(name: str, protocol: str, command: str, seed: int, fs_hz: float, *, units: dict,
+                   sensor_sets: list[str], acc_range_g: dict, gyr_range_dps: float) -> dict:
+    """dataset.yaml of a simulated dataset, labelled as simulated in its fields and description."""
+    return {
+        "name": name,
+        "description": f"SIMULATED data in the protocol of {protocol} (aceval simulate {command}, "
+                       f"seed {seed}); not the paper's recordings",
+        "simulated": True,
+        "sampling_rate_hz": fs_hz,
+        "units": units,
+        "sensor_sets": sensor_sets,
+        "acc_range_g": acc_range_g,
+        "gyr_range_dps": gyr_range_dps,
+    }
+
+
 class DatasetWriter:
     """Writes sheets and one CSV per recording; recordings.tsv is appended as files are written."""
 
@@ -43,6 +59,14 @@ class DatasetWriter:
         table = np.column_stack([t, acc / self.acc_scale, gyr / self.gyr_scale])
         np.savetxt(path, table, fmt="%.6g", delimiter=",", header=",".join(RECORDING_COLUMNS), comments="")
         self._recordings.write(f"{subject}\t{sensor_set}\t{test}\t{rep}\t{imu}\t{rel.as_posix()}\n")
+
+    def protocol_sheets(self, tests: dict, repetitions: dict, calibrates: dict) -> None:
+        """tests.tsv from ``{test: (kind, description)}`` and ``{test: repetitions}``, and
+        calibrates.tsv from ``{test: [imu, ...]}``."""
+        write_sheet(self.root / "tests.tsv", ["test", "kind", "repetitions", "description"],
+                    [[test, kind, repetitions[test], text] for test, (kind, text) in tests.items()])
+        write_sheet(self.root / "calibrates.tsv", ["test", "imu"],
+                    [[test, imu] for test, imus in calibrates.items() for imu in imus])
 
     def ground_truth(self, subject, sensor_set, imu, R: np.ndarray) -> None:
         self._ground_truth.append([subject, sensor_set, imu, *[f"{v:.10f}" for v in R.ravel()]])
