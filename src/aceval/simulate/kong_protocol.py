@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .body import Anthropometry
 from .engine import band_noise, fine_time
 from .motion import Posture, bell, sitting_hip, standing_hip, step
 
@@ -79,13 +78,12 @@ def t3_sit_to_stand(rng, body, fs, offplane):
     sit, rise, stand, descend = _vary(rng, 1.0), _vary(rng, 1.6), _vary(rng, 1.5), _vary(rng, 1.9)
     t = fine_time(2 * sit + rise + stand + descend, fs)
     up = step(t, sit, rise) - step(t, sit + rise + stand, descend)
-    lean = bell(t, sit, rise) + bell(t, sit + rise + stand, descend)
-    knee_forward = bell(t, sit, rise) + bell(t, sit + rise + stand, descend)
+    lean = bell(t, sit, rise) + bell(t, sit + rise + stand, descend)  # trunk lean and knees forward
     trunk_lean = _vary(rng, 40.0) * D2R
     posture = Posture(t, envelope=np.clip(up + lean, 0, 1))
     for s in ("r", "l"):
         posture.add(f"thigh_{s}", pitch=90 * D2R * (1 - up))
-        posture.add(f"shank_{s}", pitch=-_vary(rng, 15.0) * D2R * knee_forward)
+        posture.add(f"shank_{s}", pitch=-_vary(rng, 15.0) * D2R * lean)
         posture.add(f"foot_{s}")
     # the trunk leans forward to move the centre of mass over the feet; pelvis tilts with the
     # thighs while seated (posterior tilt ~0) and the trunk stays upright when standing
@@ -167,7 +165,6 @@ def t6_walk(rng, body, fs, offplane):
     amplitude = _vary(rng, 1.0, 0.05)
     for s, shift in (("r", 0.0), ("l", 0.5)):
         hip, knee, ankle = _gait_angles((phase_r + shift) % 1.0)
-        hip0, knee0, ankle0 = _gait_angles(np.zeros(1) + shift)
         thigh = amplitude * gait * hip
         shank = thigh - amplitude * gait * knee
         foot = shank + amplitude * gait * ankle
