@@ -69,6 +69,10 @@ def edit(path, old, new):
     (lambda r: edit(r / "calibrates.tsv", "T1\tIMU4", "T1\tIMU5"), "calibrates.tsv line 2", "IMU 'IMU5' is not defined"),
     (lambda r: edit(r / "dataset.yaml", "acc: g", "acc: mg"), "dataset.yaml", "units.acc must be one of"),
     (lambda r: (r / "imus.tsv").unlink(), "imus.tsv", "sheet is missing"),
+    (lambda r: edit(r / "tests.tsv", "T1\tmotion\t2\tbow\n", "T1\tmotion\t2\tbow\nT1\tmotion\t3\tbow again\n"),
+     "tests.tsv line 4", "test 'T1' is defined twice"),
+    (lambda r: edit(r / "subjects.tsv", "S1\t175\n", "S1\t175\nS1\t180\n"), "subjects.tsv line 3",
+     "subject 'S1' is defined twice"),
 ])
 def test_each_error_names_where_and_cause(mini, breakage, where, cause):
     breakage(mini)

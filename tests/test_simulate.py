@@ -158,11 +158,18 @@ def test_ricci_dataset_protocol(tmp_path):
     assert report.ok, report.format()
     assert set(dataset.tests.index) == {"S", "TR", "TFE", "AA", "FE", "FEB", "PS", "FFEB"}
     assert dataset.recordings.groupby(["subject", "test"]).size().eq(3 * 5).all()  # 3 trials x 5 units
-    # supine: specific force along the body's anterior axis, seen by the thorax sensor
-    recording = dataset.read_recording(dataset.recordings.query("test == 'S' and imu == 'SU1'").path.iloc[0])
-    truth = dataset.ground_truth_matrix("C01", "main", "SU1")
-    up_in_body = np.median(recording.acc, axis=0) @ truth.T
-    assert up_in_body[0] > 0.98 * GRAVITY
+    # supine: the specific force in each segment frame is the axis functional_axes.tsv declares
+    import pandas as pd
+
+    from aceval.rotations import axis_vector
+
+    declared = pd.read_csv(root / "functional_axes.tsv", sep="\t").query("test == 'S'").set_index("segment")["axis"]
+    for imu, row in dataset.imus.loc["main"].iterrows():
+        key = row["segment"] if row["segment"] in declared.index else f"{row['segment']}_{row['side'][0]}"
+        path = dataset.recordings.query("test == 'S' and rep == 1 and imu == @imu and subject == 'C01'").path.iloc[0]
+        up = dataset.ground_truth_matrix("C01", "main", imu) @ np.median(dataset.read_recording(path).acc, axis=0)
+        cos = up @ axis_vector(declared[key]) / np.linalg.norm(up)  # sensor bias tilts it by a few degrees
+        assert np.degrees(np.arccos(cos)) < 10, (imu, declared[key], up)
 
 
 def test_cli_simulate_then_validate(tmp_path, capsys):

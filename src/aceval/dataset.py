@@ -17,7 +17,7 @@ import yaml
 
 from .rotations import AXIS_VECTORS
 
-GRAVITY = 9.81
+GRAVITY = 9.81  # m/s^2: 1 g, used for unit conversion and by the simulator's physics
 ACC_UNITS = {"g": GRAVITY, "m/s^2": 1.0}
 GYR_UNITS = {"deg/s": np.pi / 180.0, "rad/s": 1.0}
 RECORDING_COLUMNS = ["t", "acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z"]
@@ -240,8 +240,12 @@ def read_sheets(root: str | Path, report: ValidationReport | None = None) -> tup
     for index, row in tests.iterrows():
         if row["kind"] not in ("static", "motion"):
             report.error(f"tests.tsv {_line(index)}", f"test {row['test']}: kind {row['kind']!r} must be static or motion")
+    subjects = sheets["subjects.tsv"]
+    for sheet, table, column in (("tests.tsv", tests, "test"), ("subjects.tsv", subjects, "subject")):
+        for index in table.index[table.duplicated(column, keep="first")]:
+            report.error(f"{sheet} {_line(index)}", f"{column} {table.loc[index, column]!r} is defined twice")
     tests = tests.drop_duplicates("test").set_index("test")
-    subjects = sheets["subjects.tsv"].set_index("subject", drop=False)
+    subjects = subjects.drop_duplicates("subject").set_index("subject", drop=False)
     imu_names = set(imus.index.get_level_values("imu"))
 
     calibrates = sheets["calibrates.tsv"]

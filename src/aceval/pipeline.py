@@ -12,7 +12,7 @@ import itertools
 import numpy as np
 import pandas as pd
 
-from .calibration.kong import KongLimits, kong_from_scatters, vertical_axis
+from .calibration.kong import KongLimits, kong_from_scatters, scatter, vertical_axis
 from .dataset import Dataset, R_COLUMNS
 from .errors import CalibrationError
 from .rotations import axis_vector, error_angle_deg
@@ -52,7 +52,7 @@ def summarise_recordings(dataset: Dataset, subject: str | None = None,
                 kept = data.acc[mask]
                 row["n_samples"] = int(mask.sum())
                 row["n_segments"] = len(mask_to_ranges(mask))
-                row.update(zip(SCATTER_COLUMNS, (kept.T @ kept).ravel()))
+                row.update(zip(SCATTER_COLUMNS, scatter(kept).ravel()))
         except CalibrationError as exc:
             row.update(flag=exc.code, message=f"{rec['path']}: {exc}")
         rows.append(row)

@@ -75,8 +75,8 @@ def simulate_box(out: Path, seed: int, n_subjects: int = 1, options: SimOptions 
     placements = _placements()
     subjects = [f"BOX{k + 1}" for k in range(n_subjects)]
     write_sheet(out / "subjects.tsv", ["subject", "description"], [[s, "rigid aluminium box"] for s in subjects])
-    writer.protocol_sheets({test: (kind, text) for test, (_, kind, text) in TESTS.items()},
-                           {test: 1 if test == "T0" else options.repetitions for test in TESTS},
+    repetitions = {test: 1 if test == "T0" else options.repetitions for test in TESTS}
+    writer.protocol_sheets({test: (kind, text) for test, (_, kind, text) in TESTS.items()}, repetitions,
                            {"EDGE": [imu for imu, *_ in IMUS]})
     write_sheet(out / "imus.tsv", ["imu", "sensor_set", "segment", "side", "region", "right_axis"],
                 [[imu, sensor_set, "box", "center", region, placements[sensor_set][imu].right_axis()]
@@ -88,7 +88,7 @@ def simulate_box(out: Path, seed: int, n_subjects: int = 1, options: SimOptions 
             for imu, *_ in IMUS:
                 mounts[sensor_set, imu] = random_mount(rng, placements[sensor_set][imu], MISALIGNMENT_SD_DEG)
                 writer.ground_truth(subject, sensor_set, imu, mounts[sensor_set, imu])
-        runs = [(test, rep) for test in TESTS for rep in range(1, (1 if test == "T0" else options.repetitions) + 1)]
+        runs = [(test, rep) for test in TESTS for rep in range(1, repetitions[test] + 1)]
         for j, (test, rep) in enumerate(runs):
             run_rng = np.random.default_rng([seed, 2, k, j])
             _, R, origin, envelope = TESTS[test][0](run_rng, options.fs_hz)

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-GRAVITY = 9.81  # m/s^2, standard gravity rounded as in the papers
+from ..dataset import GRAVITY
 OVERSAMPLE = 10  # fine grid = 10 x output rate: central differences accurate to << sensor noise
 
 

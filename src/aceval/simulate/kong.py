@@ -78,14 +78,14 @@ def simulate_kong(out: Path, seed: int, n_subjects: int = 5, options: SimOptions
     subject_rng = np.random.default_rng([seed, 0])
     subjects = _subjects(n_subjects, subject_rng)
     write_sheet(out / "subjects.tsv", ["subject", "age", "height_cm", "weight_kg"], subjects)
-    writer.protocol_sheets({test: (kind, text) for test, (_, kind, text) in PROTOCOL.items()},
-                           {test: 1 if test == "T0" else options.repetitions for test in PROTOCOL}, CALIBRATES)
+    repetitions = {test: 1 if test == "T0" else options.repetitions for test in PROTOCOL}
+    writer.protocol_sheets({test: (kind, text) for test, (_, kind, text) in PROTOCOL.items()}, repetitions, CALIBRATES)
     probe = kong_placements(Anthropometry(1.75))
     write_sheet(out / "imus.tsv", ["imu", "sensor_set", "segment", "side", "region", "right_axis"],
                 [[imu, sensor_set, segment.split("_")[0], side, region, probe[sensor_set][segment].right_axis()]
                  for sensor_set in meta["sensor_sets"] for imu, segment, side, region in IMUS])
 
-    runs = [(test, rep) for test in PROTOCOL for rep in range(1, (1 if test == "T0" else options.repetitions) + 1)]
+    runs = [(test, rep) for test in PROTOCOL for rep in range(1, repetitions[test] + 1)]
     for k, (subject, _, height_cm, _) in enumerate(subjects):
         rng = np.random.default_rng([seed, 1, k])
         body = Anthropometry(height_cm / 100.0)

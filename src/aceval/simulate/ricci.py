@@ -13,7 +13,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from .body import Placement, random_mount
 from .common import SimOptions, progress, sensor_signals
@@ -117,9 +116,9 @@ def _trial(rng, child, test, fs, offplane):
     share = OFF_AXIS[support] * offplane
     other = [a for a in "xyz" if a != axis]
 
-    def movement():
+    def movement(sign=1.0):
         off = sum(_axis_rotvec(a, share * abs(amplitude) * D2R * profile * band_noise(rng, t, 0.3, 1.5)) for a in other)
-        return small_rotations(main + off)
+        return small_rotations(sign * (main + off))
 
     identity = np.tile(np.eye(3), (len(t), 1, 1))
     relative = {seg: identity for seg in SEGMENTS}
@@ -130,10 +129,8 @@ def _trial(rng, child, test, fs, offplane):
             relative["upper_arm_r"] = relative["upper_arm_l"] = arms_forward
     elif moving == "arms":
         for s, sign in (("r", 1.0), ("l", -1.0)):
-            rotation = movement()
-            if axis == "x":  # abduction: right arm about -x, left about +x
-                rotation = small_rotations(-sign * Rotation.from_matrix(rotation).as_rotvec())
-            relative[f"upper_arm_{s}"] = rotation
+            # abduction (about x) lifts the right arm about -x and the left about +x
+            relative[f"upper_arm_{s}"] = movement(-sign if axis == "x" else 1.0)
     elif moving == "forearms":
         for s in ("r", "l"):
             relative[f"forearm_{s}"] = movement()
@@ -150,8 +147,8 @@ def _trial(rng, child, test, fs, offplane):
 def functional_axes() -> list[list[str]]:
     """(test, segment, axis): the segment-frame axis of each movement; for the static supine
     posture the direction of the specific force (up = anterior, +x; for the pronated forearm, the
-    dorsum of the hand: -y on the right, +y on the left)."""
-    rows = [["S", "thorax", "+x"], ["S", "upper_arm", "+x"], ["S", "forearm_r", "-y"], ["S", "forearm_l", "+y"]]
+    dorsum of the hand, which faces laterally in the standing posture: +y right, -y left)."""
+    rows = [["S", "thorax", "+x"], ["S", "upper_arm", "+x"], ["S", "forearm_r", "+y"], ["S", "forearm_l", "-y"]]
     for test, (_, moving, axis, *_rest) in MOVEMENTS.items():
         segment = {"thorax": "thorax", "arms": "upper_arm", "forearms": "forearm", "forearms_twist": "forearm"}[moving]
         rows.append([test, segment, axis])

@@ -8,8 +8,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-RECORDING_COLUMNS = ["t", "acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z"]
-UNIT_SCALE = {"g": 9.81, "m/s^2": 1.0, "deg/s": np.pi / 180.0, "rad/s": 1.0}
+from ..dataset import ACC_UNITS, GYR_UNITS, R_COLUMNS, RECORDING_COLUMNS
 
 
 def write_sheet(path: Path, columns: list[str], rows: list) -> None:
@@ -42,8 +41,8 @@ class DatasetWriter:
         self.root = Path(root)
         self.root.mkdir(parents=True, exist_ok=True)
         self.meta = meta
-        self.acc_scale = UNIT_SCALE[meta["units"]["acc"]]
-        self.gyr_scale = UNIT_SCALE[meta["units"]["gyr"]]
+        self.acc_scale = ACC_UNITS[meta["units"]["acc"]]
+        self.gyr_scale = GYR_UNITS[meta["units"]["gyr"]]
         with open(self.root / "dataset.yaml", "w") as handle:
             yaml.safe_dump(meta, handle, sort_keys=False)
         self._recordings = open(self.root / "recordings.tsv", "w", newline="")
@@ -74,5 +73,4 @@ class DatasetWriter:
     def close(self) -> None:
         self._recordings.close()
         if self._ground_truth:
-            columns = ["subject", "sensor_set", "imu"] + [f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
-            write_sheet(self.root / "ground_truth.tsv", columns, self._ground_truth)
+            write_sheet(self.root / "ground_truth.tsv", ["subject", "sensor_set", "imu", *R_COLUMNS], self._ground_truth)
