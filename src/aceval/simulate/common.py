@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .engine import OVERSAMPLE, ImuErrorModel, band_noise, measure, small_rotations
+from .engine import OVERSAMPLE, PAD, ImuErrorModel, band_noise, measure, small_rotations
 
 
 @dataclass(frozen=True)
@@ -34,7 +34,7 @@ def sensor_signals(rng, R_seg, origin, mount, position, envelope, wobble_deg, op
     R_ws = R_seg @ mount
     amplitude = np.radians(wobble_deg) * options.wobble
     if amplitude > 0:
-        t = np.arange(len(R_seg), dtype=float) / (options.fs_hz * OVERSAMPLE)
+        t = (np.arange(len(R_seg)) - PAD) / (options.fs_hz * OVERSAMPLE)  # as fine_time
         envelope = np.clip(np.broadcast_to(envelope, t.shape), 0.0, 1.0)
         rotvec = np.column_stack([band_noise(rng, t, 0.5, 3.0) for _ in range(3)]) / np.sqrt(3)
         R_ws = R_ws @ small_rotations(amplitude * envelope[:, None] * rotvec)

@@ -141,8 +141,9 @@ def _gait_angles(phase):
     normative curves of Winter (2009, Ch. 1; Perry & Burnfield 2010): hip +30 -> -10 deg, knee
     5-15 deg in stance and 60 deg in swing, ankle -5 / +10 / -15 deg."""
     def bump(center, width):
-        d = (phase - center + 0.5) % 1.0 - 0.5
-        return np.exp(-0.5 * (d / width) ** 2)
+        # periodic (von Mises) bump, ~Gaussian of SD ``width`` near its centre and smooth where the
+        # stride wraps (a wrapped Gaussian steps there, which shows as an acceleration spike)
+        return np.exp((np.cos(2 * np.pi * (phase - center)) - 1) / (2 * np.pi * width) ** 2)
 
     hip = (10 + 20 * np.cos(2 * np.pi * (phase - 0.9))) * D2R
     knee = (5 + 12 * bump(0.15, 0.07) + 55 * bump(0.72, 0.11)) * D2R

@@ -56,7 +56,9 @@ class DatasetWriter:
         path.parent.mkdir(parents=True, exist_ok=True)
         t = np.arange(len(acc)) / self.meta["sampling_rate_hz"]
         table = np.column_stack([t, acc / self.acc_scale, gyr / self.gyr_scale])
-        np.savetxt(path, table, fmt="%.6g", delimiter=",", header=",".join(RECORDING_COLUMNS), comments="")
+        row_format = ",".join(["%.6g"] * table.shape[1]) + "\n"
+        # one %-format over the whole table: the same text as np.savetxt, several times faster
+        path.write_text(",".join(RECORDING_COLUMNS) + "\n" + (row_format * len(table)) % tuple(table.ravel()))
         self._recordings.write(f"{subject}\t{sensor_set}\t{test}\t{rep}\t{imu}\t{rel.as_posix()}\n")
 
     def protocol_sheets(self, tests: dict, repetitions: dict, calibrates: dict) -> None:
