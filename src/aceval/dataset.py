@@ -130,7 +130,7 @@ class Dataset:
         """Read one recording file (relative to the dataset) and convert it to SI."""
         full = self.root / path
         table = _read_recording_table(full)
-        values = table[RECORDING_COLUMNS].to_numpy(dtype=float)
+        values = _numeric_values(table)
         return Recording(values[:, 0], values[:, 1:4] * self.acc_scale, values[:, 4:7] * self.gyr_scale, full)
 
     def ground_truth_matrix(self, subject: str, sensor_set: str, imu: str) -> np.ndarray | None:
@@ -145,6 +145,15 @@ class Dataset:
 
 def _read_recording_table(path: Path) -> pd.DataFrame:
     return pd.read_csv(path, sep=",", engine="c")
+
+
+def _numeric_values(table: pd.DataFrame) -> np.ndarray:
+    """The recording columns as floats; non-numeric cells become NaN (and are reported)."""
+    columns = table if list(table.columns) == RECORDING_COLUMNS else table[RECORDING_COLUMNS]
+    try:
+        return columns.to_numpy(dtype=float)
+    except (TypeError, ValueError):  # some cell is not a number
+        return columns.apply(pd.to_numeric, errors="coerce").to_numpy(dtype=float)
 
 
 def _read_sheet(root: Path, name: str, required: list[str], report: ValidationReport):
@@ -328,7 +337,7 @@ def check_recording(dataset: Dataset, row, report: ValidationReport) -> None:
     if missing:
         report.error(where, f"missing column(s) {', '.join(missing)}")
         return
-    values = table[RECORDING_COLUMNS].apply(pd.to_numeric, errors="coerce").to_numpy(dtype=float)
+    values = _numeric_values(table)
     if len(values) < 2:
         report.error(where, f"{len(values)} samples: a recording needs at least 2")
         return
@@ -387,7 +396,7 @@ def validate(root: str | Path, check_files: bool = True) -> tuple[Dataset | None
     are unusable) and the report; ``report.ok`` is False when there are errors."""
     dataset, report = read_sheets(root)
     if dataset is not None and check_files:
-        for _, row in known_recordings(dataset).iterrows():
+        for row in known_recordings(dataset).to_dict("records"):
             check_recording(dataset, row, report)
     return dataset, report
 
