@@ -1,4 +1,5 @@
-"""Command line: ``aceval simulate|validate ...`` (also ``python -m aceval``)."""
+"""Command line: ``aceval simulate|validate|calibrate|correlate|angles|table|figure|summary``
+(also ``python -m aceval``). The workflow's rules are thin calls of these commands."""
 
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ def _simulate(args) -> int:
             return 2
     options = SimOptions(
         noise=not args.no_noise, offplane=0.0 if args.no_offplane else 1.0,
-        wobble=0.0 if args.no_wobble else 1.0,
+        wobble=0.0 if args.no_wobble else 1.0, repetitions=args.repetitions,
     )
     kwargs = {"options": options}
     if args.subjects is not None:
@@ -43,8 +44,141 @@ def _validate(args) -> int:
     from .dataset import validate
 
     _, report = validate(args.dataset)
-    print(report.format())
+    print(report.format(), file=sys.stdout if report.ok else sys.stderr)
+    if report.ok and args.out:
+        _write_text(args.out, report.format() + "\n")
     return 0 if report.ok else 1
+
+
+def _atomic(path: str | Path, write) -> None:
+    """Call ``write(tmp_path)`` then move the file into place: a failed step leaves no output."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".tmp.{path.name}")  # same suffix: writers pick the format from it
+    try:
+        write(tmp)
+        tmp.replace(path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def _write_csv(path, table) -> None:
+    _atomic(path, lambda tmp: table.to_csv(tmp, index=False))
+
+
+def _write_text(path, text: str) -> None:
+    _atomic(path, lambda tmp: Path(tmp).write_text(text))
+
+
+def _read_csvs(paths) -> "pd.DataFrame":
+    import pandas as pd
+
+    parts = [pd.read_csv(p) for p in paths]
+    parts = [p for p in parts if len(p)]
+    return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()
+
+
+def _calibrate(args) -> int:
+    from .dataset import load_dataset
+    from .pipeline import calibrate, summarise_recordings
+    from .segmentation import TrimParams
+
+    import numpy as np
+
+    dataset = load_dataset(args.dataset)
+    if args.subject not in dataset.subjects.index:
+        print(f"aceval calibrate: subject {args.subject!r} is not in {args.dataset}/subjects.tsv", file=sys.stderr)
+        return 2
+    trim = TrimParams(threshold=args.trim_threshold, closing_s=args.closing_s, window_s=args.window_s,
+                      min_peak_rad_s=np.radians(args.min_peak_deg_s))
+    summaries = summarise_recordings(dataset, args.subject, trim)
+    unusable = summaries[summaries["flag"] != ""] if len(summaries) else summaries
+    for message in unusable.get("message", []):
+        print(f"aceval calibrate: left out {message}", file=sys.stderr)
+    calibrations = calibrate(dataset, summaries) if len(summaries) else summaries
+    _write_csv(args.out, calibrations)
+    if args.recordings_out:
+        _write_csv(args.recordings_out, summaries)
+    print(f"aceval calibrate: {args.subject}: {len(calibrations)} calibrations "
+          f"({int((calibrations.get('flag', '') != '').sum()) if len(calibrations) else 0} flagged), "
+          f"{len(unusable)} recordings left out", file=sys.stderr)
+    return 0
+
+
+def _correlate(args) -> int:
+    import json
+
+    from .dataset import load_dataset
+    from .pipeline import correlations
+
+    dataset = load_dataset(args.dataset)
+    table = correlations(dataset, _read_csvs([args.calibrations]), args.mode, json.loads(args.pairs))
+    _write_csv(args.out, table)
+    return 0
+
+
+def _angles(args) -> int:
+    from .objectives import all_angles
+
+    _write_csv(args.out, all_angles(_read_csvs(args.calibrations), args.test_retest_k))
+    return 0
+
+
+def _dataset_meta(root) -> dict:
+    import yaml
+
+    return yaml.safe_load((Path(root) / "dataset.yaml").read_text())
+
+
+def _table(args) -> int:
+    import json
+
+    from . import tables
+
+    meta = _dataset_meta(args.dataset)
+    table = tables.build(args.number, _read_csvs(args.correlations) if args.correlations else None,
+                         _read_csvs([args.angles]) if args.angles else None,
+                         list(meta["sensor_sets"])[:2], json.loads(args.paper_names))
+    if not (table["n"] > 0).any():
+        print(f"aceval table: Kong Table {args.number}: no data in {meta.get('name')} for this table", file=sys.stderr)
+    _write_csv(args.csv, table)
+    _write_text(args.md, tables.to_markdown(table, args.number, meta.get("name", ""), bool(meta.get("simulated"))))
+    return 0
+
+
+def _figure(args) -> int:
+    import json
+
+    from .figures import plot
+
+    meta = _dataset_meta(args.dataset)
+    title = str(meta.get("name", "")) + (" (SIMULATED)" if meta.get("simulated") else "")
+    _atomic(args.out, lambda tmp: plot(args.number, _read_csvs(args.correlations) if args.correlations else None,
+                                       _read_csvs([args.angles]) if args.angles else None, tmp, title,
+                                       json.loads(args.paper_names)))
+    return 0
+
+
+def _summary(args) -> int:
+    import re
+
+    from . import summary
+
+    meta = _dataset_meta(args.dataset)
+    tables, calibration_files, angles = {}, [], None
+    for path in map(Path, args.inputs):  # told apart by name, as the workflow writes them
+        if match := re.fullmatch(r"table(\d+)\.csv", path.name):
+            tables[int(match.group(1))] = _read_csvs([path])
+        elif path.name == "angles.csv":
+            angles = _read_csvs([path])
+        elif path.parent.name == "calibrations" and path.suffix == ".csv" and not path.stem.endswith("_recordings"):
+            calibration_files.append(path)
+    calibrations = _read_csvs(calibration_files) if calibration_files else None
+    notes = [f"- {line}" for line in args.note if line]
+    text = summary.to_markdown(summary.claims(tables, angles, calibrations), meta.get("name", ""),
+                               meta.get("description", ""), bool(meta.get("simulated")), notes)
+    _write_text(args.out, text)
+    return 0
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -56,6 +190,7 @@ def main(argv: list[str] | None = None) -> int:
     simulate.add_argument("--out", required=True, help="output folder (created)")
     simulate.add_argument("--seed", type=int, default=0)
     simulate.add_argument("--subjects", type=int, help="number of subjects (default: the paper's)")
+    simulate.add_argument("--repetitions", type=int, default=5, help="repetitions of each motion test (5; Kong, box)")
     simulate.add_argument("--no-noise", action="store_true", help="ideal sensors: no noise, bias or saturation")
     simulate.add_argument("--no-offplane", action="store_true", help="pure sagittal-plane motion")
     simulate.add_argument("--no-wobble", action="store_true", help="no soft-tissue wobble")
@@ -64,7 +199,58 @@ def main(argv: list[str] | None = None) -> int:
 
     validate = commands.add_parser("validate", help="check a dataset folder against the contract")
     validate.add_argument("dataset")
+    validate.add_argument("--out", help="write the report here when the dataset is valid (nothing when not)")
     validate.set_defaults(run=_validate)
+
+    calibrate = commands.add_parser("calibrate", help="Kong calibrations of one subject, every subset of repetitions")
+    calibrate.add_argument("dataset")
+    calibrate.add_argument("--subject", required=True)
+    calibrate.add_argument("--out", required=True, help="calibrations CSV")
+    calibrate.add_argument("--recordings-out", help="per-recording summary CSV (what was kept or left out, and why)")
+    calibrate.add_argument("--trim-threshold", type=float, default=0.1, help="Kong Fig. 5 threshold (0.1)")
+    calibrate.add_argument("--closing-s", type=float, default=1.0, help="morphological closing length, s (1.0)")
+    calibrate.add_argument("--window-s", type=float, default=0.5, help="moving-SD window, s (0.5)")
+    calibrate.add_argument("--min-peak-deg-s", type=float, default=20.0,
+                           help="a 'motion' whose peak |gyro| is below this (deg/s) is refused (20)")
+    calibrate.set_defaults(run=_calibrate)
+
+    correlate = commands.add_parser("correlate", help="Kong Obj 1-2 correlations of calibrated signals (one subject)")
+    correlate.add_argument("dataset")
+    correlate.add_argument("--calibrations", required=True)
+    correlate.add_argument("--out", required=True)
+    correlate.add_argument("--mode", choices=["concatenated", "per_axis"], default="concatenated")
+    correlate.add_argument("--pairs", default="{}", help='Obj 2 segment pairs as JSON: {"name": {"segments": [a, b], "t_ap": [...]}}')
+    correlate.set_defaults(run=_correlate)
+
+    angles = commands.add_parser("angles", help="Kong Obj 3-5 error angles from calibration tables")
+    angles.add_argument("--calibrations", nargs="+", required=True)
+    angles.add_argument("--out", required=True)
+    angles.add_argument("--test-retest-k", type=int, default=3)
+    angles.set_defaults(run=_angles)
+
+    for name, helper in (("table", "Kong Table N (3-11), CSV and Markdown, published values beside"),
+                         ("figure", "Kong Figure N (6, 8, 9, 10) as PNG")):
+        command = commands.add_parser(name, help=helper)
+        command.add_argument("number", type=int)
+        command.add_argument("--dataset", required=True, help="dataset folder (for its name and sensor sets)")
+        command.add_argument("--correlations", nargs="*", default=[])
+        command.add_argument("--angles")
+        command.add_argument("--paper-names", default="{}", help="JSON map of this dataset's test names to the paper's")
+        if name == "table":
+            command.add_argument("--csv", required=True)
+            command.add_argument("--md", required=True)
+            command.set_defaults(run=_table)
+        else:
+            command.add_argument("--out", required=True)
+            command.set_defaults(run=_figure)
+
+    summarise = commands.add_parser("summary", help="SUMMARY.md: each Kong claim, holds / does not hold / not testable")
+    summarise.add_argument("--dataset", required=True)
+    summarise.add_argument("inputs", nargs="*", help="tables/tableN.csv, angles.csv and calibrations/<subject>.csv "
+                           "files of the dataset (others, e.g. validation.txt, are ignored)")
+    summarise.add_argument("--note", action="append", default=[], help="a line to add under the counts")
+    summarise.add_argument("--out", required=True)
+    summarise.set_defaults(run=_summary)
 
     args = parser.parse_args(argv)
     return args.run(args)

@@ -15,6 +15,7 @@ import pandas as pd
 from .calibration.kong import KongLimits, kong_from_scatters, scatter, vertical_axis
 from .dataset import Dataset, R_COLUMNS
 from .errors import CalibrationError
+from .objectives import correlation_3d, frontal_lateral_plan, full_sets, segment_pair_plan
 from .rotations import axis_vector, error_angle_deg
 from .segmentation import TrimParams, mask_to_ranges, movement_mask
 
@@ -36,7 +37,7 @@ def summarise_recordings(dataset: Dataset, subject: str | None = None,
     static = set(dataset.static_tests())
     allowed = set(map(tuple, dataset.calibrates[["test", "imu"]].to_numpy()))
     rows = []
-    for _, rec in recordings.iterrows():
+    for rec in recordings.to_dict("records"):
         is_static = rec["test"] in static
         if not is_static and (rec["test"], rec["imu"]) not in allowed:
             continue
@@ -100,9 +101,11 @@ def calibrate(dataset: Dataset, summaries: pd.DataFrame, subsets: str = "all",
         )
         truth = dataset.ground_truth_matrix(subject, sensor_set, imu)
         errors = error_angle_deg(result.R, truth) if truth is not None else np.full(len(chosen), np.nan)
+        segment, side = dataset.imus.loc[(sensor_set, imu), ["segment", "side"]]
         for k, subset in enumerate(chosen):
             out.append({
-                "subject": subject, "sensor_set": sensor_set, "imu": imu, "test": test,
+                "subject": subject, "sensor_set": sensor_set, "imu": imu, "segment": segment, "side": side,
+                "test": test,
                 "repetitions": subset_label(subset), "n_reps": len(subset), "method": "kong",
                 **dict(zip(R_COLUMNS, result.R[k].ravel())),
                 "n_samples": int(result.n_samples[k]),
@@ -112,3 +115,69 @@ def calibrate(dataset: Dataset, summaries: pd.DataFrame, subsets: str = "all",
                 "flag": result.flag[k], "error_deg": errors[k],
             })
     return pd.DataFrame(out)
+
+
+CORRELATION_COLUMNS = ["objective", "subject", "sensor_set", "imu", "imu_b", "segment", "pair", "side",
+                       "t_ex", "t_ap", "rep", "signal", "correlation", "flag"]
+
+
+def correlations(dataset: Dataset, calibrations: pd.DataFrame, mode: str = "concatenated",
+                 segment_pairs: dict | None = None) -> pd.DataFrame:
+    """Kong Obj 1 and 2 (Eq. 7-10) for the subjects in ``calibrations``: full-set calibrations
+    applied to every repetition of every motion test (T_ap), correlation per recording.
+
+    Obj 1 (``objective='frontal_lateral'``, needs two sensor sets): the same IMU in both sets,
+    ``sensor_set`` = 'set_a|set_b'; acceleration and angular velocity (``signal``). Obj 2
+    (``'segment_pair'``): two segments of one set calibrated from the same T_ex, on the tests that
+    ``segment_pairs`` names; acceleration. Recordings of different length are not correlated (they
+    cannot be aligned sample by sample): such rows get ``flag='lengths_differ'``.
+    """
+    full = full_sets(calibrations)
+    motion = [t for t in dataset.tests.index if dataset.tests.loc[t, "kind"] == "motion"]
+    paths = dataset.recordings.set_index(["subject", "sensor_set", "test", "rep", "imu"])["path"].to_dict()
+    reps: dict = {}
+    for subject, sensor_set, test, rep, imu in paths:
+        reps.setdefault((subject, sensor_set, test, imu), []).append(rep)
+    cache: dict = {}
+
+    def signals(key):
+        if key not in cache:
+            cache[key] = dataset.read_recording(paths[key]) if key in paths else None
+        return cache[key]
+
+    def correlate(base: dict, key_a, key_b, R_a, R_b, which):
+        a, b = signals(key_a), signals(key_b)
+        if a is None or b is None:
+            return
+        for signal in which:
+            row = {**base, "rep": key_a[3], "signal": signal, "flag": ""}
+            if len(a.t) != len(b.t):
+                row.update(correlation=np.nan, flag="lengths_differ")
+            else:
+                row["correlation"] = correlation_3d(getattr(a, signal) @ R_a.T, getattr(b, signal) @ R_b.T, mode)
+            rows.append(row)
+
+    rows: list[dict] = []
+    sensor_sets = list(dataset.meta["sensor_sets"])
+    if len(sensor_sets) == 2 and len(full):
+        for plan in frontal_lateral_plan(full, sensor_sets).to_dict("records"):
+            base = {"objective": "frontal_lateral", "subject": plan["subject"], "sensor_set": "|".join(sensor_sets),
+                    "imu": plan["imu"], "segment": plan["segment"], "side": plan["side"], "t_ex": plan["t_ex"]}
+            for t_ap in motion:
+                for rep in sorted(reps.get((plan["subject"], sensor_sets[0], t_ap, plan["imu"]), [])):
+                    correlate({**base, "t_ap": t_ap},
+                              (plan["subject"], sensor_sets[0], t_ap, rep, plan["imu"]),
+                              (plan["subject"], sensor_sets[1], t_ap, rep, plan["imu"]),
+                              plan["R_a"], plan["R_b"], ("acc", "gyr"))
+    if segment_pairs and len(full):
+        for plan in segment_pair_plan(full, segment_pairs).to_dict("records"):
+            base = {"objective": "segment_pair", "subject": plan["subject"], "sensor_set": plan["sensor_set"],
+                    "imu": plan["imu_a"], "imu_b": plan["imu_b"], "pair": plan["pair"], "side": plan["side"],
+                    "t_ex": plan["t_ex"]}
+            for t_ap in [t for t in plan["t_ap"] if t in motion]:
+                for rep in sorted(reps.get((plan["subject"], plan["sensor_set"], t_ap, plan["imu_a"]), [])):
+                    correlate({**base, "t_ap": t_ap},
+                              (plan["subject"], plan["sensor_set"], t_ap, rep, plan["imu_a"]),
+                              (plan["subject"], plan["sensor_set"], t_ap, rep, plan["imu_b"]),
+                              plan["R_a"], plan["R_b"], ("acc",))
+    return pd.DataFrame(rows, columns=CORRELATION_COLUMNS)

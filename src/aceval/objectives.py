@@ -1,0 +1,211 @@
+"""Kong et al. 2016 Objectives 1-5 (Section 2.4.2) as pure functions on tidy tables.
+
+Input is the calibration table of :func:`aceval.pipeline.calibrate` (one row per subject, sensor
+set, IMU, test and subset of repetitions, with r11..r33 and ``flag``). Flagged calibrations are
+left out; the tables count what is left (``n``).
+
+* Obj 1 / Obj 2: correlation of calibrated 3-axis signals (Eq. 7-10), :func:`correlation_3d`;
+  which calibrations are compared is planned here, the signals are read in :mod:`aceval.pipeline`.
+* Obj 3: "incremental" (Eq. 11-12) and "to last" (Eq. 13, for every subset size, not only 1).
+* Obj 4: test-retest between distinct subsets of ``k`` repetitions (Eq. 15, k = 3).
+* Obj 5: cross-test, full sets of two tests that both calibrate the IMU (Eq. 16).
+
+Every comparison of two calibrations is the angle of ``R_a R_b^T`` in axis-angle form (Eq. 14),
+:func:`aceval.rotations.error_angle_deg`, with the share of that rotation about the body vertical.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pandas as pd
+
+from .dataset import R_COLUMNS
+from .rotations import error_angle_deg, vertical_share
+
+CORRELATION_MODES = ("concatenated", "per_axis")
+CALIBRATION_KEY = ["subject", "sensor_set", "imu", "test"]
+#: columns of every angle row
+ANGLE_COLUMNS = ["comparison", "subject", "sensor_set", "imu", "segment", "side", "test", "k",
+                 "calibration_a", "calibration_b", "error_angle_deg", "vertical_share"]
+
+
+def correlation_3d(a: np.ndarray, b: np.ndarray, mode: str = "concatenated") -> float:
+    """Pearson correlation of two 3-axis signals of shape (N, 3) (Kong Eq. 8 and 10).
+
+    ``concatenated``: r of the 3N values (x_1..x_N, y_1..y_N, z_1..z_N) of each signal, so the
+    different mean levels of the axes (gravity) count as shared variation. ``per_axis``: the mean
+    of the x, y and z correlations; an axis that is constant in either signal has no correlation
+    and is left out (NaN if all are).
+    """
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    if a.shape != b.shape or a.ndim != 2 or a.shape[1] != 3:
+        raise ValueError(f"expected two (N, 3) signals of the same shape, got {a.shape} and {b.shape}")
+    if mode == "concatenated":
+        x, y = a.T.ravel(), b.T.ravel()
+        if np.std(x) == 0 or np.std(y) == 0:
+            return float("nan")
+        return float(np.corrcoef(x, y)[0, 1])
+    if mode == "per_axis":
+        values = [np.corrcoef(a[:, k], b[:, k])[0, 1] for k in range(3)
+                  if np.std(a[:, k]) > 0 and np.std(b[:, k]) > 0]
+        return float(np.mean(values)) if values else float("nan")
+    raise ValueError(f"correlation mode {mode!r} is not one of {', '.join(CORRELATION_MODES)}")
+
+
+def parse_subset(label: str) -> tuple[int, ...]:
+    """``'R1+R3'`` -> ``(1, 3)`` (the inverse of :func:`aceval.pipeline.subset_label`)."""
+    return tuple(int(part[1:]) for part in label.split("+"))
+
+
+def label(subset) -> str:
+    return "+".join(f"R{r}" for r in sorted(subset))
+
+
+def matrices(table: pd.DataFrame) -> np.ndarray:
+    """The rotations of a calibration table, shape (n, 3, 3)."""
+    return table[R_COLUMNS].to_numpy(float).reshape(-1, 3, 3)
+
+
+def usable(calibrations: pd.DataFrame) -> pd.DataFrame:
+    return calibrations[calibrations["flag"].fillna("") == ""]
+
+
+def full_sets(calibrations: pd.DataFrame) -> pd.DataFrame:
+    """The calibration from all usable repetitions of each (subject, set, IMU, test); left out when
+    that calibration itself is flagged."""
+    most = calibrations.groupby(CALIBRATION_KEY)["n_reps"].transform("max")
+    return usable(calibrations[calibrations["n_reps"] == most])
+
+
+def _angle_rows(comparison: str, calibrations: pd.DataFrame, pairs: list[tuple[int, int]], k: list[int],
+                test: list[str] | None = None) -> pd.DataFrame:
+    """Rows of ANGLE_COLUMNS for index pairs (a, b) into ``calibrations`` (positional)."""
+    if not pairs:
+        return pd.DataFrame(columns=ANGLE_COLUMNS)
+    ia, ib = np.array(pairs).T
+    R = matrices(calibrations)
+    first = calibrations.iloc[ia]
+    second = calibrations.iloc[ib]
+    out = pd.DataFrame({
+        "comparison": comparison,
+        "subject": first["subject"].to_numpy(), "sensor_set": first["sensor_set"].to_numpy(),
+        "imu": first["imu"].to_numpy(), "segment": first["segment"].to_numpy(), "side": first["side"].to_numpy(),
+        "test": test if test is not None else first["test"].to_numpy(),
+        "k": k,
+        "calibration_a": (first["test"] + ":" + first["repetitions"]).to_numpy(),
+        "calibration_b": (second["test"] + ":" + second["repetitions"]).to_numpy(),
+        "error_angle_deg": error_angle_deg(R[ia], R[ib]),
+        "vertical_share": vertical_share(R[ia], R[ib]),
+    })
+    return out[ANGLE_COLUMNS]
+
+
+def _subset_groups(calibrations: pd.DataFrame):
+    """(positions, {subset: position}, all repetitions) per (subject, set, IMU, test)."""
+    table = usable(calibrations).reset_index(drop=True)
+    for _, group in table.groupby(CALIBRATION_KEY, sort=True):
+        by_subset = {parse_subset(rep): pos for pos, rep in zip(group.index, group["repetitions"])}
+        reps = tuple(sorted(set().union(*by_subset)))
+        yield table, by_subset, reps
+
+
+def incremental_angles(calibrations: pd.DataFrame) -> pd.DataFrame:
+    """Obj 3 "incremental" (Kong Eq. 11-12): for each subset A of k repetitions and each repetition
+    a not in A, the angle between R(A u {a}) and R(A). ``k`` = |A|."""
+    parts = []
+    for table, by_subset, reps in _subset_groups(calibrations):
+        pairs, ks = [], []
+        for subset, pos in by_subset.items():
+            for extra in set(reps) - set(subset):
+                bigger = tuple(sorted(subset + (extra,)))
+                if bigger in by_subset:
+                    pairs.append((by_subset[bigger], pos))
+                    ks.append(len(subset))
+        parts.append(_angle_rows("incremental", table, pairs, ks))
+    return _concat(parts)
+
+
+def to_last_angles(calibrations: pd.DataFrame) -> pd.DataFrame:
+    """Obj 3 "to last" (Kong Eq. 13): the angle between R(all repetitions) and R(A) for every proper
+    subset A; Eq. 13 itself is the rows with ``k`` = |A| = 1."""
+    parts = []
+    for table, by_subset, reps in _subset_groups(calibrations):
+        if reps not in by_subset:
+            continue  # the full set is flagged: nothing to converge to
+        pairs = [(by_subset[reps], pos) for subset, pos in by_subset.items() if subset != reps]
+        parts.append(_angle_rows("to_last", table, pairs, [len(s) for s in by_subset if s != reps]))
+    return _concat(parts)
+
+
+def test_retest_angles(calibrations: pd.DataFrame, k: int = 3) -> pd.DataFrame:
+    """Obj 4 (Kong Eq. 15): the angle between R(A) and R(A') for every pair of distinct subsets of
+    ``k`` repetitions (45 pairs for 3 of 5)."""
+    parts = []
+    for table, by_subset, _ in _subset_groups(calibrations):
+        same_size = sorted(s for s in by_subset if len(s) == k)
+        pairs = [(by_subset[a], by_subset[b]) for a, b in itertools.combinations(same_size, 2)]
+        parts.append(_angle_rows("test_retest", table, pairs, [k] * len(pairs)))
+    return _concat(parts)
+
+
+def cross_test_angles(calibrations: pd.DataFrame) -> pd.DataFrame:
+    """Obj 5 (Kong Eq. 16): for each (subject, set, IMU), the angle between the full-set
+    calibrations of every two tests that calibrate it; ``test`` is the pair, e.g. 'T1-T2'."""
+    table = full_sets(calibrations).reset_index(drop=True)
+    pairs, names = [], []
+    for _, group in table.groupby(["subject", "sensor_set", "imu"], sort=True):
+        group = group.sort_values("test")
+        for a, b in itertools.combinations(group.index, 2):
+            pairs.append((a, b))
+            names.append(f"{table.loc[a, 'test']}-{table.loc[b, 'test']}")
+    ks = [int(table.loc[a, "n_reps"]) for a, _ in pairs]
+    return _angle_rows("cross_test", table, pairs, ks, names)
+
+
+def all_angles(calibrations: pd.DataFrame, test_retest_k: int = 3) -> pd.DataFrame:
+    """Objectives 3-5 in one tidy table (``comparison`` says which)."""
+    return _concat([incremental_angles(calibrations), to_last_angles(calibrations),
+                    test_retest_angles(calibrations, test_retest_k), cross_test_angles(calibrations)])
+
+
+def _concat(parts: list[pd.DataFrame]) -> pd.DataFrame:
+    parts = [p for p in parts if len(p)]
+    return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=ANGLE_COLUMNS)
+
+
+# --- Obj 1 and 2: which calibrated signals are correlated --------------------------------------
+
+
+def frontal_lateral_plan(full: pd.DataFrame, sensor_sets: list[str]) -> pd.DataFrame:
+    """Obj 1 (Eq. 7-8): per (subject, IMU, T_ex) where both sensor sets have a full-set
+    calibration, one row with both rotations (columns ``R_a``, ``R_b`` as (3, 3) arrays)."""
+    set_a, set_b = sensor_sets
+    rows = []
+    for (subject, imu, test), group in full.groupby(["subject", "imu", "test"], sort=True):
+        by_set = {row["sensor_set"]: row for _, row in group.iterrows()}
+        if set_a in by_set and set_b in by_set:
+            a = by_set[set_a]
+            rows.append({"subject": subject, "imu": imu, "segment": a["segment"], "side": a["side"],
+                         "t_ex": test, "R_a": matrices(group[group["sensor_set"] == set_a])[0],
+                         "R_b": matrices(group[group["sensor_set"] == set_b])[0]})
+    return pd.DataFrame(rows)
+
+
+def segment_pair_plan(full: pd.DataFrame, pairs: dict[str, dict]) -> pd.DataFrame:
+    """Obj 2 (Eq. 9-10): per sensor set, pair of segments (same side) and T_ex that calibrates
+    both IMUs, one row with both rotations. ``pairs``: ``{name: {"segments": [a, b], "t_ap": [...]}}``."""
+    rows = []
+    for name, spec in pairs.items():
+        seg_a, seg_b = spec["segments"]
+        first = full[full["segment"] == seg_a]
+        second = full[full["segment"] == seg_b]
+        merged = first.merge(second, on=["subject", "sensor_set", "side", "test"], suffixes=("_a", "_b"))
+        for _, row in merged.iterrows():
+            rows.append({"pair": name, "subject": row["subject"], "sensor_set": row["sensor_set"],
+                         "side": row["side"], "imu_a": row["imu_a"], "imu_b": row["imu_b"], "t_ex": row["test"],
+                         "t_ap": list(spec["t_ap"]),
+                         "R_a": np.array([row[f"{c}_a"] for c in R_COLUMNS], float).reshape(3, 3),
+                         "R_b": np.array([row[f"{c}_b"] for c in R_COLUMNS], float).reshape(3, 3)})
+    return pd.DataFrame(rows)

@@ -1,0 +1,311 @@
+"""Kong et al. 2016 Tables 3-11 from the tidy objective tables, with the published value beside
+every reproduced one (``reference/kong2016``, see its SOURCE.md).
+
+Each builder returns one tidy frame: key columns, this run's values, ``n`` (what is counted is
+stated in ``TABLES[...]['unit']``), ``published_*`` and ``difference``. :func:`to_markdown`
+renders it in the paper's layout plus a long comparison table.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .stats import holm, paired_by_set
+
+REFERENCE = Path(__file__).parent / "reference" / "kong2016"
+SEGMENT_ORDER = ["head", "chest", "waist", "thigh", "shank", "foot"]
+
+TABLES = {
+    3: dict(reference="table3_frontal_lateral_correlation", objective="Obj 1",
+            title="Acceleration correlation between the two sensors of one segment (frontal/back vs lateral set)",
+            unit="subject x IMU x T_ex, each averaged over the repetitions of T_ap",
+            row="t_ap", column="segment", kind="correlation"),
+    4: dict(reference="table4_box_acc_correlation", objective="Obj 1, rigid box",
+            title="Acceleration correlation between the two sensors of each IMU position on a rigid box",
+            unit="repetitions of T_ap (per box, averaged)", row="t_ap", column="imu", kind="correlation"),
+    5: dict(reference="table5_box_gyro_correlation", objective="Obj 1, rigid box",
+            title="Angular velocity correlation between the two sensors of each IMU position on a rigid box",
+            unit="repetitions of T_ap (per box, averaged)", row="t_ap", column="imu", kind="correlation"),
+    6: dict(reference="table6_segment_pair_correlation", objective="Obj 2",
+            title="Acceleration correlation between segments moved as one rigid body (same sensor set)",
+            unit="subject x sensor set x side x T_ex, each averaged over the repetitions of T_ap",
+            row="pair", column="t_ap", kind="correlation"),
+    7: dict(reference="table7_ttest_segment_pair_correlation", objective="Obj 2",
+            title="Paired t-test, segment-pair correlation, first vs second sensor set",
+            unit="pairs matched on subject, side, T_ex, T_ap and repetition", row="pair", kind="ttest"),
+    8: dict(reference="table8_ttest_incremental_angle", objective="Obj 3",
+            title="Paired t-test, 'incremental' error angle (deg), first vs second sensor set",
+            unit="pairs matched on subject, IMU, T_ex and the two subsets compared", row="segment", kind="ttest"),
+    9: dict(reference="table9_test_retest_angle", objective="Obj 4",
+            title="Error angle (deg) between different subsets of three repetitions of the same test",
+            unit="subject x set x IMU x pair of 3-repetition subsets", row="t_ex", column="segment", kind="angle",
+            flag_above=1.0),
+    10: dict(reference="table10_ttest_test_retest_angle", objective="Obj 4",
+             title="Paired t-test, test-retest error angle (deg), first vs second sensor set",
+             unit="pairs matched on subject, IMU, T_ex and the two subsets compared", row="segment", kind="ttest"),
+    11: dict(reference="table11_cross_test_angle", objective="Obj 5",
+             title="Error angle (deg) between the calibrations from two different tests",
+             unit="subject x set x IMU", row="t_ex_pair", column="segment", kind="angle", flag_above=5.0),
+}
+CORRELATION_FLAG = 0.95  # Kong's grey cells: correlation <= 0.95
+
+
+def reference(number: int) -> pd.DataFrame:
+    return pd.read_csv(REFERENCE / f"{TABLES[number]['reference']}.csv", comment="#")
+
+
+def rename_tests(values: pd.Series, paper_names: dict[str, str]) -> pd.Series:
+    """Test names as the paper calls them (``paper_names`` maps the dataset's names; 'A-B' pairs
+    are renamed part by part)."""
+    return values.astype(str).map(lambda v: "-".join(paper_names.get(part, part) for part in v.split("-")))
+
+
+def _summary(values: pd.DataFrame, keys: list[str], value: str) -> pd.DataFrame:
+    out = values.groupby(keys)[value].agg(mean="mean", sd="std", n="count").reset_index()
+    return out
+
+
+def _compare(result: pd.DataFrame, published: pd.DataFrame, keys: list[str], pairs: dict[str, str]) -> pd.DataFrame:
+    """Outer-join this run with the paper on ``keys``; ``pairs`` maps our column -> published column."""
+    published = published.rename(columns={v: f"published_{k}" for k, v in pairs.items()})
+    merged = result.merge(published[keys + [f"published_{k}" for k in pairs]], on=keys, how="outer")
+    for k in pairs:
+        if k in merged and pd.api.types.is_numeric_dtype(merged[f"published_{k}"]):
+            merged[f"difference_{k}" if len(pairs) > 1 else "difference"] = merged[k] - merged[f"published_{k}"]
+    return merged
+
+
+# --- correlation tables (3-6) -----------------------------------------------------------------
+
+
+def _frontal_lateral_units(correlations: pd.DataFrame, signal: str) -> pd.DataFrame:
+    table = correlations[(correlations["objective"] == "frontal_lateral") & (correlations["signal"] == signal)
+                         & (correlations["flag"].fillna("") == "")]
+    return table.groupby(["subject", "imu", "segment", "t_ex", "t_ap"], as_index=False)["correlation"].mean()
+
+
+def table3(correlations: pd.DataFrame, paper_names: dict) -> pd.DataFrame:
+    units = _frontal_lateral_units(correlations, "acc")
+    units["t_ap"] = rename_tests(units["t_ap"], paper_names)
+    result = _summary(units, ["t_ap", "segment"], "correlation")
+    return _flag_low(_compare(result, reference(3), ["t_ap", "segment"], {"mean": "mean", "sd": "sd"}))
+
+
+def box_table(number: int, correlations: pd.DataFrame, paper_names: dict) -> pd.DataFrame:
+    """Tables 4 (acc) and 5 (gyro): per T_ap and IMU position, averaged over repetitions."""
+    units = _frontal_lateral_units(correlations, "acc" if number == 4 else "gyr")
+    units["t_ap"] = rename_tests(units["t_ap"], paper_names)
+    result = _summary(units, ["t_ap", "imu"], "correlation")
+    published = reference(number).melt(id_vars="t_ap", var_name="imu", value_name="mean")
+    return _flag_low(_compare(result, published, ["t_ap", "imu"], {"mean": "mean"}))
+
+
+def table6(correlations: pd.DataFrame, paper_names: dict) -> pd.DataFrame:
+    table = correlations[(correlations["objective"] == "segment_pair") & (correlations["flag"].fillna("") == "")]
+    units = table.groupby(["subject", "sensor_set", "side", "pair", "t_ex", "t_ap"], as_index=False)["correlation"].mean()
+    units["t_ap"] = rename_tests(units["t_ap"], paper_names)
+    result = _summary(units, ["pair", "t_ap"], "correlation")
+    return _flag_low(_compare(result, reference(6), ["pair", "t_ap"], {"mean": "mean", "sd": "sd"}))
+
+
+def _flag_low(table: pd.DataFrame) -> pd.DataFrame:
+    table["flag"] = np.where(table["mean"] <= CORRELATION_FLAG, "<=0.95", "")
+    table["published_flag"] = np.where(table["published_mean"] <= CORRELATION_FLAG, "<=0.95", "")
+    return table
+
+
+# --- angle tables (9, 11) ---------------------------------------------------------------------
+
+
+def angle_table(number: int, angles: pd.DataFrame, paper_names: dict) -> pd.DataFrame:
+    comparison, row = ("test_retest", "t_ex") if number == 9 else ("cross_test", "t_ex_pair")
+    table = angles[angles["comparison"] == comparison].copy()
+    table[row] = rename_tests(table["test"], paper_names)
+    result = _summary(table, [row, "segment"], "error_angle_deg")
+    published = reference(number).rename(columns={"mean_deg": "mean", "sd_deg": "sd"})
+    merged = _compare(result, published, [row, "segment"], {"mean": "mean", "sd": "sd"})
+    limit = TABLES[number]["flag_above"]
+    merged["flag"] = np.where(merged["mean"] > limit, f">{limit:g} deg", "")
+    merged["published_flag"] = np.where(merged["published_mean"] > limit, f">{limit:g} deg", "")
+    return merged
+
+
+# --- paired t-tests (7, 8, 10) ----------------------------------------------------------------
+
+
+def ttest_table(number: int, correlations: pd.DataFrame | None, angles: pd.DataFrame | None,
+                sensor_sets: list[str]) -> pd.DataFrame:
+    """First vs second sensor set of the dataset (the paper's frontal/back vs lateral), one test
+    per row, Holm-corrected within the table."""
+    set_a, set_b = sensor_sets
+    if number == 7:
+        data = correlations[(correlations["objective"] == "segment_pair") & (correlations["flag"].fillna("") == "")]
+        rows, value, pair_on = "pair", "correlation", ["subject", "side", "t_ex", "t_ap", "rep"]
+    else:
+        comparison = "incremental" if number == 8 else "test_retest"
+        data = angles[angles["comparison"] == comparison]
+        rows, value, pair_on = "segment", "error_angle_deg", ["subject", "imu", "test", "calibration_a", "calibration_b"]
+    results = []
+    for key, group in data.groupby(rows, sort=False):
+        results.append({rows: key, **paired_by_set(group, value, pair_on, [set_a, set_b])})
+    result = pd.DataFrame(results, columns=[rows, "mean_a", "sd_a", "mean_b", "sd_b", "mean_difference",
+                                            "ci95_low", "ci95_high", "cohens_dz", "n", "t", "p"])
+    result["p_holm"] = holm(result["p"])
+    result["smaller"] = np.where(result["mean_a"] < result["mean_b"], set_a,
+                                 np.where(result["mean_b"] < result["mean_a"], set_b, ""))
+    published = reference(number)
+    suffix = "" if number == 7 else "_deg"
+    published = published.rename(columns={f"frontal_mean{suffix}": "published_mean_a",
+                                          f"lateral_mean{suffix}": "published_mean_b",
+                                          "frontal_sd": "published_sd_a", "lateral_sd": "published_sd_b",
+                                          "p_value": "published_p"})
+    merged = result.merge(published, on=rows, how="outer")
+    merged["published_smaller"] = np.where(merged["published_mean_a"] < merged["published_mean_b"], "frontal",
+                                           np.where(merged["published_mean_b"] < merged["published_mean_a"], "lateral", ""))
+    merged.insert(1, "set_a", set_a)
+    merged.insert(2, "set_b", set_b)
+    return merged
+
+
+# --- one entry point --------------------------------------------------------------------------
+
+
+def build(number: int, correlations: pd.DataFrame | None, angles: pd.DataFrame | None,
+          sensor_sets: list[str], paper_names: dict | None = None) -> pd.DataFrame:
+    """Kong Table ``number`` (3-11) as a tidy frame, rows in the paper's order, values rounded
+    (correlations and angles to 4 decimals, p to 3 significant digits)."""
+    names = paper_names or {}
+    if number == 3:
+        table = table3(correlations, names)
+    elif number in (4, 5):
+        table = box_table(number, correlations, names)
+    elif number == 6:
+        table = table6(correlations, names)
+    elif number in (7, 8, 10):
+        table = ttest_table(number, correlations, angles, sensor_sets)
+    elif number in (9, 11):
+        table = angle_table(number, angles, names)
+    else:
+        raise ValueError(f"Kong Table {number} is not one aceval reproduces (3-11)")
+    return _tidy(table, number)
+
+
+def _tidy(table: pd.DataFrame, number: int) -> pd.DataFrame:
+    spec = TABLES[number]
+    keys = [k for k in (spec["row"], spec.get("column")) if k]
+    table = table.sort_values(keys, key=_sort_key).reset_index(drop=True)
+    for column in table.columns:
+        if column in ("p", "p_holm"):
+            table[column] = [float(f"{v:.3g}") if np.isfinite(v) else np.nan for v in table[column]]
+        elif column == "n":
+            table[column] = table[column].fillna(0).astype(int)
+        elif pd.api.types.is_float_dtype(table[column]):
+            table[column] = table[column].round(4)
+    return table
+
+
+# --- Markdown -----------------------------------------------------------------------------------
+
+
+def _fmt(value, digits=3) -> str:
+    if value is None or (isinstance(value, float) and not np.isfinite(value)):
+        return ""
+    text = f"{value:.{digits}f}"
+    return text[1:] if text.startswith("-") and float(text) == 0 else text  # no "-0.000"
+
+
+def _fmt_p(value) -> str:
+    if value is None or not np.isfinite(value):
+        return "n/a"
+    return "<0.001" if value < 0.001 else f"{value:.3f}"
+
+
+def to_markdown(table: pd.DataFrame, number: int, dataset: str, simulated: bool) -> str:
+    spec = TABLES[number]
+    lines = [f"# Kong et al. 2016, Table {number}: {spec['title']}", "",
+             f"Dataset **{dataset}**" + (" (SIMULATED data, not the paper's recordings)" if simulated else "")
+             + f". {spec['objective']}. n counts {spec['unit']}.", ""]
+    if spec["kind"] == "ttest":
+        lines += _ttest_markdown(table, spec)
+    else:
+        lines += _matrix_markdown(table, spec)
+    return "\n".join(lines) + "\n"
+
+
+def _matrix_markdown(table: pd.DataFrame, spec: dict) -> list[str]:
+    row, column = spec["row"], spec["column"]
+    ours = table[table["n"] > 0]
+    has_sd = "sd" in table.columns
+
+    def cell(r):
+        text = _fmt(r["mean"]) + (f" ± {_fmt(r['sd'])}" if has_sd and np.isfinite(r["sd"]) else "")
+        return text + (" †" if r["flag"] else "")
+
+    matrix = ours.assign(cell=ours.apply(cell, axis=1)).pivot(index=row, columns=column, values="cell")
+    matrix = matrix.reindex(columns=[c for c in _ordered(table[column]) if c in matrix.columns]).fillna("")
+    flag_text = "correlation <= 0.95" if spec["kind"] == "correlation" else f"angle > {spec['flag_above']:g} deg"
+    lines = ["## This run, in the paper's layout", "",
+             f"Mean{' ± SD' if has_sd else ''}; † marks {flag_text} (the paper's grey cells).", "",
+             matrix.reset_index().to_markdown(index=False, disable_numparse=True), "", "## Beside the published values", ""]
+    long = pd.DataFrame({
+        row: table[row], column: table[column],
+        "this run": [cell(r) if r["n"] > 0 else "not in this dataset" for _, r in table.iterrows()],
+        "n": table["n"],
+        "paper": [_fmt(r["published_mean"]) + (f" ± {_fmt(r['published_sd'])}" if has_sd and np.isfinite(r.get("published_sd", np.nan)) else "")
+                  + (" †" if r["published_flag"] else "") if np.isfinite(r["published_mean"]) else "not in the paper"
+                  for _, r in table.iterrows()],
+        "difference": [_fmt(v) for v in table["difference_mean" if "difference_mean" in table else "difference"]],
+    })
+    return lines + [long.to_markdown(index=False, disable_numparse=True)]
+
+
+def _ttest_markdown(table: pd.DataFrame, spec: dict) -> list[str]:
+    row = spec["row"]
+    set_a, set_b = table["set_a"].iloc[0], table["set_b"].iloc[0]
+    has_sd = "published_sd_a" in table.columns
+
+    def published(r, side):
+        value = r[f"published_mean_{side}"]
+        if not np.isfinite(value):
+            return "not in the paper"
+        return _fmt(value) + (f" ± {_fmt(r[f'published_sd_{side}'])}" if has_sd else "")
+
+    long = pd.DataFrame({
+        row: table[row],
+        f"{set_a} (mean ± SD)": [f"{_fmt(r['mean_a'])} ± {_fmt(r['sd_a'])}" if r["n"] else "" for _, r in table.iterrows()],
+        f"{set_b} (mean ± SD)": [f"{_fmt(r['mean_b'])} ± {_fmt(r['sd_b'])}" if r["n"] else "" for _, r in table.iterrows()],
+        "difference [95% CI]": [f"{_fmt(r['mean_difference'])} [{_fmt(r['ci95_low'])}, {_fmt(r['ci95_high'])}]"
+                                if r["n"] else "" for _, r in table.iterrows()],
+        "d_z": [_fmt(v, 2) for v in table["cohens_dz"]],
+        "n": table["n"],
+        "p": [_fmt_p(v) for v in table["p"]],
+        "p (Holm)": [_fmt_p(v) for v in table["p_holm"]],
+        "smaller": table["smaller"],
+        "paper frontal": [published(r, "a") for _, r in table.iterrows()],
+        "paper lateral": [published(r, "b") for _, r in table.iterrows()],
+        "paper p": table["published_p"].fillna(""),
+        "paper smaller": table["published_smaller"],
+    })
+    return [f"Two-sided paired t-test of {set_a} vs {set_b} (compared with the paper's frontal/back and "
+            f"lateral sets); difference = {set_a} - {set_b}; d_z = mean difference / SD of the "
+            "differences; Holm's correction across the rows of this table. 'smaller' is the set "
+            "with the smaller mean (the paper's grey cells).", "", long.to_markdown(index=False, disable_numparse=True)]
+
+
+def _segment_rank(value) -> int:
+    return SEGMENT_ORDER.index(value) if value in SEGMENT_ORDER else len(SEGMENT_ORDER)
+
+
+def _sort_key(column: pd.Series) -> pd.Series:
+    """Segments in the paper's order (head to foot), anything else alphabetically."""
+    if column.name == "segment":
+        return column.map(lambda v: (_segment_rank(v), str(v))).astype(str)
+    return column
+
+
+def _ordered(values: pd.Series) -> list:
+    unique = list(dict.fromkeys(values))
+    return sorted(unique, key=lambda v: (_segment_rank(v), str(v)))
