@@ -1,0 +1,142 @@
+"""Kong Objectives 1-5 on hand-made cases with known answers."""
+
+import itertools
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.spatial.transform import Rotation
+
+from aceval import objectives
+from aceval.dataset import R_COLUMNS
+from aceval.pipeline import all_subsets, subset_label
+
+
+def calibration_table(rotation_of, reps=(1, 2, 3, 4, 5), tests=("T1",), sets=("frontal",), imus=("IMU1",)):
+    """A calibration table with every subset of ``reps``; ``rotation_of(test, subset)`` gives R."""
+    rows = []
+    for sensor_set, imu, test in itertools.product(sets, imus, tests):
+        for subset in all_subsets(list(reps)):
+            R = rotation_of(test, subset)
+            rows.append({"subject": "S1", "sensor_set": sensor_set, "imu": imu, "segment": "head", "side": "center",
+                         "test": test, "repetitions": subset_label(subset), "n_reps": len(subset),
+                         **dict(zip(R_COLUMNS, np.asarray(R).ravel())), "flag": ""})
+    return pd.DataFrame(rows)
+
+
+def yaw(deg):
+    return Rotation.from_euler("z", deg, degrees=True).as_matrix()
+
+
+# --- correlation -------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("mode", objectives.CORRELATION_MODES)
+def test_identical_signals_correlate_perfectly_and_opposite_ones_negatively(mode, rng):
+    signal = rng.normal(size=(200, 3))
+    assert objectives.correlation_3d(signal, signal, mode) == pytest.approx(1.0)
+    assert objectives.correlation_3d(signal, 2 * signal + 0.5, mode) == pytest.approx(1.0)
+    assert objectives.correlation_3d(signal, -signal, mode) == pytest.approx(-1.0)
+
+
+def test_concatenated_correlation_counts_axis_levels_per_axis_does_not(rng):
+    """Two static sensors with independent noise around gravity: the concatenated signal is
+    dominated by the shared axis levels (r ~ 1), the per-axis correlations by the noise (r ~ 0)."""
+    gravity = np.array([0.0, 0.0, -9.81])
+    a = gravity + rng.normal(0, 0.02, (500, 3))
+    b = gravity + rng.normal(0, 0.02, (500, 3))
+    assert objectives.correlation_3d(a, b, "concatenated") > 0.999
+    assert abs(objectives.correlation_3d(a, b, "per_axis")) < 0.2
+
+
+def test_per_axis_correlation_leaves_out_constant_axes(rng):
+    a = rng.normal(size=(100, 3))
+    b = a.copy()
+    b[:, 1] = 0.0  # constant: no correlation defined on y
+    assert objectives.correlation_3d(a, b, "per_axis") == pytest.approx(1.0)
+    assert np.isnan(objectives.correlation_3d(np.zeros((10, 3)), np.zeros((10, 3)), "per_axis"))
+
+
+def test_correlation_rejects_mismatched_shapes_and_unknown_modes():
+    with pytest.raises(ValueError, match="same shape"):
+        objectives.correlation_3d(np.zeros((5, 3)), np.zeros((6, 3)))
+    with pytest.raises(ValueError, match="not one of"):
+        objectives.correlation_3d(np.ones((5, 3)), np.ones((5, 3)), "spearman")
+
+
+# --- error angles (Obj 3-5) --------------------------------------------------------------------
+
+
+def test_identical_calibrations_give_zero_angles_and_the_expected_number_of_comparisons():
+    base = Rotation.random(random_state=2).as_matrix()
+    table = calibration_table(lambda test, subset: base, tests=("T1", "T2", "T3"))
+    angles = objectives.all_angles(table, test_retest_k=3)
+    np.testing.assert_allclose(angles["error_angle_deg"], 0.0, atol=1e-6)
+    counts = angles.groupby(["comparison", "test"]).size()
+    # per test: sum_{k=1..4} C(5,k) (5-k) = 75 incremental, 30 to-last, C(10,2) = 45 test-retest
+    assert (counts.loc["incremental"] == 75).all()
+    assert (counts.loc["to_last"] == 30).all()
+    assert (counts.loc["test_retest"] == 45).all()
+    assert set(counts.loc["cross_test"].index) == {"T1-T2", "T1-T3", "T2-T3"}
+
+
+def test_a_known_yaw_per_repetition_comes_back_as_the_angle():
+    """R(subset) = yaw(sum of the subset's repetition numbers) R0: adding repetition a turns the
+    calibration by a degrees, the full set differs from {R1} by 14 degrees."""
+    base = Rotation.random(random_state=5).as_matrix()
+    table = calibration_table(lambda test, subset: yaw(sum(subset)) @ base)
+    incremental = objectives.incremental_angles(table)
+    # calibration_a is the bigger subset (R_e = R(A u {a}) R(A)^-1, Eq. 11), so the angle is a
+    expected = [sum(objectives.parse_subset(a.split(":")[1])) - sum(objectives.parse_subset(b.split(":")[1]))
+                for a, b in zip(incremental["calibration_a"], incremental["calibration_b"])]
+    np.testing.assert_allclose(incremental["error_angle_deg"], expected, atol=1e-6)
+    to_last = objectives.to_last_angles(table).set_index("calibration_b")["error_angle_deg"]
+    assert to_last["T1:R1"] == pytest.approx(14.0)
+    assert to_last["T1:R1+R2+R3+R4"] == pytest.approx(5.0)
+    # the error rotation is about the body vertical, as Kong notes for a shared z0
+    np.testing.assert_allclose(objectives.incremental_angles(table)["vertical_share"], 1.0)
+
+
+def test_cross_test_angle_is_the_yaw_between_the_tests():
+    base = Rotation.random(random_state=9).as_matrix()
+    offsets = {"T3": 0.0, "T5": 7.5, "T6": -2.0}
+    table = calibration_table(lambda test, subset: yaw(offsets[test]) @ base, tests=tuple(offsets))
+    cross = objectives.cross_test_angles(table).set_index("test")["error_angle_deg"]
+    assert cross["T3-T5"] == pytest.approx(7.5)
+    assert cross["T3-T6"] == pytest.approx(2.0)
+    assert cross["T5-T6"] == pytest.approx(9.5)
+
+
+def test_flagged_calibrations_are_left_out():
+    base = np.eye(3)
+    table = calibration_table(lambda test, subset: base)
+    table.loc[table["repetitions"] == "R1+R2+R3+R4+R5", "flag"] = "not_planar"
+    assert objectives.to_last_angles(table).empty  # nothing to converge to
+    assert objectives.full_sets(table).empty
+    assert not (objectives.incremental_angles(table)["calibration_a"] == "T1:R1+R2+R3+R4+R5").any()
+
+
+def test_test_retest_pairs_are_the_distinct_k_subsets():
+    table = calibration_table(lambda test, subset: np.eye(3), reps=(1, 2, 3, 4))
+    pairs = objectives.test_retest_angles(table, k=3)
+    assert len(pairs) == 6  # C(C(4,3), 2)
+    assert (pairs["calibration_a"] != pairs["calibration_b"]).all()
+
+
+# --- Obj 1/2 planning --------------------------------------------------------------------------
+
+
+def test_frontal_lateral_plan_pairs_the_same_imu_across_sets_and_skips_single_sets():
+    table = calibration_table(lambda test, subset: np.eye(3), sets=("frontal", "lateral"), imus=("IMU1", "IMU2"))
+    table = table[~((table["sensor_set"] == "lateral") & (table["imu"] == "IMU2"))]
+    plan = objectives.frontal_lateral_plan(objectives.full_sets(table), ["frontal", "lateral"])
+    assert list(plan["imu"]) == ["IMU1"]
+
+
+def test_segment_pair_plan_needs_a_common_calibrating_test():
+    head = calibration_table(lambda t, s: np.eye(3), tests=("T1", "T2"), imus=("IMU1",))
+    chest = calibration_table(lambda t, s: yaw(3), tests=("T2", "T3"), imus=("IMU2",)).assign(segment="chest")
+    plan = objectives.segment_pair_plan(objectives.full_sets(pd.concat([head, chest])),
+                                        {"head-chest": {"segments": ["head", "chest"], "t_ap": ["T1"]}})
+    assert list(plan["t_ex"]) == ["T2"]
+    assert (plan["imu_a"] == "IMU1").all() and (plan["imu_b"] == "IMU2").all()

@@ -1,0 +1,94 @@
+"""Paired t-tests, Holm, the paper's tables and the claim checks on hand-computed cases."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from aceval import summary, tables
+from aceval.stats import holm, paired_by_set, paired_ttest
+
+
+def test_paired_ttest_matches_a_hand_computation():
+    """Differences 1, 2, 3: mean 2, SD 1, t = 2 / (1 / sqrt 3) = 3.464 with 2 df, p = 0.0742,
+    95 % CI 2 +- 4.303 / sqrt 3, d_z = 2."""
+    a = np.array([2.0, 4.0, 6.0])
+    b = np.array([1.0, 2.0, 3.0])
+    out = paired_ttest(a, b)
+    assert out["n"] == 3 and out["mean_difference"] == pytest.approx(2.0)
+    assert out["t"] == pytest.approx(2 * np.sqrt(3))
+    assert out["p"] == pytest.approx(0.0742, abs=1e-4)
+    assert (out["ci95_low"], out["ci95_high"]) == pytest.approx((2 - 4.3027 / np.sqrt(3), 2 + 4.3027 / np.sqrt(3)), abs=1e-3)
+    assert out["cohens_dz"] == pytest.approx(2.0)
+    assert out["mean_a"] == pytest.approx(4.0) and out["sd_b"] == pytest.approx(1.0)
+
+
+def test_paired_ttest_is_undefined_without_variation_or_pairs():
+    out = paired_ttest(np.array([1.0, 2.0]), np.array([0.0, 1.0]))  # constant difference
+    assert np.isnan(out["p"]) and out["mean_difference"] == 1.0
+    assert paired_ttest(np.array([]), np.array([]))["n"] == 0
+    with pytest.raises(ValueError, match="differ in length"):
+        paired_ttest(np.ones(3), np.ones(4))
+
+
+def test_holm_by_hand():
+    # sorted 0.01 x 3 = 0.03, 0.03 x 2 = 0.06, 0.04 x 1 = 0.04 -> monotone 0.06
+    np.testing.assert_allclose(holm([0.01, 0.04, 0.03]), [0.03, 0.06, 0.06])
+    assert np.isnan(holm([np.nan, 0.5])[0]) and holm([np.nan, 0.5])[1] == 0.5
+
+
+def test_pairing_drops_units_present_in_one_set_only():
+    table = pd.DataFrame({"unit": [1, 2, 3, 1, 2], "sensor_set": ["f", "f", "f", "l", "l"],
+                          "value": [1.0, 2.0, 9.0, 0.5, 1.0]})
+    out = paired_by_set(table, "value", ["unit"], ["f", "l"])
+    assert out["n"] == 2 and out["mean_difference"] == pytest.approx(0.75)
+
+
+def angle_rows(values_by_set: dict, comparison="test_retest", segment="head", test="T1"):
+    rows = []
+    for sensor_set, values in values_by_set.items():
+        for k, value in enumerate(values):
+            rows.append({"comparison": comparison, "subject": "S1", "sensor_set": sensor_set, "imu": "IMU1",
+                         "segment": segment, "side": "center", "test": test, "k": 3,
+                         "calibration_a": f"{test}:{k}", "calibration_b": f"{test}:x", "error_angle_deg": value,
+                         "vertical_share": 1.0})
+    return pd.DataFrame(rows)
+
+
+def test_table9_mean_sd_n_published_value_and_flag():
+    angles = angle_rows({"frontal": [1.0, 2.0, 3.0], "lateral": [0.5, 0.5, 0.5]})
+    table = tables.build(9, None, angles, ["frontal", "lateral"])
+    head = table[(table["t_ex"] == "T1") & (table["segment"] == "head")].iloc[0]
+    assert head["n"] == 6
+    assert head["mean"] == pytest.approx(np.mean([1, 2, 3, 0.5, 0.5, 0.5]), abs=1e-4)
+    assert head["sd"] == pytest.approx(np.std([1, 2, 3, 0.5, 0.5, 0.5], ddof=1), abs=1e-4)
+    assert head["published_mean"] == 0.345 and head["flag"] == ">1 deg"
+    assert head["difference_mean"] == pytest.approx(head["mean"] - 0.345, abs=1e-4)
+    # rows of the paper this dataset has no data for are kept, with n = 0
+    assert (table[table["t_ex"] == "T6"]["n"] == 0).all()
+    markdown = tables.to_markdown(table, 9, "demo", simulated=True)
+    assert "SIMULATED" in markdown and "1.250 ± 1.037 †" in markdown and "not in this dataset" in markdown
+
+
+def test_table8_names_the_set_with_the_smaller_angle():
+    angles = angle_rows({"frontal": [1.0, 2.0, 3.5], "lateral": [0.4, 0.6, 0.9]}, comparison="incremental")
+    table = tables.build(8, None, angles, ["frontal", "lateral"])
+    head = table[table["segment"] == "head"].iloc[0]
+    assert head["smaller"] == "lateral" and head["published_smaller"] == "frontal"
+    assert head["n"] == 3 and head["p_holm"] == pytest.approx(head["p"])  # one testable row
+    assert "paper frontal" in tables.to_markdown(table, 8, "demo", simulated=False)
+
+
+def test_tables_refuse_numbers_the_paper_does_not_have():
+    with pytest.raises(ValueError, match="Table 12"):
+        tables.build(12, None, None, ["a", "b"])
+
+
+def test_claims_with_known_tables():
+    table9 = pd.DataFrame({"t_ex": ["T1", "T5"], "segment": ["head", "foot"], "mean": [0.5, 1.8], "n": [4, 4]})
+    verdicts = {c.claim: c.verdict for c in summary.obj4_claims(table9, None)}
+    assert verdicts["Any-3-of-5 test-retest error angle < 2.1 deg on average"] == summary.HOLDS
+    assert verdicts["< 1 deg excluding T5 and the feet"] == summary.HOLDS
+    table9.loc[0, "mean"] = 1.2
+    verdicts = {c.claim: c.verdict for c in summary.obj4_claims(table9, None)}
+    assert verdicts["< 1 deg excluding T5 and the feet"] == summary.FAILS
+    assert all(c.verdict == summary.UNTESTABLE for c in summary.obj2_claims(None, None))

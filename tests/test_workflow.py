@@ -1,0 +1,119 @@
+"""The Snakemake workflow end to end on tiny configs in temporary folders (about a minute)."""
+
+import hashlib
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+import pytest
+import yaml
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def snakemake(workdir: Path, *args: str, config: bool = True) -> subprocess.CompletedProcess:
+    command = [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "--directory", str(workdir),
+               "--cores", "2"]
+    if config:
+        command += ["--configfile", str(workdir / "config.yaml"), "--replace-workflow-config"]
+    return subprocess.run(command + list(args), capture_output=True, text=True)
+
+
+def write_config(workdir: Path, datasets: dict, test_retest_k: int = 2) -> None:
+    workdir.mkdir(parents=True, exist_ok=True)
+    config = {"datasets": datasets,
+              "calibration": {"trim": {"threshold": 0.1, "closing_s": 1.0, "window_s": 0.5, "min_peak_deg_s": 20}},
+              "objectives": {"correlation": "concatenated", "test_retest_k": test_retest_k,
+                             "segment_pairs": {"thighs-shanks": {"segments": ["thigh", "shank"], "t_ap": ["T5"]}}}}
+    (workdir / "config.yaml").write_text(yaml.safe_dump(config))
+
+
+def digest(folder: Path) -> str:
+    sha = hashlib.sha256()
+    for path in sorted(folder.rglob("*")):
+        if path.is_file():
+            sha.update(str(path.relative_to(folder)).encode() + path.read_bytes())
+    return sha.hexdigest()
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory) -> Path:
+    """2 simulated subjects, 3 repetitions of each test."""
+    out = tmp_path_factory.mktemp("data") / "tiny"
+    subprocess.run([sys.executable, "-m", "aceval", "simulate", "kong", "--out", str(out), "--seed", "1",
+                    "--subjects", "2", "--repetitions", "3"], check=True, capture_output=True)
+    return out
+
+
+def lab_copy(source: Path, target: Path, drop=None, copy_data=False) -> Path:
+    """A lab-style copy of a dataset: the sheets copied (recordings filtered by ``drop``), the data
+    folder linked (or copied, to break it)."""
+    target.mkdir(parents=True)
+    for sheet in source.glob("*.tsv"):
+        shutil.copy(sheet, target / sheet.name)
+    shutil.copy(source / "dataset.yaml", target / "dataset.yaml")
+    if copy_data:
+        shutil.copytree(source / "data", target / "data")
+    else:
+        (target / "data").symlink_to(source / "data")
+    if drop is not None:
+        recordings = pd.read_csv(target / "recordings.tsv", sep="\t", dtype=str)
+        recordings[~drop(recordings)].to_csv(target / "recordings.tsv", sep="\t", index=False)
+    return target
+
+
+def test_workflow_end_to_end_then_nothing_to_do(tiny, tmp_path):
+    """A lab dataset whose subject S2 has no T5 and a simulated rigid box: every table, figure and
+    summary is written; T5 analyses count S1 only; a second run has nothing to do; raw data are
+    untouched."""
+    lab = lab_copy(tiny, tmp_path / "lab", drop=lambda r: (r["subject"] == "S2") & (r["test"] == "T5"))
+    before = digest(tiny)
+    work = tmp_path / "work"
+    write_config(work, {"lab": {"path": str(lab), "analyses": ["kong"]},
+                        "box": {"simulate": {"protocol": "box", "seed": 0, "repetitions": 3}, "analyses": ["box"],
+                                "paper_names": {"EDGE": "around_one_edge", "RANDOM": "random_rotation"}}})
+    run = snakemake(work)
+    assert run.returncode == 0, run.stderr[-3000:]
+    results = work / "results"
+    for n in (3, 6, 7, 8, 9, 10, 11):
+        assert (results / "lab" / "tables" / f"table{n}.md").stat().st_size > 0
+    for n in (6, 8, 9, 10):
+        assert (results / "lab" / "figures" / f"figure{n}.png").stat().st_size > 0
+    for n in (4, 5):
+        assert (results / "box" / "tables" / f"table{n}.csv").exists()
+    assert "SIMULATED" in (results / "box" / "SUMMARY.md").read_text()
+    assert "SIMULATED" in (results / "lab" / "tables" / "table9.md").read_text()  # dataset.yaml says so
+
+    table9 = pd.read_csv(results / "lab" / "tables" / "table9.csv").set_index(["t_ex", "segment"])
+    # thighs: 2 IMUs x 2 sets x C(3, 2) pairs of 2-subsets per subject; T5 has S1 only
+    assert table9.loc[("T6", "thigh"), "n"] == 2 * 2 * 2 * 3
+    assert table9.loc[("T5", "thigh"), "n"] == 2 * 2 * 1 * 3
+    assert not list(results.rglob(".tmp.*"))
+    assert digest(tiny) == before
+
+    again = snakemake(work, "--dry-run")
+    assert again.returncode == 0
+    assert "Nothing to be done" in again.stdout + again.stderr
+
+
+def test_invalid_dataset_stops_before_any_calibration(tiny, tmp_path):
+    broken = lab_copy(tiny, tmp_path / "broken", copy_data=True)
+    missing = broken / "data" / "S2" / "lateral" / "T4_R2_IMU5.csv"
+    missing.unlink()
+    work = tmp_path / "work"
+    write_config(work, {"broken": {"path": str(broken), "analyses": ["kong"]}})
+    run = snakemake(work)
+    assert run.returncode != 0
+    output = run.stdout + run.stderr
+    assert "data/S2/lateral/T4_R2_IMU5.csv" in output and "file is missing" in output
+    assert not (work / "results" / "broken" / "calibrations").exists()
+    assert not (work / "results" / "broken" / "validation.txt").exists()
+
+
+def test_config_is_validated_against_the_schema(tmp_path):
+    write_config(tmp_path, {"x": {"simulate": {"protocol": "nope"}}})
+    run = snakemake(tmp_path, "--dry-run")
+    assert run.returncode != 0
+    assert "nope" in run.stdout + run.stderr
