@@ -103,51 +103,55 @@ def _angle_rows(comparison: str, calibrations: pd.DataFrame, pairs: list[tuple[i
 
 
 def _subset_groups(calibrations: pd.DataFrame):
-    """(positions, {subset: position}, all repetitions) per (subject, set, IMU, test)."""
+    """The usable calibrations (positional index) and, per (subject, set, IMU, test),
+    ``({subset: position}, all repetitions)``."""
     table = usable(calibrations).reset_index(drop=True)
+    groups = []
     for _, group in table.groupby(CALIBRATION_KEY, sort=True):
         by_subset = {parse_subset(rep): pos for pos, rep in zip(group.index, group["repetitions"])}
-        reps = tuple(sorted(set().union(*by_subset)))
-        yield table, by_subset, reps
+        groups.append((by_subset, tuple(sorted(set().union(*by_subset)))))
+    return table, groups
 
 
 def incremental_angles(calibrations: pd.DataFrame) -> pd.DataFrame:
     """Obj 3 "incremental" (Kong Eq. 11-12): for each subset A of k repetitions and each repetition
     a not in A, the angle between R(A u {a}) and R(A). ``k`` = |A|."""
-    parts = []
-    for table, by_subset, reps in _subset_groups(calibrations):
-        pairs, ks = [], []
+    table, groups = _subset_groups(calibrations)
+    pairs, ks = [], []
+    for by_subset, reps in groups:
         for subset, pos in by_subset.items():
-            for extra in set(reps) - set(subset):
+            for extra in sorted(set(reps) - set(subset)):
                 bigger = tuple(sorted(subset + (extra,)))
                 if bigger in by_subset:
                     pairs.append((by_subset[bigger], pos))
                     ks.append(len(subset))
-        parts.append(_angle_rows("incremental", table, pairs, ks))
-    return _concat(parts)
+    return _angle_rows("incremental", table, pairs, ks)
 
 
 def to_last_angles(calibrations: pd.DataFrame) -> pd.DataFrame:
     """Obj 3 "to last" (Kong Eq. 13): the angle between R(all repetitions) and R(A) for every proper
     subset A; Eq. 13 itself is the rows with ``k`` = |A| = 1."""
-    parts = []
-    for table, by_subset, reps in _subset_groups(calibrations):
+    table, groups = _subset_groups(calibrations)
+    pairs, ks = [], []
+    for by_subset, reps in groups:
         if reps not in by_subset:
             continue  # the full set is flagged: nothing to converge to
-        pairs = [(by_subset[reps], pos) for subset, pos in by_subset.items() if subset != reps]
-        parts.append(_angle_rows("to_last", table, pairs, [len(s) for s in by_subset if s != reps]))
-    return _concat(parts)
+        for subset, pos in by_subset.items():
+            if subset != reps:
+                pairs.append((by_subset[reps], pos))
+                ks.append(len(subset))
+    return _angle_rows("to_last", table, pairs, ks)
 
 
 def test_retest_angles(calibrations: pd.DataFrame, k: int = 3) -> pd.DataFrame:
     """Obj 4 (Kong Eq. 15): the angle between R(A) and R(A') for every pair of distinct subsets of
     ``k`` repetitions (45 pairs for 3 of 5)."""
-    parts = []
-    for table, by_subset, _ in _subset_groups(calibrations):
+    table, groups = _subset_groups(calibrations)
+    pairs = []
+    for by_subset, _ in groups:
         same_size = sorted(s for s in by_subset if len(s) == k)
-        pairs = [(by_subset[a], by_subset[b]) for a, b in itertools.combinations(same_size, 2)]
-        parts.append(_angle_rows("test_retest", table, pairs, [k] * len(pairs)))
-    return _concat(parts)
+        pairs += [(by_subset[a], by_subset[b]) for a, b in itertools.combinations(same_size, 2)]
+    return _angle_rows("test_retest", table, pairs, [k] * len(pairs))
 
 
 def cross_test_angles(calibrations: pd.DataFrame) -> pd.DataFrame:

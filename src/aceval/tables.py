@@ -13,7 +13,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .stats import holm, paired_by_set
 
 REFERENCE = Path(__file__).parent / "reference" / "kong2016"
 SEGMENT_ORDER = ["head", "chest", "waist", "thigh", "shank", "foot"]
@@ -140,6 +139,8 @@ def ttest_table(number: int, correlations: pd.DataFrame | None, angles: pd.DataF
                 sensor_sets: list[str]) -> pd.DataFrame:
     """First vs second sensor set of the dataset (the paper's frontal/back vs lateral), one test
     per row, Holm-corrected within the table."""
+    from .stats import holm, paired_by_set  # scipy.stats and statsmodels: only these tables need them
+
     set_a, set_b = sensor_sets
     if number == 7:
         data = correlations[(correlations["objective"] == "segment_pair") & (correlations["flag"].fillna("") == "")]
