@@ -107,11 +107,15 @@ def test_ground_truth_must_be_rotations(mini):
     assert any("ground_truth.tsv line 2" in e and "not a rotation matrix" in e for e in errors)
 
 
-def test_validate_cli_exit_codes(mini, capsys):
-    assert main(["validate", str(mini)]) == 0
+def test_validate_cli_exit_codes(mini, capsys, tmp_path):
+    report = tmp_path / "validation.txt"
+    assert main(["validate", str(mini), "--out", str(report)]) == 0
+    assert report.read_text().startswith("dataset mini: 0 error(s)")
+    report.unlink()
     edit(mini / "imus.tsv", "\t+y", "\tup")
-    assert main(["validate", str(mini)]) == 1
-    assert "right_axis 'up'" in capsys.readouterr().out
+    assert main(["validate", str(mini), "--out", str(report)]) == 1
+    assert "right_axis 'up'" in capsys.readouterr().err  # errors go to stderr
+    assert not report.exists()  # no report file for an invalid dataset: the workflow stops
 
 
 def test_static_motion_is_flagged_not_calibrated(mini):

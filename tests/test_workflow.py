@@ -1,6 +1,7 @@
 """The Snakemake workflow end to end on tiny configs in temporary folders (about a minute)."""
 
 import hashlib
+import os
 import shutil
 import subprocess
 import sys
@@ -18,7 +19,9 @@ def snakemake(workdir: Path, *args: str, config: bool = True) -> subprocess.Comp
                "--cores", "2"]
     if config:
         command += ["--configfile", str(workdir / "config.yaml"), "--replace-workflow-config"]
-    return subprocess.run(command + list(args), capture_output=True, text=True)
+    # the rules call `python -m aceval`: make that the interpreter running the tests
+    env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"}
+    return subprocess.run(command + list(args), capture_output=True, text=True, env=env)
 
 
 def write_config(workdir: Path, datasets: dict, test_retest_k: int = 2) -> None:
