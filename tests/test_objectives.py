@@ -140,3 +140,8 @@ def test_segment_pair_plan_needs_a_common_calibrating_test():
                                         {"head-chest": {"segments": ["head", "chest"], "t_ap": ["T1"]}})
     assert list(plan["t_ex"]) == ["T2"]
     assert (plan["imu_a"] == "IMU1").all() and (plan["imu_b"] == "IMU2").all()
+
+
+def test_empty_inputs_give_empty_tables_not_errors():
+    assert objectives.all_angles(pd.DataFrame()).empty
+    assert list(objectives.all_angles(pd.DataFrame()).columns) == objectives.ANGLE_COLUMNS

@@ -92,3 +92,16 @@ def test_claims_with_known_tables():
     verdicts = {c.claim: c.verdict for c in summary.obj4_claims(table9, None)}
     assert verdicts["< 1 deg excluding T5 and the feet"] == summary.FAILS
     assert all(c.verdict == summary.UNTESTABLE for c in summary.obj2_claims(None, None))
+
+
+def test_one_sensor_set_gives_untestable_ttests_and_an_explicit_figure(tmp_path):
+    from aceval import figures
+
+    angles = angle_rows({"main": [1.0, 2.0, 3.0]}, comparison="incremental")
+    table = tables.build(8, None, angles, ["main"])
+    assert (table["n"] == 0).all() and table["p"].isna().all()
+    from aceval.pipeline import CORRELATION_COLUMNS
+
+    empty = pd.DataFrame(columns=CORRELATION_COLUMNS)
+    figures.plot(6, empty, None, tmp_path / "figure6.png", "demo")
+    assert (tmp_path / "figure6.png").stat().st_size > 0

@@ -73,9 +73,14 @@ def _write_text(path, text: str) -> None:
 def _read_csvs(paths) -> "pd.DataFrame":
     import pandas as pd
 
-    parts = [pd.read_csv(p) for p in paths]
-    parts = [p for p in parts if len(p)]
-    return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()
+    parts = []
+    for path in paths:
+        try:
+            parts.append(pd.read_csv(path))
+        except pd.errors.EmptyDataError:  # an empty table (e.g. a subject with nothing to calibrate)
+            continue
+    non_empty = [p for p in parts if len(p)] or parts[:1]  # keep the columns of an empty table
+    return pd.concat(non_empty, ignore_index=True) if non_empty else pd.DataFrame()
 
 
 def _calibrate(args) -> int:

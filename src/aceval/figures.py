@@ -52,8 +52,13 @@ def plot(number: int, correlations: pd.DataFrame | None, angles: pd.DataFrame | 
         ylabel = "error angle (deg)"
     else:
         raise ValueError(f"Kong Figure {number} is not one aceval draws (6, 8, 9, 10)")
-    if data.empty:
-        raise ValueError(f"no data for Kong Figure {number} in this dataset")
+    if data.empty:  # e.g. one sensor set: say so in the figure rather than stop the workflow
+        figure = plt.figure(figsize=(6, 1.5))
+        figure.text(0.5, 0.5, f"Kong Fig. {number}, {title}: not testable on this dataset (no data)",
+                    ha="center", va="center", fontsize=9)
+        figure.savefig(out, dpi=120, metadata={"Software": None})
+        plt.close(figure)
+        return
     data["t_ex"] = rename_tests(data["t_ex" if "t_ex" in data else "test"], names)
     if x == "t_ap":
         data["t_ap"] = rename_tests(data["t_ap"], names)

@@ -170,6 +170,8 @@ def cross_test_angles(calibrations: pd.DataFrame) -> pd.DataFrame:
 
 def all_angles(calibrations: pd.DataFrame, test_retest_k: int = 3) -> pd.DataFrame:
     """Objectives 3-5 in one tidy table (``comparison`` says which)."""
+    if calibrations.empty:
+        return pd.DataFrame(columns=ANGLE_COLUMNS)
     return _concat([incremental_angles(calibrations), to_last_angles(calibrations),
                     test_retest_angles(calibrations, test_retest_k), cross_test_angles(calibrations)])
 

@@ -132,6 +132,8 @@ def correlations(dataset: Dataset, calibrations: pd.DataFrame, mode: str = "conc
     ``segment_pairs`` names; acceleration. Recordings of different length are not correlated (they
     cannot be aligned sample by sample): such rows get ``flag='lengths_differ'``.
     """
+    if calibrations.empty:
+        return pd.DataFrame(columns=CORRELATION_COLUMNS)
     full = full_sets(calibrations)
     motion = [t for t in dataset.tests.index if dataset.tests.loc[t, "kind"] == "motion"]
     paths = dataset.recordings.set_index(["subject", "sensor_set", "test", "rep", "imu"])["path"].to_dict()

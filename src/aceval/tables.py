@@ -141,7 +141,7 @@ def ttest_table(number: int, correlations: pd.DataFrame | None, angles: pd.DataF
     per row, Holm-corrected within the table."""
     from .stats import holm, paired_by_set  # scipy.stats and statsmodels: only these tables need them
 
-    set_a, set_b = sensor_sets
+    set_a, set_b = (list(sensor_sets) + ["(no second set)"] * 2)[:2]  # one set: nothing is paired, n = 0
     if number == 7:
         data = correlations[(correlations["objective"] == "segment_pair") & (correlations["flag"].fillna("") == "")]
         rows, value, pair_on = "pair", "correlation", ["subject", "side", "t_ex", "t_ap", "rep"]
