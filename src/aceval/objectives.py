@@ -59,10 +59,6 @@ def parse_subset(label: str) -> tuple[int, ...]:
     return tuple(int(part[1:]) for part in label.split("+"))
 
 
-def label(subset) -> str:
-    return "+".join(f"R{r}" for r in sorted(subset))
-
-
 def matrices(table: pd.DataFrame) -> np.ndarray:
     """The rotations of a calibration table, shape (n, 3, 3)."""
     return table[R_COLUMNS].to_numpy(float).reshape(-1, 3, 3)

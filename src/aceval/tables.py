@@ -63,8 +63,8 @@ def rename_tests(values: pd.Series, paper_names: dict[str, str]) -> pd.Series:
 
 
 def _summary(values: pd.DataFrame, keys: list[str], value: str) -> pd.DataFrame:
-    out = values.groupby(keys)[value].agg(mean="mean", sd="std", n="count").reset_index()
-    return out
+    """Mean, SD (ddof 1) and count of ``value`` per ``keys``."""
+    return values.groupby(keys)[value].agg(mean="mean", sd="std", n="count").reset_index()
 
 
 def _compare(result: pd.DataFrame, published: pd.DataFrame, keys: list[str], pairs: dict[str, str]) -> pd.DataFrame:
