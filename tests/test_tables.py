@@ -62,7 +62,7 @@ def test_table9_mean_sd_n_published_value_and_flag():
     assert head["mean"] == pytest.approx(np.mean([1, 2, 3, 0.5, 0.5, 0.5]), abs=1e-4)
     assert head["sd"] == pytest.approx(np.std([1, 2, 3, 0.5, 0.5, 0.5], ddof=1), abs=1e-4)
     assert head["published_mean"] == 0.345 and head["flag"] == ">1 deg"
-    assert head["difference_mean"] == pytest.approx(head["mean"] - 0.345, abs=1e-4)
+    assert head["difference"] == pytest.approx(head["mean"] - 0.345, abs=1e-4)
     # rows of the paper this dataset has no data for are kept, with n = 0
     assert (table[table["t_ex"] == "T6"]["n"] == 0).all()
     markdown = tables.to_markdown(table, 9, "demo", simulated=True)

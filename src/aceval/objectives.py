@@ -180,34 +180,36 @@ def _concat(parts: list[pd.DataFrame]) -> pd.DataFrame:
 # --- Obj 1 and 2: which calibrated signals are correlated --------------------------------------
 
 
+def _joined(first: pd.DataFrame, second: pd.DataFrame, on: list[str]) -> pd.DataFrame:
+    """Rows of ``first`` and ``second`` matched on ``on`` (columns suffixed _a and _b), with their
+    rotations as ``R_a`` and ``R_b`` ((3, 3) arrays)."""
+    merged = first.merge(second, on=on, suffixes=("_a", "_b"))
+    merged["R_a"] = list(merged[[f"{c}_a" for c in R_COLUMNS]].to_numpy(float).reshape(-1, 3, 3))
+    merged["R_b"] = list(merged[[f"{c}_b" for c in R_COLUMNS]].to_numpy(float).reshape(-1, 3, 3))
+    return merged
+
+
 def frontal_lateral_plan(full: pd.DataFrame, sensor_sets: list[str]) -> pd.DataFrame:
     """Obj 1 (Eq. 7-8): per (subject, IMU, T_ex) where both sensor sets have a full-set
     calibration, one row with both rotations (columns ``R_a``, ``R_b`` as (3, 3) arrays)."""
     set_a, set_b = sensor_sets
-    rows = []
-    for (subject, imu, test), group in full.groupby(["subject", "imu", "test"], sort=True):
-        by_set = {row["sensor_set"]: row for _, row in group.iterrows()}
-        if set_a in by_set and set_b in by_set:
-            a = by_set[set_a]
-            rows.append({"subject": subject, "imu": imu, "segment": a["segment"], "side": a["side"],
-                         "t_ex": test, "R_a": matrices(group[group["sensor_set"] == set_a])[0],
-                         "R_b": matrices(group[group["sensor_set"] == set_b])[0]})
-    return pd.DataFrame(rows)
+    merged = _joined(full[full["sensor_set"] == set_a], full[full["sensor_set"] == set_b], ["subject", "imu", "test"])
+    merged = merged.sort_values(["subject", "imu", "test"])
+    return pd.DataFrame({"subject": merged["subject"], "imu": merged["imu"], "segment": merged["segment_a"],
+                         "side": merged["side_a"], "t_ex": merged["test"], "R_a": merged["R_a"],
+                         "R_b": merged["R_b"]}).reset_index(drop=True)
 
 
 def segment_pair_plan(full: pd.DataFrame, pairs: dict[str, dict]) -> pd.DataFrame:
     """Obj 2 (Eq. 9-10): per sensor set, pair of segments (same side) and T_ex that calibrates
     both IMUs, one row with both rotations. ``pairs``: ``{name: {"segments": [a, b], "t_ap": [...]}}``."""
-    rows = []
+    parts = []
     for name, spec in pairs.items():
         seg_a, seg_b = spec["segments"]
-        first = full[full["segment"] == seg_a]
-        second = full[full["segment"] == seg_b]
-        merged = first.merge(second, on=["subject", "sensor_set", "side", "test"], suffixes=("_a", "_b"))
-        for _, row in merged.iterrows():
-            rows.append({"pair": name, "subject": row["subject"], "sensor_set": row["sensor_set"],
-                         "side": row["side"], "imu_a": row["imu_a"], "imu_b": row["imu_b"], "t_ex": row["test"],
-                         "t_ap": list(spec["t_ap"]),
-                         "R_a": np.array([row[f"{c}_a"] for c in R_COLUMNS], float).reshape(3, 3),
-                         "R_b": np.array([row[f"{c}_b"] for c in R_COLUMNS], float).reshape(3, 3)})
-    return pd.DataFrame(rows)
+        merged = _joined(full[full["segment"] == seg_a], full[full["segment"] == seg_b],
+                         ["subject", "sensor_set", "side", "test"])
+        parts.append(pd.DataFrame({
+            "pair": name, "subject": merged["subject"], "sensor_set": merged["sensor_set"], "side": merged["side"],
+            "imu_a": merged["imu_a"], "imu_b": merged["imu_b"], "t_ex": merged["test"],
+            "t_ap": [list(spec["t_ap"])] * len(merged), "R_a": merged["R_a"], "R_b": merged["R_b"]}))
+    return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()

@@ -67,13 +67,12 @@ def _summary(values: pd.DataFrame, keys: list[str], value: str) -> pd.DataFrame:
     return values.groupby(keys)[value].agg(mean="mean", sd="std", n="count").reset_index()
 
 
-def _compare(result: pd.DataFrame, published: pd.DataFrame, keys: list[str], pairs: dict[str, str]) -> pd.DataFrame:
-    """Outer-join this run with the paper on ``keys``; ``pairs`` maps our column -> published column."""
-    published = published.rename(columns={v: f"published_{k}" for k, v in pairs.items()})
-    merged = result.merge(published[keys + [f"published_{k}" for k in pairs]], on=keys, how="outer")
-    for k in pairs:
-        if k in merged and pd.api.types.is_numeric_dtype(merged[f"published_{k}"]):
-            merged[f"difference_{k}" if len(pairs) > 1 else "difference"] = merged[k] - merged[f"published_{k}"]
+def _compare(result: pd.DataFrame, published: pd.DataFrame, keys: list[str], columns: list[str]) -> pd.DataFrame:
+    """Outer-join this run with the paper's ``columns`` (as ``published_*``) on ``keys``, and add
+    ``difference`` = mean - published mean."""
+    published = published[keys + columns].rename(columns={c: f"published_{c}" for c in columns})
+    merged = result.merge(published, on=keys, how="outer")
+    merged["difference"] = merged["mean"] - merged["published_mean"]
     return merged
 
 
@@ -90,7 +89,7 @@ def table3(correlations: pd.DataFrame, paper_names: dict) -> pd.DataFrame:
     units = _frontal_lateral_units(correlations, "acc")
     units["t_ap"] = rename_tests(units["t_ap"], paper_names)
     result = _summary(units, ["t_ap", "segment"], "correlation")
-    return _flag_low(_compare(result, reference(3), ["t_ap", "segment"], {"mean": "mean", "sd": "sd"}))
+    return _flag_low(_compare(result, reference(3), ["t_ap", "segment"], ["mean", "sd"]))
 
 
 def box_table(number: int, correlations: pd.DataFrame, paper_names: dict) -> pd.DataFrame:
@@ -99,7 +98,7 @@ def box_table(number: int, correlations: pd.DataFrame, paper_names: dict) -> pd.
     units["t_ap"] = rename_tests(units["t_ap"], paper_names)
     result = _summary(units, ["t_ap", "imu"], "correlation")
     published = reference(number).melt(id_vars="t_ap", var_name="imu", value_name="mean")
-    return _flag_low(_compare(result, published, ["t_ap", "imu"], {"mean": "mean"}))
+    return _flag_low(_compare(result, published, ["t_ap", "imu"], ["mean"]))
 
 
 def table6(correlations: pd.DataFrame, paper_names: dict) -> pd.DataFrame:
@@ -107,7 +106,7 @@ def table6(correlations: pd.DataFrame, paper_names: dict) -> pd.DataFrame:
     units = table.groupby(["subject", "sensor_set", "side", "pair", "t_ex", "t_ap"], as_index=False)["correlation"].mean()
     units["t_ap"] = rename_tests(units["t_ap"], paper_names)
     result = _summary(units, ["pair", "t_ap"], "correlation")
-    return _flag_low(_compare(result, reference(6), ["pair", "t_ap"], {"mean": "mean", "sd": "sd"}))
+    return _flag_low(_compare(result, reference(6), ["pair", "t_ap"], ["mean", "sd"]))
 
 
 def _flag_low(table: pd.DataFrame) -> pd.DataFrame:
@@ -125,7 +124,7 @@ def angle_table(number: int, angles: pd.DataFrame, paper_names: dict) -> pd.Data
     table[row] = rename_tests(table["test"], paper_names)
     result = _summary(table, [row, "segment"], "error_angle_deg")
     published = reference(number).rename(columns={"mean_deg": "mean", "sd_deg": "sd"})
-    merged = _compare(result, published, [row, "segment"], {"mean": "mean", "sd": "sd"})
+    merged = _compare(result, published, [row, "segment"], ["mean", "sd"])
     limit = TABLES[number]["flag_above"]
     merged["flag"] = np.where(merged["mean"] > limit, f">{limit:g} deg", "")
     merged["published_flag"] = np.where(merged["published_mean"] > limit, f">{limit:g} deg", "")
@@ -258,7 +257,7 @@ def _matrix_markdown(table: pd.DataFrame, spec: dict) -> list[str]:
         "paper": [_fmt(r["published_mean"]) + (f" ± {_fmt(r['published_sd'])}" if has_sd and np.isfinite(r.get("published_sd", np.nan)) else "")
                   + (" †" if r["published_flag"] else "") if np.isfinite(r["published_mean"]) else "not in the paper"
                   for _, r in table.iterrows()],
-        "difference": [_fmt(v) for v in table["difference_mean" if "difference_mean" in table else "difference"]],
+        "difference": [_fmt(v) for v in table["difference"]],
     })
     return lines + [long.to_markdown(index=False, disable_numparse=True)]
 
