@@ -11,9 +11,8 @@ from aceval.pipeline import calibrate, summarise_recordings
 
 def main(root: str) -> None:
     dataset = load_dataset(root)
-    calibrations = calibrate(dataset, summarise_recordings(dataset), subsets="full")
-    segments = dataset.imus.reset_index()[["sensor_set", "imu", "segment"]]
-    calibrations = calibrations.merge(segments, on=["sensor_set", "imu"])
+    calibrations, _ = calibrate(dataset, summarise_recordings(dataset), subsets="full")
+    calibrations = calibrations.query("method == 'kong'")
     pd.set_option("display.width", 200)
     by_segment = calibrations.groupby(["segment", "sensor_set"])["error_deg"].agg(["median", "mean", "max", "count"])
     print("error to ground truth (deg) by segment and sensor set")

@@ -125,5 +125,5 @@ def test_static_motion_is_flagged_not_calibrated(mini):
     flagged = summaries[summaries["flag"] != ""]
     assert list(flagged["flag"]) == ["no_movement"]
     assert "s1_t1_r2.csv" in flagged["message"].iloc[0]
-    calibrations = calibrate(dataset, summaries)
+    calibrations, _ = calibrate(dataset, summaries)
     assert set(calibrations["repetitions"]) == {"R1"}  # the static 'motion' drops out

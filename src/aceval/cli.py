@@ -90,8 +90,10 @@ def _calibrate(args) -> int:
 
     import numpy as np
 
+    import pandas as pd
+
     dataset = load_dataset(args.dataset)
-    if args.subject not in dataset.subjects.index:
+    if args.subject is not None and args.subject not in dataset.subjects.index:
         print(f"aceval calibrate: subject {args.subject!r} is not in {args.dataset}/subjects.tsv", file=sys.stderr)
         return 2
     trim = TrimParams(threshold=args.trim_threshold, closing_s=args.closing_s, window_s=args.window_s,
@@ -100,11 +102,13 @@ def _calibrate(args) -> int:
     unusable = summaries[summaries["flag"] != ""] if len(summaries) else summaries
     for message in unusable.get("message", []):
         print(f"aceval calibrate: left out {message}", file=sys.stderr)
-    calibrations = calibrate(dataset, summaries) if len(summaries) else summaries
+    calibrations, axes = calibrate(dataset, summaries) if len(summaries) else (summaries, pd.DataFrame())
     _write_csv(args.out, calibrations)
     if args.recordings_out:
         _write_csv(args.recordings_out, summaries)
-    print(f"aceval calibrate: {args.subject}: {len(calibrations)} calibrations "
+    if args.axes_out:
+        _write_csv(args.axes_out, axes)
+    print(f"aceval calibrate: {args.subject or 'all subjects'}: {len(calibrations)} calibrations "
           f"({int((calibrations.get('flag', '') != '').sum()) if len(calibrations) else 0} flagged), "
           f"{len(unusable)} recordings left out", file=sys.stderr)
     return 0
@@ -138,29 +142,46 @@ def _dataset_meta(root) -> dict:
 def _table(args) -> int:
     import json
 
-    from . import tables
+    from . import named_tables, tables
 
     meta = _dataset_meta(args.dataset)
-    table = tables.build(args.number, _read_csvs(args.correlations) if args.correlations else None,
+    names = json.loads(args.paper_names)
+    if not args.number.isdigit():
+        table = named_tables.build(args.number, _optional_csvs(args.axes), _optional_csvs(args.calibrations),
+                                   _optional_csvs([args.angles] if args.angles else []), names)
+        _write_csv(args.csv, table)
+        _write_text(args.md, named_tables.to_markdown(table, args.number, meta.get("name", ""), bool(meta.get("simulated"))))
+        return 0
+    number = int(args.number)
+    table = tables.build(number, _read_csvs(args.correlations) if args.correlations else None,
                          _read_csvs([args.angles]) if args.angles else None,
-                         list(meta["sensor_sets"])[:2], json.loads(args.paper_names))
+                         list(meta["sensor_sets"])[:2], names)
     if not (table["n"] > 0).any():
-        print(f"aceval table: Kong Table {args.number}: no data in {meta.get('name')} for this table", file=sys.stderr)
+        print(f"aceval table: Kong Table {number}: no data in {meta.get('name')} for this table", file=sys.stderr)
     _write_csv(args.csv, table)
-    _write_text(args.md, tables.to_markdown(table, args.number, meta.get("name", ""), bool(meta.get("simulated"))))
+    _write_text(args.md, tables.to_markdown(table, number, meta.get("name", ""), bool(meta.get("simulated"))))
     return 0
+
+
+def _optional_csvs(paths):
+    return _read_csvs(paths) if paths else None
 
 
 def _figure(args) -> int:
     import json
 
-    from .figures import plot
+    from . import figures
 
     meta = _dataset_meta(args.dataset)
     title = str(meta.get("name", "")) + (" (SIMULATED)" if meta.get("simulated") else "")
-    _atomic(args.out, lambda tmp: plot(args.number, _read_csvs(args.correlations) if args.correlations else None,
-                                       _read_csvs([args.angles]) if args.angles else None, tmp, title,
-                                       json.loads(args.paper_names)))
+    names = json.loads(args.paper_names)
+    if not args.number.isdigit():
+        data = dict(axes=_optional_csvs(args.axes), calibrations=_optional_csvs(args.calibrations),
+                    angles=_optional_csvs([args.angles] if args.angles else []), paper_names=names)
+        _atomic(args.out, lambda tmp: figures.plot_named(args.number, data, tmp, title))
+        return 0
+    _atomic(args.out, lambda tmp: figures.plot(int(args.number), _read_csvs(args.correlations) if args.correlations else None,
+                                               _read_csvs([args.angles]) if args.angles else None, tmp, title, names))
     return 0
 
 
@@ -174,14 +195,18 @@ def _summary(args) -> int:
     for path in map(Path, args.inputs):  # told apart by name, as the workflow writes them
         if match := re.fullmatch(r"table(\d+)\.csv", path.name):
             tables[int(match.group(1))] = _read_csvs([path])
+        elif path.parent.name == "tables" and path.suffix == ".csv":
+            tables[path.stem] = _read_csvs([path])
         elif path.name == "angles.csv":
             angles = _read_csvs([path])
-        elif path.parent.name == "calibrations" and path.suffix == ".csv" and not path.stem.endswith("_recordings"):
+        elif (path.parent.name == "calibrations" and path.suffix == ".csv"
+              and not path.stem.endswith(("_recordings", "_axes"))):
             calibration_files.append(path)
     calibrations = _read_csvs(calibration_files) if calibration_files else None
     notes = [f"- {line}" for line in args.note if line]
     text = summary.to_markdown(summary.claims(tables, angles, calibrations), meta.get("name", ""),
-                               meta.get("description", ""), bool(meta.get("simulated")), notes)
+                               meta.get("description", ""), bool(meta.get("simulated")), notes,
+                               summary.methods_section(tables))
     _write_text(args.out, text)
     return 0
 
@@ -207,11 +232,14 @@ def main(argv: list[str] | None = None) -> int:
     validate.add_argument("--out", help="write the report here when the dataset is valid (nothing when not)")
     validate.set_defaults(run=_validate)
 
-    calibrate = commands.add_parser("calibrate", help="Kong calibrations of one subject, every subset of repetitions")
+    calibrate = commands.add_parser(
+        "calibrate", help="calibrate a dataset: Kong (every subset of repetitions) and the axis methods "
+                          "(Ricci LM, align_vectors, TRIAD); Ricci's functional design when functional_axes.tsv exists")
     calibrate.add_argument("dataset")
-    calibrate.add_argument("--subject", required=True)
+    calibrate.add_argument("--subject", help="only this subject (default: all)")
     calibrate.add_argument("--out", required=True, help="calibrations CSV")
     calibrate.add_argument("--recordings-out", help="per-recording summary CSV (what was kept or left out, and why)")
+    calibrate.add_argument("--axes-out", help="functional axes CSV: axis and rho per subject, IMU and test")
     calibrate.add_argument("--trim-threshold", type=float, default=0.1, help="Kong Fig. 5 threshold (0.1)")
     calibrate.add_argument("--closing-s", type=float, default=1.0, help="morphological closing length, s (1.0)")
     calibrate.add_argument("--window-s", type=float, default=0.5, help="moving-SD window, s (0.5)")
@@ -233,12 +261,17 @@ def main(argv: list[str] | None = None) -> int:
     angles.add_argument("--test-retest-k", type=int, default=3)
     angles.set_defaults(run=_angles)
 
-    for name, helper in (("table", "Kong Table N (3-11), CSV and Markdown, published values beside"),
-                         ("figure", "Kong Figure N (6, 8, 9, 10) as PNG")):
+    for name, helper in (("table", "Kong Table N (3-11) or a named table (ricci_table1, methods, ...), "
+                                   "CSV and Markdown, published values beside"),
+                         ("figure", "Kong Figure N (6, 8, 9, 10) or a named figure (ricci_figure4, methods, ...) as PNG")):
         command = commands.add_parser(name, help=helper)
-        command.add_argument("number", type=int)
+        command.add_argument("number", help="Kong number, or a name: " + ", ".join(
+            ["ricci_table1", "ricci_ttest", "ricci_lm", "ricci_residuals", "reliability", "reliability_retest",
+             "methods", "methods_best"] if name == "table" else ["ricci_figure4", "ricci_figure5", "reliability", "methods"]))
         command.add_argument("--dataset", required=True, help="dataset folder (for its name and sensor sets)")
         command.add_argument("--correlations", nargs="*", default=[])
+        command.add_argument("--axes", nargs="*", default=[], help="axes CSVs of `aceval calibrate --axes-out`")
+        command.add_argument("--calibrations", nargs="*", default=[], help="calibration CSVs of `aceval calibrate`")
         command.add_argument("--angles")
         command.add_argument("--paper-names", default="{}", help="JSON map of this dataset's test names to the paper's")
         if name == "table":

@@ -9,6 +9,7 @@ config/README.md for the user-facing description.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -29,7 +30,8 @@ SHEETS = {
     "subjects.tsv": ["subject"],
     "recordings.tsv": ["subject", "sensor_set", "test", "rep", "imu", "path"],
 }
-OPTIONAL_SHEETS = {"ground_truth.tsv": ["subject", "sensor_set", "imu", *R_COLUMNS]}
+OPTIONAL_SHEETS = {"ground_truth.tsv": ["subject", "sensor_set", "imu", *R_COLUMNS],
+                   "functional_axes.tsv": ["test", "segment", "axis"]}
 #: |acc| at rest must lie within this band around 1 g, else the declared units are probably wrong
 REST_GRAVITY_BAND = (0.8, 1.2)
 #: a sample within this fraction of the declared range counts as saturated
@@ -103,6 +105,7 @@ class Dataset:
     subjects: pd.DataFrame
     recordings: pd.DataFrame
     ground_truth: pd.DataFrame | None
+    functional_axes: pd.DataFrame | None = None  # optional sheet: Ricci-style functional calibration
 
     @property
     def name(self) -> str:
@@ -122,6 +125,25 @@ class Dataset:
 
     def right_axis(self, sensor_set: str, imu: str) -> str:
         return str(self.imus.loc[(sensor_set, imu), "right_axis"])
+
+    def reference_axes(self, sensor_set: str, imu: str) -> pd.DataFrame:
+        """Rows of functional_axes.tsv for this IMU's segment: ``test`` and the signed segment-frame
+        ``axis``. A row for ``<segment>_<r|l>`` (side-specific) replaces one for ``<segment>``."""
+        if self.functional_axes is None:
+            return pd.DataFrame(columns=["test", "axis"])
+        segment, side = self.imus.loc[(sensor_set, imu), ["segment", "side"]]
+        sheet = self.functional_axes
+        specific = sheet[sheet["segment"] == f"{segment}_{str(side)[:1]}"]
+        general = sheet[(sheet["segment"] == segment) & ~sheet["test"].isin(specific["test"])]
+        return pd.concat([specific, general])[["test", "axis"]].reset_index(drop=True)
+
+    @cached_property
+    def test_kinds(self) -> dict[str, str]:
+        return self.tests["kind"].to_dict()
+
+    @cached_property
+    def imu_regions(self) -> dict[tuple[str, str], str]:
+        return self.imus["region"].to_dict()
 
     def static_tests(self) -> list[str]:
         return list(self.tests.index[self.tests["kind"] == "static"])
@@ -237,9 +259,9 @@ def read_sheets(root: str | Path, report: ValidationReport | None = None) -> tup
         return None, report
     meta = _check_meta(root, report)
     sheets = {name: _read_sheet(root, name, cols, report) for name, cols in SHEETS.items()}
-    ground_truth = None
-    if (root / "ground_truth.tsv").exists():
-        ground_truth = _read_sheet(root, "ground_truth.tsv", OPTIONAL_SHEETS["ground_truth.tsv"], report)
+    optional = {name: _read_sheet(root, name, cols, report) if (root / name).exists() else None
+                for name, cols in OPTIONAL_SHEETS.items()}
+    ground_truth, functional_axes = optional["ground_truth.tsv"], optional["functional_axes.tsv"]
     if meta is None or any(sheet is None for sheet in sheets.values()):
         return None, report
     report.dataset = str(meta.get("name", root.name))
@@ -289,8 +311,27 @@ def read_sheets(root: str | Path, report: ValidationReport | None = None) -> tup
 
     if ground_truth is not None:
         ground_truth = _check_ground_truth(ground_truth, report)
-    dataset = Dataset(root, meta, imus, tests, calibrates, subjects, recordings, ground_truth)
+    if functional_axes is not None:
+        _check_functional_axes(functional_axes, tests, imus, report)
+    dataset = Dataset(root, meta, imus, tests, calibrates, subjects, recordings, ground_truth, functional_axes)
     return dataset, report
+
+
+def _check_functional_axes(sheet, tests, imus, report) -> None:
+    """functional_axes.tsv: known tests, known segments (``<segment>`` or ``<segment>_r|l``) and
+    signed axes."""
+    segments = set(imus["segment"])
+    segments |= {f"{seg}_{str(side)[:1]}" for seg, side in zip(imus["segment"], imus["side"])}
+    for index, row in sheet.iterrows():
+        where = f"functional_axes.tsv {_line(index)}"
+        if row["test"] not in tests.index:
+            report.error(where, f"test {row['test']!r} is not defined in tests.tsv")
+        if row["segment"] not in segments:
+            report.error(where, f"segment {row['segment']!r} is not a segment (or segment_r/_l) of imus.tsv")
+        if row["axis"].lower() not in AXIS_VECTORS:
+            report.error(where, f"axis {row['axis']!r} must be a signed axis, one of {', '.join(AXIS_VECTORS)}")
+    for index in sheet.index[sheet.duplicated(["test", "segment"], keep="first")]:
+        report.error(f"functional_axes.tsv {_line(index)}", "test and segment given twice")
 
 
 def _check_static_available(recordings, tests, calibrates, report) -> None:
@@ -360,13 +401,13 @@ def check_recording(dataset: Dataset, row, report: ValidationReport) -> None:
     if duration < SHORT_RECORDING_S:
         report.warning(where, f"very short recording: {duration:.2f} s")
     acc = values[:, 1:4]
-    if dataset.tests.loc[row["test"], "kind"] == "static":
+    if dataset.test_kinds[row["test"]] == "static":
         magnitude_g = float(np.median(np.linalg.norm(acc, axis=1))) * dataset.acc_scale / GRAVITY
         low, high = REST_GRAVITY_BAND
         if not low <= magnitude_g <= high:
             report.error(where, f"acceleration at rest is {magnitude_g:.3g} g (expected about 1 g): "
                          f"are units.acc ({dataset.meta['units']['acc']}) right?")
-    region = dataset.imus.loc[(row["sensor_set"], row["imu"]), "region"]
+    region = dataset.imu_regions[(row["sensor_set"], row["imu"])]
     acc_range = (dataset.meta.get("acc_range_g") or {}).get(region)
     if acc_range:
         limit = SATURATION_FRACTION * float(acc_range) * GRAVITY / dataset.acc_scale

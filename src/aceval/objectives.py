@@ -65,12 +65,20 @@ def matrices(table: pd.DataFrame) -> np.ndarray:
 
 
 def usable(calibrations: pd.DataFrame) -> pd.DataFrame:
+    """Kong calibrations that are not flagged (Objectives 1-5 are about Kong's method; the axis
+    methods' rows, ``method`` != 'kong', are compared in :mod:`aceval.comparison`)."""
+    calibrations = kong_rows(calibrations)
     return calibrations[calibrations["flag"].fillna("") == ""]
+
+
+def kong_rows(calibrations: pd.DataFrame) -> pd.DataFrame:
+    return calibrations[calibrations["method"] == "kong"] if "method" in calibrations.columns else calibrations
 
 
 def full_sets(calibrations: pd.DataFrame) -> pd.DataFrame:
     """The calibration from all usable repetitions of each (subject, set, IMU, test); left out when
     that calibration itself is flagged."""
+    calibrations = kong_rows(calibrations)
     most = calibrations.groupby(CALIBRATION_KEY)["n_reps"].transform("max")
     return usable(calibrations[calibrations["n_reps"] == most])
 

@@ -15,8 +15,12 @@ import pandas as pd
 from .calibration.kong import KongLimits, kong_from_scatters, scatter, vertical_axis
 from .dataset import Dataset, R_COLUMNS
 from .errors import CalibrationError
+from .functional import (
+    AXIS_METHODS, MOMENT_COLUMNS, SCATTER_COLUMNS as UNIT_SCATTER_COLUMNS, functional_fits, pool, pool_summed,
+    recording_moments, sagittal_fits, subset_rho,
+)
 from .objectives import correlation_3d, frontal_lateral_plan, full_sets, segment_pair_plan
-from .rotations import axis_vector, error_angle_deg
+from .rotations import axis_vector, error_angle_deg, vertical_share
 from .segmentation import TrimParams, mask_to_ranges, movement_mask
 
 SCATTER_COLUMNS = [f"s{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
@@ -48,12 +52,14 @@ def summarise_recordings(dataset: Dataset, subject: str | None = None,
             if is_static:
                 row.update(zip(["z0_x", "z0_y", "z0_z"], vertical_axis(data.acc)))
                 row["n_samples"] = len(data.acc)
+                row.update(recording_moments(data.acc, dataset.fs_hz, motion=False))
             else:
                 mask = movement_mask(data.gyr, dataset.fs_hz, trim)
                 kept = data.acc[mask]
                 row["n_samples"] = int(mask.sum())
                 row["n_segments"] = len(mask_to_ranges(mask))
                 row.update(zip(SCATTER_COLUMNS, scatter(kept).ravel()))
+                row.update(recording_moments(data.gyr[mask], dataset.fs_hz, motion=True))
         except CalibrationError as exc:
             row.update(flag=exc.code, message=f"{rec['path']}: {exc}")
         rows.append(row)
@@ -70,20 +76,76 @@ def subset_label(subset) -> str:
 
 
 def calibrate(dataset: Dataset, summaries: pd.DataFrame, subsets: str = "all",
-              limits: KongLimits = KongLimits()) -> pd.DataFrame:
-    """Kong calibrations for every (subject, set, IMU, test) in ``summaries`` and every subset of
-    its usable repetitions (``subsets='all'``) or all of them together (``'full'``).
+              limits: KongLimits = KongLimits()) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Every calibration of the IMUs in ``summaries``: ``(calibrations, axes)``.
 
-    z0 comes from the IMU's static recording(s) (Kong Eq. 2; several are averaged). One row per
-    calibration: key columns, ``repetitions`` ('R1+R3+R4'), ``n_reps``, r11..r33,
-    diagnostics, ``flag`` ('' when valid) and, with ground truth, ``error_deg``.
+    Datasets with ``functional_axes.tsv`` (Ricci's protocol) get the functional design
+    (:func:`calibrate_functional`); the others Kong's sagittal design (:func:`calibrate_sagittal`).
     """
+    if dataset.functional_axes is not None:
+        return calibrate_functional(dataset, summaries)
+    return calibrate_sagittal(dataset, summaries, subsets, limits)
+
+
+def _identity(dataset: Dataset, subject: str, sensor_set: str, imu: str) -> dict:
+    segment, side = dataset.imus.loc[(sensor_set, imu), ["segment", "side"]]
+    return {"subject": subject, "sensor_set": sensor_set, "imu": imu, "segment": segment, "side": side}
+
+
+def _truth_columns(truth, R) -> dict:
+    """``error_deg`` and ``error_vertical_share`` of ``R`` (3x3 or a stack) against the ground
+    truth (NaN without)."""
+    if truth is None or R is None:
+        shape = np.shape(R)[:-2] if R is not None else ()
+        return {"error_deg": np.full(shape, np.nan), "error_vertical_share": np.full(shape, np.nan)}
+    return {"error_deg": error_angle_deg(R, truth), "error_vertical_share": vertical_share(R, truth)}
+
+
+def _method_rows(base: dict, fits: dict, truth) -> list[dict]:
+    """One calibration row per axis method (R, LM diagnostics, flag and error to the truth)."""
+    rows = []
+    for method in AXIS_METHODS:
+        fit = fits[method]
+        R = fit.get("R")
+        row = {**base, "method": method, **dict(zip(R_COLUMNS, R.ravel() if R is not None else [np.nan] * 9)),
+               "flag": fit.get("flag", ""), **{k: float(v) for k, v in _truth_columns(truth, R).items()}}
+        row.update({k: v for k, v in fit.items() if k in LM_COLUMNS})
+        rows.append(row)
+    return rows
+
+
+LM_COLUMNS = ["n_iterations", "converged", "cost", "random_starts", "random_starts_optimum",
+              "random_start_iterations_mean", "random_start_iterations_max"]
+
+
+def _static_axes(summaries: pd.DataFrame) -> tuple[pd.DataFrame, dict]:
+    """z0 (Kong Eq. 2; several static recordings averaged) and the pooled static axis of each IMU."""
     static = summaries[(summaries["kind"] == "static") & (summaries["flag"] == "")]
-    # several static recordings of one IMU (e.g. Ricci's 3 trials): their z0 averaged, renormalised
     z0 = static.groupby(KEY)[["z0_x", "z0_y", "z0_z"]].mean()
     z0 = z0.div(np.linalg.norm(z0.to_numpy(), axis=1), axis=0)
+    axes = {key: (pool(group), ",".join(sorted(group["test"].unique())), len(group))
+            for key, group in static.groupby(KEY)}
+    return z0, axes
+
+
+def calibrate_sagittal(dataset: Dataset, summaries: pd.DataFrame, subsets: str = "all",
+                       limits: KongLimits = KongLimits()) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Kong calibrations for every (subject, set, IMU, motion test) in ``summaries`` and every
+    subset of its usable repetitions (``subsets='all'``) or all of them together (``'full'``);
+    for all the repetitions together, also the axis methods (:func:`aceval.functional.sagittal_fits`).
+
+    z0 comes from the IMU's static recording(s) (Kong Eq. 2; several are averaged). One row per
+    calibration: key columns, ``repetitions`` ('R1+R3+R4'), ``n_reps``, ``method``, r11..r33,
+    diagnostics (Kong: eigenvalues, planarity...; all: ``rho_static`` and ``rho_motion``, the
+    reliability of the static and gyroscope axes, Ricci Eq. 2), ``flag`` ('' when valid) and,
+    with ground truth, ``error_deg`` and ``error_vertical_share``. ``axes``: one row per
+    (subject, set, IMU, test) with the axis and rho of all its repetitions.
+    """
+    z0, static_axes = _static_axes(summaries)
     motion = summaries[(summaries["kind"] == "motion") & (summaries["flag"] == "")]
-    out = []
+    out, axes = [], []
+    for key, (estimate, tests, n_recordings) in static_axes.items():
+        axes.append(_axis_row(_identity(dataset, *key), tests, "static", estimate, "-z", n_recordings))
     for (subject, sensor_set, imu, test), group in motion.groupby(KEY + ["test"], sort=True):
         group = group.sort_values("rep")
         reps = [int(r) for r in group["rep"]]
@@ -91,30 +153,93 @@ def calibrate(dataset: Dataset, summaries: pd.DataFrame, subsets: str = "all",
             continue  # no static test: validation reports it; nothing to calibrate from
         chosen = all_subsets(reps) if subsets == "all" else [tuple(reps)]
         index = {rep: k for k, rep in enumerate(reps)}
+        right = axis_vector(dataset.right_axis(sensor_set, imu))
+        z0_imu = z0.loc[(subject, sensor_set, imu)].to_numpy(float)
+        members = [[index[r] for r in subset] for subset in chosen]
         result = kong_from_scatters(
-            group[SCATTER_COLUMNS].to_numpy(float).reshape(-1, 3, 3),
-            group["n_samples"].to_numpy(float),
-            z0.loc[(subject, sensor_set, imu)].to_numpy(float),
-            axis_vector(dataset.right_axis(sensor_set, imu)),
-            [[index[r] for r in subset] for subset in chosen],
-            limits=limits, strict=False,
+            group[SCATTER_COLUMNS].to_numpy(float).reshape(-1, 3, 3), group["n_samples"].to_numpy(float),
+            z0_imu, right, members, limits=limits, strict=False,
         )
+        membership = np.zeros((len(chosen), len(reps)))
+        for row, subset in enumerate(members):
+            membership[row, subset] = 1.0
+        rho_motion = subset_rho(group[UNIT_SCATTER_COLUMNS].to_numpy(float).reshape(-1, 3, 3), membership)
+        rho_static = static_axes[(subject, sensor_set, imu)][0].rho
         truth = dataset.ground_truth_matrix(subject, sensor_set, imu)
-        errors = error_angle_deg(result.R, truth) if truth is not None else np.full(len(chosen), np.nan)
-        segment, side = dataset.imus.loc[(sensor_set, imu), ["segment", "side"]]
+        errors = _truth_columns(truth, result.R)
+        identity = _identity(dataset, subject, sensor_set, imu)
         for k, subset in enumerate(chosen):
             out.append({
-                "subject": subject, "sensor_set": sensor_set, "imu": imu, "segment": segment, "side": side,
-                "test": test,
-                "repetitions": subset_label(subset), "n_reps": len(subset), "method": "kong",
+                **identity, "test": test, "repetitions": subset_label(subset), "n_reps": len(subset), "method": "kong",
                 **dict(zip(R_COLUMNS, result.R[k].ravel())),
                 "n_samples": int(result.n_samples[k]),
                 "eig1": result.eigenvalues[k, 0], "eig2": result.eigenvalues[k, 1], "eig3": result.eigenvalues[k, 2],
                 "planarity": result.planarity[k], "normal_ratio": result.normal_ratio[k],
                 "normal_vertical_angle_deg": result.normal_vertical_angle_deg[k],
-                "flag": result.flag[k], "error_deg": errors[k],
+                "rho_static": rho_static, "rho_motion": rho_motion[k],
+                "flag": result.flag[k], **{name: values[k] for name, values in errors.items()},
             })
-    return pd.DataFrame(out)
+        gyro_axis = pool(group, orient=right)
+        axes.append(_axis_row(identity, test, "motion", gyro_axis, "+y", len(reps)))
+        base = {**identity, "test": test, "repetitions": subset_label(reps), "n_reps": len(reps),
+                "n_samples": int(group["n_samples"].sum()), "rho_static": rho_static, "rho_motion": gyro_axis.rho}
+        fits = sagittal_fits(z0_imu, rho_static, gyro_axis.axis, gyro_axis.rho)
+        out += _method_rows(base, fits, truth)
+    return pd.DataFrame(out), pd.DataFrame(axes, columns=AXES_COLUMNS)
+
+
+AXES_COLUMNS = ["subject", "sensor_set", "imu", "segment", "side", "test", "kind", "signal", "n_recordings",
+                "n_samples", "axis_x", "axis_y", "axis_z", "rho", "reference", "residual_before_deg",
+                "residual_after_deg"]
+
+
+def _axis_row(identity: dict, test: str, kind: str, estimate, reference: str, n_recordings: int | None = None) -> dict:
+    return {**identity, "test": test, "kind": kind, "signal": "acc" if kind == "static" else "gyr",
+            "n_recordings": n_recordings, "n_samples": estimate.n_samples,
+            "axis_x": estimate.axis[0], "axis_y": estimate.axis[1], "axis_z": estimate.axis[2],
+            "rho": estimate.rho, "reference": reference,
+            "residual_before_deg": np.nan, "residual_after_deg": np.nan}
+
+
+def calibrate_functional(dataset: Dataset, summaries: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Ricci's protocol: for every (subject, set, IMU), the axes of the tests functional_axes.tsv
+    lists for its segment (each pooled over all trials: Ricci computes rho from the 9-12
+    repetitions of a movement), then one calibration per axis method.
+
+    ``axes`` has one row per (subject, set, IMU, test) recorded, with rho (Ricci Table 1), the
+    reference axis when the test is used for the IMU's segment, and the LM residual angles
+    before (identity) and after the fit (Ricci Eq. 13, Fig. 5).
+    """
+    usable_rows = summaries[summaries["flag"] == ""]
+    summed = usable_rows.groupby(KEY + ["test", "kind"], sort=True)[MOMENT_COLUMNS].sum()
+    counts = usable_rows.groupby(KEY + ["test", "kind"], sort=True).size()
+    references = {}
+    calibrations, axes = [], []
+    for (subject, sensor_set, imu), per_test in summed.groupby(level=[0, 1, 2], sort=True):
+        identity = _identity(dataset, subject, sensor_set, imu)
+        if (sensor_set, imu) not in references:
+            sheet = dataset.reference_axes(sensor_set, imu)
+            references[(sensor_set, imu)] = dict(zip(sheet["test"], sheet["axis"]))
+        reference = references[(sensor_set, imu)]
+        rows = []
+        for (*_, test, kind), moments in zip(per_test.index, per_test.to_numpy(float)):
+            estimate = pool_summed(moments, orient="mean" if kind == "static" else "phase")
+            rows.append(_axis_row(identity, test, kind, estimate, reference.get(test, ""),
+                                  int(counts[(subject, sensor_set, imu, test, kind)])))
+        table = pd.DataFrame(rows)
+        used = table[table["reference"] != ""]
+        if len(used) >= 2:
+            fits = functional_fits(used, seed_key=(subject, sensor_set, imu))
+            lm = fits["ricci_lm"]
+            if lm.get("R") is not None:
+                table.loc[used.index, "residual_before_deg"] = lm["residual_before_deg"]
+                table.loc[used.index, "residual_after_deg"] = lm["residual_after_deg"]
+            base = {**identity, "test": "+".join(used["test"]), "repetitions": "all",
+                    "n_reps": int(used["n_recordings"].sum()), "n_samples": int(used["n_samples"].sum())}
+            calibrations += _method_rows(base, fits, dataset.ground_truth_matrix(subject, sensor_set, imu))
+        axes.append(table)
+    return pd.DataFrame(calibrations), (pd.concat(axes, ignore_index=True)[AXES_COLUMNS] if axes
+                                        else pd.DataFrame(columns=AXES_COLUMNS))
 
 
 CORRELATION_COLUMNS = ["objective", "subject", "sensor_set", "imu", "imu_b", "segment", "pair", "side",

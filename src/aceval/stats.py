@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-from scipy import stats
-from statsmodels.stats.multitest import multipletests
 
 TTEST_COLUMNS = ["mean_a", "sd_a", "mean_b", "sd_b", "mean_difference", "ci95_low", "ci95_high",
                  "cohens_dz", "n", "t", "p"]
@@ -29,6 +27,8 @@ def paired_ttest(a: np.ndarray, b: np.ndarray) -> dict:
            "mean_difference": np.mean(diff) if n else np.nan, "n": n,
            "ci95_low": np.nan, "ci95_high": np.nan, "cohens_dz": np.nan, "t": np.nan, "p": np.nan}
     if n > 1 and np.std(diff, ddof=1) > 0:
+        from scipy import stats  # imported here: a second of start-up for the commands that never test
+
         result = stats.ttest_rel(a, b)
         ci = result.confidence_interval(0.95)
         out.update(t=result.statistic, p=result.pvalue, ci95_low=ci.low, ci95_high=ci.high,
@@ -53,5 +53,7 @@ def holm(p_values) -> np.ndarray:
     adjusted = np.full_like(p, np.nan)
     finite = np.isfinite(p)
     if finite.any():
+        from statsmodels.stats.multitest import multipletests
+
         adjusted[finite] = multipletests(p[finite], method="holm")[1]
     return adjusted

@@ -1,5 +1,6 @@
-"""SUMMARY.md: each claim of Kong et al. 2016 (reference/kong2016/headline_findings.md) with
-'holds', 'does not hold' or 'not testable on this dataset' and the numbers behind the verdict.
+"""SUMMARY.md: each claim of Kong et al. 2016 and Ricci et al. 2014 (reference/*/headline_findings.md)
+with 'holds', 'does not hold' or 'not testable on this dataset' and the numbers behind the verdict,
+then (datasets with ground truth) which method and test to use for which segment.
 
 Each check states its rule; where the paper says "about", the tolerance is written in the rule.
 """
@@ -10,6 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+
+from .objectives import kong_rows
 
 HOLDS, FAILS, UNTESTABLE = "holds", "does not hold", "not testable on this dataset"
 UPPER, LOWER = ["head", "chest", "waist"], ["thigh", "shank", "foot"]
@@ -197,6 +200,7 @@ def recommendation_claim(calibrations: pd.DataFrame | None) -> list[Claim]:
             "for each of those segments")
     if calibrations is None or "error_deg" not in calibrations or calibrations["error_deg"].isna().all():
         return [_untestable("Obj 5", claim, rule, "needs ground-truth mountings")]
+    calibrations = kong_rows(calibrations)
     full = calibrations[calibrations["n_reps"] == calibrations.groupby(["subject", "sensor_set", "imu", "test"])["n_reps"]
                         .transform("max")]
     error = full.groupby(["segment", "test"])["error_deg"].mean()
@@ -211,16 +215,118 @@ def recommendation_claim(calibrations: pd.DataFrame | None) -> list[Claim]:
                   "; ".join(f"{s}: {t} {e:.2f} deg, best {bt} {b:.2f}" for s, t, e, bt, b in checks))]
 
 
-def claims(tables: dict[int, pd.DataFrame], angles: pd.DataFrame | None,
-           calibrations: pd.DataFrame | None) -> list[Claim]:
+def kong_claims(tables: dict, angles: pd.DataFrame | None, calibrations: pd.DataFrame | None) -> list[Claim]:
     get = tables.get
     return (obj1_claims(get(3), get(4), get(5)) + obj2_claims(get(6), get(7)) + obj3_claims(angles, get(8))
             + obj4_claims(get(9), get(10)) + obj5_claims(get(11), angles) + recommendation_claim(calibrations))
 
 
-def to_markdown(found: list[Claim], dataset: str, description: str, simulated: bool, notes: list[str]) -> str:
+def ricci_claims(tables: dict) -> list[Claim]:
+    """Ricci et al. 2014 (reference/ricci2014/headline_findings.md), from the ricci_* tables."""
+    out = []
+    table1 = _cells(tables.get("ricci_table1"))
+    claim, rule = "Static postures have rho about 0.97-0.99 (Table 1)", "every static cell's mean rho is in [0.96, 1]"
+    static = table1[table1["test"].isin(["TS/US/FS", "S"])] if len(table1) else table1
+    if static.empty:
+        out.append(_untestable("Ricci Table 1", claim, rule, "no static posture"))
+    else:
+        out.append(Claim("Ricci Table 1", claim, rule, _verdict(bool(static["mean"].between(0.96, 1).all())),
+                         f"{static['mean'].min():.3f}-{static['mean'].max():.3f} over {len(static)} segments"))
+    claim = "Movement rho values of Table 1 are reproduced"
+    rule = "share of movement cells with a published value whose mean is within 2 published SD of it is above 50 %"
+    moving = table1[~table1.index.isin(static.index)].dropna(subset=["published_mean"]) if len(table1) else table1
+    if moving.empty:
+        out.append(_untestable("Ricci Table 1", claim, rule, "no movement of Table 1"))
+    else:
+        close = (moving["difference"].abs() <= 2 * moving["published_sd"])
+        out.append(Claim("Ricci Table 1", claim, rule, _verdict(float(close.mean()) > 0.5),
+                         f"{int(close.sum())} of {len(moving)} cells; this run {moving['mean'].min():.2f}-"
+                         f"{moving['mean'].max():.2f}, paper {moving['published_mean'].min():.2f}-"
+                         f"{moving['published_mean'].max():.2f}"))
+    ttest = _cells(tables.get("ricci_ttest"))
+    claim = "Supported movements (bar) have higher rho than unsupported ones, p < 0.05 for upper arms and forearms"
+    rule = "every row of ricci_ttest: supported - unsupported > 0 and Holm-corrected p < 0.05"
+    if ttest.empty:
+        out.append(_untestable("Ricci t-test", claim, rule, "needs FEB, FFEB and FE"))
+    else:
+        ok = bool(((ttest["mean_difference"] > 0) & (ttest["p_holm"] < 0.05)).all())
+        out.append(Claim("Ricci t-test", claim, rule, _verdict(ok), "; ".join(
+            f"{r['segment']} {r['supported']}-{r['unsupported']} {r['mean_difference']:+.3f} (p_holm {r['p_holm']:.2g})"
+            for _, r in ttest.iterrows())))
+    lm = _cells(tables.get("ricci_lm"))
+    claim = "LM converges in thorax 6.34, upper arm 8.36, forearm 7.30 iterations (mean)"
+    rule = "each frame's mean iterations within 2 of the published mean"
+    lm_published = lm.dropna(subset=["published_mean"]) if len(lm) else lm
+    if lm_published.empty:
+        out.append(_untestable("Ricci LM", claim, rule, "no LM fit"))
+    else:
+        out.append(Claim("Ricci LM", claim, rule, _verdict(bool((lm_published["difference"].abs() <= 2).all())),
+                         "; ".join(f"{r['segment']} {r['mean']:.2f} ± {r['sd']:.2f} (paper {r['published_mean']:.2f})"
+                                   for _, r in lm_published.iterrows())))
+        claim = "LM converges from random initial quaternions too"
+        rule = "at least 95 % of the random starts reach the closed-form optimum (within 0.1 deg)"
+        share = float(lm["random_starts_optimum"].sum() / lm["random_starts"].sum())
+        out.append(Claim("Ricci LM", claim, rule, _verdict(share >= 0.95),
+                         f"{share:.1%} of {int(lm['random_starts'].sum())} starts; iterations mean "
+                         f"{lm['random_start_iterations_mean'].mean():.1f}, max {int(lm['random_start_iterations_max'].max())} "
+                         "(paper: 12 in its example)"))
+    residuals = _cells(tables.get("ricci_residuals"))
+    claim = "Residual angles shrink from the identity start to the fit"
+    rule = "every segment x test: mean residual after < before"
+    if residuals.empty:
+        out.append(_untestable("Ricci residuals", claim, rule, "no LM fit"))
+    else:
+        per_test = residuals[residuals["test"] != "all"]
+        out.append(Claim("Ricci residuals", claim, rule, _verdict(bool((per_test["mean"] < per_test["before_mean"]).all())),
+                         f"before {per_test['before_mean'].min():.1f}-{per_test['before_mean'].max():.1f} deg, after "
+                         f"{per_test['mean'].min():.2f}-{per_test['mean'].max():.2f} deg"))
+        published = residuals.dropna(subset=["published_mean"])
+        claim = "Residuals after the fit: thorax 5.39/2.56/2.86 deg (TR/TFE/supine), forearms 4.68/4.72 deg"
+        rule = "each published residual is matched within 2 deg"
+        out.append(Claim("Ricci residuals", claim, rule, _verdict(bool((published["difference"].abs() <= 2).all())),
+                         "; ".join(f"{r['segment']} {r['test']} {r['mean']:.2f} (paper {r['published_mean']:.2f})"
+                                   for _, r in published.iterrows())))
+    return out
+
+
+def claims(tables: dict, angles: pd.DataFrame | None, calibrations: pd.DataFrame | None) -> list[Claim]:
+    """Kong's claims when the dataset has any of Kong's tables (by number), Ricci's when it has the
+    ricci_* tables."""
+    found = []
+    if any(isinstance(key, int) for key in tables):
+        found += kong_claims(tables, angles, calibrations)
+    if any(str(key).startswith("ricci_") for key in tables):
+        found += ricci_claims(tables)
+    return found
+
+
+def methods_section(tables: dict) -> list[str]:
+    """Which method and which test, per segment, against the ground truth (tables methods*)."""
+    best, methods = tables.get("methods_best"), tables.get("methods")
+    if best is None or best.empty or methods is None:
+        return []
+    lines = ["## Methods against the ground truth: which test for which segment", ""]
+    overall = methods.groupby("method")["median"].median().sort_values()
+    lines.append("Median error to the true mounting (median over segment x test x set cells of the per-cell "
+                 "medians; table `methods`): " + ", ".join(f"{m} {v:.2f} deg" for m, v in overall.items()) + ".")
+    lines.append("")
+    for segment, group in best.groupby("segment", sort=False):
+        parts = [f"{r['method']} {r['best_test']} ({r['best_median_deg']:.2f} deg)" for _, r in group.iterrows()]
+        kong = group[group["method"] == "kong"]
+        text = f"- **{segment}**: smallest median error with " + ", ".join(parts)
+        if len(kong) and kong["kong_recommends"].iloc[0]:
+            row = kong.iloc[0]
+            agree = "agrees with" if row["best_test"] == row["kong_recommends"] else "differs from"
+            text += (f". Kong recommends {row['kong_recommends']} ({row['recommended_median_deg']:.2f} deg with Kong's "
+                     f"method here): this {agree} it")
+        lines.append(text + ".")
+    return lines + [""]
+
+
+def to_markdown(found: list[Claim], dataset: str, description: str, simulated: bool, notes: list[str],
+                extra: list[str] | None = None) -> str:
     counts = {v: sum(c.verdict == v for c in found) for v in (HOLDS, FAILS, UNTESTABLE)}
-    lines = [f"# {dataset}: Kong et al. 2016 claims on this dataset", "",
+    lines = [f"# {dataset}: the papers' claims on this dataset", "",
              f"{description}", ""]
     if simulated:
         lines += ["**SIMULATED data.** The simulator is built from physiology and datasheets, never fitted to the "
@@ -230,5 +336,6 @@ def to_markdown(found: list[Claim], dataset: str, description: str, simulated: b
     lines += notes + ([""] if notes else [])
     table = pd.DataFrame([{"objective": c.objective, "claim": c.claim, "verdict": c.verdict,
                            "numbers (this run)": c.numbers, "rule": c.rule} for c in found])
-    lines += [table.to_markdown(index=False), ""]
+    lines += [table.to_markdown(index=False), ""] if len(table) else ["No claim of either paper applies to this dataset's analyses.", ""]
+    lines += extra or []
     return "\n".join(lines)

@@ -30,33 +30,71 @@ class AxisEstimate:
     n_samples: int
 
 
-def functional_axis(samples, min_samples: int = 3, min_norm: float = 1e-9) -> AxisEstimate:
-    """Axis and reliability index of gyroscope or accelerometer samples (Ricci Eq. 1-2).
+def unit_moments(samples, min_norm: float = 1e-9) -> tuple[np.ndarray, np.ndarray, int]:
+    """Sum (3,) and scatter ``sum u u^T`` (3, 3) of the unit-normalised samples (Ricci Sec. 2.2.2).
 
-    Samples with norm below ``min_norm`` cannot be unit-normalised and are dropped (trim rest
-    periods first). Sign (SVD leaves it arbitrary): the axis points to the side where the samples'
-    mean projection is positive - for a static posture, along the measured vector; for a
-    back-and-forth rotation, along the larger share of the motion. On an exact tie the largest
-    component is made positive. Callers needing an anatomical direction flip it with a hint.
+    Samples with norm below ``min_norm`` cannot be normalised and are left out; the count of the
+    others is returned. The singular values of the (N, 3) matrix of unit samples are the square
+    roots of the scatter's eigenvalues, so the axis and rho of any union of recordings follow from
+    the sum of their moments (:func:`axis_from_moments`) without reading the samples again.
     """
     samples = check_samples(samples, name="functional-axis samples", min_samples=1)
     norms = np.linalg.norm(samples, axis=1)
     keep = norms >= min_norm
-    if keep.sum() < min_samples:
-        raise TooFewSamplesError(
-            f"functional axis: {int(keep.sum())} samples with norm >= {min_norm}, "
-            f"at least {min_samples} are needed"
-        )
     unit = samples[keep] / norms[keep, None]
-    _, singular_values, vt = np.linalg.svd(unit, full_matrices=False)
-    axis = vt[0]
-    projection = float(np.mean(unit @ axis))
+    return unit.sum(axis=0), unit.T @ unit, int(keep.sum())
+
+
+def axis_from_moments(unit_sum, unit_scatter, n_samples: int, min_samples: int = 3) -> AxisEstimate:
+    """Axis (first right singular vector) and ``rho = s1 / (s1 + s2 + s3)`` (Ricci Eq. 1-2) from
+    the moments of :func:`unit_moments`.
+
+    Sign (SVD leaves it arbitrary): the axis points to the side where the samples' mean projection
+    is positive - for a static posture, along the measured vector. For a back-and-forth rotation
+    that mean is near zero, so callers orient movement axes themselves (by the declared right
+    axis, or by the first movement phase: :func:`first_phase_sign`). On an exact tie the largest
+    component is made positive.
+    """
+    if n_samples < min_samples:
+        raise TooFewSamplesError(
+            f"functional axis: {n_samples} samples with a non-zero norm, at least {min_samples} are needed"
+        )
+    eigenvalues, vectors = np.linalg.eigh(np.asarray(unit_scatter, dtype=float))
+    singular_values = np.sqrt(np.clip(eigenvalues[::-1], 0.0, None))
+    axis = vectors[:, -1]
+    projection = float(np.asarray(unit_sum, dtype=float) @ axis) / n_samples
     if abs(projection) > 1e-12:
         axis = axis * np.sign(projection)
     elif axis[np.argmax(np.abs(axis))] < 0:
         axis = -axis
     rho = float(singular_values[0] / singular_values.sum())
-    return AxisEstimate(axis=axis, rho=rho, singular_values=singular_values, n_samples=int(keep.sum()))
+    return AxisEstimate(axis=axis, rho=rho, singular_values=singular_values, n_samples=int(n_samples))
+
+
+def functional_axis(samples, min_samples: int = 3, min_norm: float = 1e-9) -> AxisEstimate:
+    """Axis and reliability index of gyroscope or accelerometer samples (Ricci Eq. 1-2).
+
+    Samples with norm below ``min_norm`` cannot be unit-normalised and are dropped (trim rest
+    periods first). The sign rule is that of :func:`axis_from_moments`.
+    """
+    return axis_from_moments(*unit_moments(samples, min_norm), min_samples=min_samples)
+
+
+def first_phase_sign(gyr, axis, fs_hz: float) -> float:
+    """+1 when the first half-movement about ``axis`` is a positive (right-hand) rotation, -1 when
+    negative, 0 when there is no rotation about it.
+
+    ``gyr`` (N, 3, rad/s) are the movement samples of one recording. The rotation angle about the
+    axis, ``theta = cumsum(gyr . axis) / fs``, is followed until ``|theta|`` first reaches half
+    its largest value; its sign there is the direction of the first phase (a flexion-first
+    protocol gives the flexion direction even when each repetition returns to the start).
+    """
+    theta = np.cumsum(np.asarray(gyr, dtype=float) @ np.asarray(axis, dtype=float)) / fs_hz
+    peak = float(np.max(np.abs(theta))) if len(theta) else 0.0
+    if peak == 0.0:
+        return 0.0
+    first = int(np.argmax(np.abs(theta) >= 0.5 * peak))
+    return float(np.sign(theta[first]))
 
 
 @dataclass

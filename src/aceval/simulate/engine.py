@@ -116,6 +116,8 @@ def euler_pitch_roll_yaw(pitch, roll=0.0, yaw=0.0) -> np.ndarray:
     angles = np.column_stack([
         np.broadcast_to(yaw, n), np.broadcast_to(roll, n), pitch,
     ])
+    if n > 1 and np.all(angles == angles[0]):  # a held posture: one matrix, repeated (same values)
+        return np.broadcast_to(Rotation.from_euler("ZXY", angles[0]).as_matrix(), (n, 3, 3)).copy()
     return Rotation.from_euler("ZXY", angles).as_matrix()
 
 

@@ -130,7 +130,7 @@ def _trial(rng, child, test, fs, offplane):
     elif moving == "arms":
         for s, sign in (("r", 1.0), ("l", -1.0)):
             # abduction (about x) lifts the right arm about -x and the left about +x
-            relative[f"upper_arm_{s}"] = movement(-sign if axis == "x" else 1.0)
+            relative[f"upper_arm_{s}"] = movement(_side_sign(test, sign))
     elif moving == "forearms":
         for s in ("r", "l"):
             relative[f"forearm_{s}"] = movement()
@@ -144,14 +144,28 @@ def _trial(rng, child, test, fs, offplane):
     return t, R, origin, np.clip(profile, 0, 1)
 
 
+def _side_sign(test: str, side_sign: float) -> float:
+    """Direction of ``test``'s rotation for one side (+1 right, -1 left): abduction lifts the right
+    arm about -x and the left about +x; every other movement turns the same way on both sides."""
+    return -side_sign if MOVEMENTS[test][2] == "x" and MOVEMENTS[test][1] == "arms" else 1.0
+
+
 def functional_axes() -> list[list[str]]:
-    """(test, segment, axis): the segment-frame axis of each movement; for the static supine
-    posture the direction of the specific force (up = anterior, +x; for the pronated forearm, the
-    dorsum of the hand, which faces laterally in the standing posture: +y right, -y left)."""
+    """(test, segment, signed axis) for ``functional_axes.tsv``, in the segment frame.
+
+    Static supine posture: the direction of the specific force (up = anterior, +x; for the
+    pronated forearm, the dorsum of the hand, which faces laterally in the standing posture: +y
+    right, -y left). Movements: the axis of the first phase of each repetition (right-hand rule),
+    e.g. thorax flexion first is a rotation about -y. ``<segment>_r|l`` rows are side-specific.
+    """
     rows = [["S", "thorax", "+x"], ["S", "upper_arm", "+x"], ["S", "forearm_r", "+y"], ["S", "forearm_l", "-y"]]
-    for test, (_, moving, axis, *_rest) in MOVEMENTS.items():
+    for test, (_, moving, axis, amplitude, *_rest) in MOVEMENTS.items():
         segment = {"thorax": "thorax", "arms": "upper_arm", "forearms": "forearm", "forearms_twist": "forearm"}[moving]
-        rows.append([test, segment, axis])
+        signs = {side: np.sign(amplitude) * _side_sign(test, side_sign) for side, side_sign in (("r", 1.0), ("l", -1.0))}
+        if signs["r"] == signs["l"]:
+            rows.append([test, segment, f"{'+' if signs['r'] > 0 else '-'}{axis}"])
+        else:
+            rows += [[test, f"{segment}_{side}", f"{'+' if sign > 0 else '-'}{axis}"] for side, sign in signs.items()]
     return rows
 
 

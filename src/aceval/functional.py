@@ -1,0 +1,167 @@
+"""Functional axes of recordings and the calibrations built from axes (Ricci et al. 2014).
+
+Each recording is reduced once to the moments of its unit-normalised samples (accelerometer for a
+static test, trimmed gyroscope for a motion test; :func:`recording_moments`). The axis and the
+reliability index rho of any union of recordings then follow from the summed moments
+(:func:`pool`). Three methods turn axes into a rotation R (sensor -> body/segment frame):
+
+* ``ricci_lm``: Ricci's rho-weighted Levenberg-Marquardt from the identity (Eq. 3-11);
+* ``align_vectors``: the closed-form optimum of the same weighted cost (SciPy, Wahba's problem);
+* ``triad``: two axes, the primary kept exactly.
+
+Two designs say which axes go into one calibration:
+
+* **sagittal** (Kong's protocol): for each motion test, the static z0 (down, from quiet stance)
+  and the gyroscope axis of the motion test as y, oriented along the IMU's ``right_axis``;
+  TRIAD keeps z0 exactly, as Kong's method does (:func:`sagittal_fits`);
+* **functional** (Ricci's protocol, ``functional_axes.tsv``): every axis the sheet lists for the
+  IMU's segment, movement axes oriented by their first phase; TRIAD uses the most reliable axis
+  and the most reliable one whose reference is not parallel to it (:func:`functional_fits`).
+"""
+
+from __future__ import annotations
+
+import zlib
+
+import numpy as np
+import pandas as pd
+from scipy.spatial.transform import Rotation
+
+from .calibration.ricci import (
+    AxisEstimate, axis_from_moments, first_phase_sign, lm_fit, unit_moments, wahba_fit,
+)
+from .calibration.triad import triad
+from .errors import CalibrationError
+from .rotations import axis_vector
+
+SUM_COLUMNS = ["m_x", "m_y", "m_z"]
+SCATTER_COLUMNS = [f"u{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
+PHASE_COLUMNS = ["phase_x", "phase_y", "phase_z"]
+MOMENT_COLUMNS = SUM_COLUMNS + SCATTER_COLUMNS + ["n_unit"] + PHASE_COLUMNS
+AXIS_METHODS = ["ricci_lm", "align_vectors", "triad"]
+#: random starting quaternions per LM fit (Ricci Sec. 3: "converges from random initial values")
+RANDOM_STARTS = 5
+#: a start "reaches the optimum" when its result is within this angle of the closed-form optimum
+SAME_SOLUTION_DEG = 0.1
+
+
+def recording_moments(samples, fs_hz: float, motion: bool) -> dict:
+    """Moments of one recording's unit samples (columns ``MOMENT_COLUMNS``).
+
+    ``samples``: accelerometer (static test) or the trimmed gyroscope samples (motion test).
+    For a motion test, ``phase_*`` is the recording's own axis signed by the direction of its
+    first movement phase (:func:`first_phase_sign`); NaN for a static test.
+    """
+    unit_sum, scatter, n = unit_moments(samples)
+    row = dict(zip(SUM_COLUMNS, unit_sum)) | dict(zip(SCATTER_COLUMNS, scatter.ravel())) | {"n_unit": n}
+    phase = np.full(3, np.nan)
+    if motion and n >= 3:
+        axis = axis_from_moments(unit_sum, scatter, n).axis
+        phase = axis * first_phase_sign(samples, axis, fs_hz)
+    return row | dict(zip(PHASE_COLUMNS, phase))
+
+
+def pool(recordings: pd.DataFrame, orient: str | np.ndarray = "mean") -> AxisEstimate:
+    """Axis and rho of the union of ``recordings`` (rows with ``MOMENT_COLUMNS``).
+
+    ``orient``: ``'mean'`` (along the mean sample: static postures), ``'phase'`` (the summed
+    first-phase axes of the recordings: movements whose protocol fixes the first direction), or a
+    vector the axis should point along (e.g. the IMU's right axis).
+    """
+    summed = recordings[MOMENT_COLUMNS].sum(axis=0, min_count=0)  # NaN phases (static) are skipped
+    return pool_summed(summed.to_numpy(float), orient)
+
+
+def pool_summed(summed: np.ndarray, orient: str | np.ndarray = "mean") -> AxisEstimate:
+    """:func:`pool` from the already summed ``MOMENT_COLUMNS`` (one row, in that order)."""
+    estimate = axis_from_moments(summed[0:3], summed[3:12].reshape(3, 3), int(summed[12]))
+    if isinstance(orient, str) and orient == "mean":
+        return estimate
+    hint = summed[13:16] if isinstance(orient, str) else orient
+    if float(estimate.axis @ hint) < 0:
+        return AxisEstimate(-estimate.axis, estimate.rho, estimate.singular_values, estimate.n_samples)
+    return estimate
+
+
+def _seed(*key) -> int:
+    return zlib.crc32("|".join(map(str, key)).encode())
+
+
+def fit_axes(v_ref: np.ndarray, v_est: np.ndarray, rho: np.ndarray, triad_pair: tuple[int, int],
+             random_starts: int = 0, seed: int = 0) -> dict[str, dict]:
+    """R (sensor -> body) by each of ``AXIS_METHODS`` from axis pairs ``v_ref ~ R v_est``.
+
+    ``rho`` weights the axes (Ricci Eq. 7); ``triad_pair`` = (primary, secondary) row indices.
+    Each method's entry: ``R`` (or None) and ``flag``/``message`` when it failed. The LM entry
+    adds its iterations, convergence, final cost, residual angles (deg) before/after and, with
+    ``random_starts``, how many random starts reach the closed-form optimum and their iterations.
+    """
+    out: dict[str, dict] = {}
+    try:
+        optimum = wahba_fit(v_ref, v_est, rho).as_matrix()
+        out["align_vectors"] = {"R": optimum}
+    except (CalibrationError, ValueError) as exc:
+        optimum = None
+        out["align_vectors"] = {"R": None, "flag": getattr(exc, "code", "calibration_error"), "message": str(exc)}
+    try:
+        fit = lm_fit(v_ref, v_est, rho)
+        entry = {"R": fit.R, "n_iterations": fit.n_iterations, "converged": fit.converged,
+                 "cost": float(fit.cost_history[-1]),
+                 "residual_before_deg": fit.residual_angle_before_deg,
+                 "residual_after_deg": fit.residual_angle_after_deg}
+        if random_starts and optimum is not None:
+            starts = Rotation.random(random_starts, random_state=seed).as_quat(scalar_first=True)
+            runs = [lm_fit(v_ref, v_est, rho, q0_wxyz=q) for q in starts]
+            reached = [float(np.degrees((r.rotation * Rotation.from_matrix(optimum).inv()).magnitude()))
+                       <= SAME_SOLUTION_DEG for r in runs]
+            entry.update(random_starts=random_starts, random_starts_optimum=int(np.sum(reached)),
+                         random_start_iterations_mean=float(np.mean([r.n_iterations for r in runs])),
+                         random_start_iterations_max=int(max(r.n_iterations for r in runs)))
+        out["ricci_lm"] = entry
+    except (CalibrationError, ValueError) as exc:
+        out["ricci_lm"] = {"R": None, "flag": getattr(exc, "code", "calibration_error"), "message": str(exc)}
+    try:
+        primary, secondary = triad_pair
+        out["triad"] = {"R": triad(v_ref[[primary, secondary]], v_est[[primary, secondary]])}
+    except (CalibrationError, ValueError) as exc:
+        out["triad"] = {"R": None, "flag": getattr(exc, "code", "calibration_error"), "message": str(exc)}
+    return out
+
+
+def sagittal_fits(z0: np.ndarray, rho_static: float, motion_axis: np.ndarray, rho_motion: float) -> dict[str, dict]:
+    """Kong's protocol, axis methods: body z (down) <- z0 from quiet stance, body y (right) <- the
+    gyroscope axis of the motion test (already oriented to the right), weighted by their rho."""
+    v_ref = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
+    v_est = np.array([z0, motion_axis])
+    return fit_axes(v_ref, v_est, np.array([rho_static, rho_motion]), (0, 1))
+
+
+def triad_pair(v_ref: np.ndarray, rho: np.ndarray, min_angle_deg: float = 30.0) -> tuple[int, int]:
+    """The most reliable axis, and the most reliable one whose reference is at least
+    ``min_angle_deg`` from it (Ricci's functional frames repeat some references, e.g. two
+    flexion-extensions about one axis)."""
+    order = [int(i) for i in np.argsort(-np.asarray(rho), kind="stable")]
+    primary = order[0]
+    limit = np.cos(np.radians(min_angle_deg))
+    for index in order[1:]:
+        if abs(float(v_ref[primary] @ v_ref[index])) < limit:
+            return primary, index
+    return primary, order[1] if len(order) > 1 else primary
+
+
+def functional_fits(axes: pd.DataFrame, random_starts: int = RANDOM_STARTS, seed_key=()) -> dict[str, dict]:
+    """Ricci's protocol: one calibration per IMU from every axis in ``axes`` (rows with
+    ``reference`` ('+x', ...), ``axis_x/y/z`` and ``rho``)."""
+    v_ref = np.stack([axis_vector(a) for a in axes["reference"]])
+    v_est = axes[["axis_x", "axis_y", "axis_z"]].to_numpy(float)
+    rho = axes["rho"].to_numpy(float)
+    return fit_axes(v_ref, v_est, rho, triad_pair(v_ref, rho), random_starts, _seed(*seed_key))
+
+
+def subset_rho(scatters: np.ndarray, membership: np.ndarray) -> np.ndarray:
+    """rho (Ricci Eq. 2) of every subset of repetitions at once: ``scatters`` (n_rep, 3, 3) unit
+    scatters, ``membership`` (n_subsets, n_rep) 0/1."""
+    total = np.einsum("sr,rij->sij", membership, scatters)
+    singular = np.sqrt(np.clip(np.linalg.eigvalsh(total), 0.0, None))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return singular[:, -1] / singular.sum(axis=1)

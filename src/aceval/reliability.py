@@ -1,0 +1,178 @@
+"""Reliability of functional axes: Ricci et al. 2014 Table 1, the supported-vs-unsupported t-tests,
+the LM iterations and residuals, and the reliability indices of Kong's motion tests.
+
+Inputs are the tidy tables of ``aceval calibrate``: ``axes`` (one row per subject, set, IMU and
+test: the pooled axis and its rho) and ``calibrations`` (one row per calibration and method).
+Published values come from ``reference/ricci2014`` (see its SOURCE.md).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .stats import TTEST_COLUMNS, holm, paired_ttest
+
+REFERENCE = Path(__file__).parent / "reference" / "ricci2014"
+#: Ricci's supported movement (with a bar) and the unsupported one it is compared with, per frame
+SUPPORTED_PAIRS = {"upper_arm": ("FEB", "FE"), "forearm": ("FFEB", "FE")}
+FRAMES = {"thorax": "thorax", "upper_arm": "upper_arm", "forearm": "forearm"}
+
+
+def segment_label(segment: pd.Series, side: pd.Series) -> pd.Series:
+    """'thorax', 'upper_arm_l', 'forearm_r' ... (Ricci Table 1 columns): side added when lateral."""
+    side = side.astype(str).str[:1]
+    return np.where(side.isin(["r", "l"]), segment.astype(str) + "_" + side, segment.astype(str))
+
+
+def _published_table1() -> pd.DataFrame:
+    wide = pd.read_csv(REFERENCE / "table1_reliability_index.csv", comment="#")
+    rows = []
+    for _, row in wide.iterrows():
+        for column in wide.columns:
+            if column.endswith("_mean") and np.isfinite(row[column]):
+                segment = column[: -len("_mean")]
+                rows.append({"test": row["code"], "segment": segment, "published_mean": row[column],
+                             "published_sd": row[f"{segment}_sd"]})
+    return pd.DataFrame(rows)
+
+
+def rho_table(axes: pd.DataFrame, paper_names: dict | None = None) -> pd.DataFrame:
+    """Ricci Table 1: rho mean, SD and n (subjects) per test and segment (with side), the
+    published value beside it (tests renamed with ``paper_names``, e.g. S -> 'TS/US/FS')."""
+    names = paper_names or {}
+    data = axes.assign(segment=segment_label(axes["segment"], axes["side"]),
+                       test=axes["test"].map(lambda t: names.get(t, t)))
+    result = data.groupby(["test", "segment"])["rho"].agg(mean="mean", sd="std", n="count").reset_index()
+    merged = result.merge(_published_table1(), on=["test", "segment"], how="outer")
+    merged["difference"] = merged["mean"] - merged["published_mean"]
+    return merged
+
+
+def supported_ttest(axes: pd.DataFrame) -> pd.DataFrame:
+    """Paired t-test of rho, supported (bar) vs unsupported movement, per frame and side
+    (FEB vs FE for upper arms, FFEB vs FE for forearms).
+
+    Pairing unit: the child (and side): each child's rho per movement is pooled over its 3 trials,
+    as in Table 1, so every pair is one child's two movements; sides are tested separately because
+    a child's left and right arm are not independent. Holm's correction across the rows.
+    """
+    rows = []
+    data = axes.assign(label=segment_label(axes["segment"], axes["side"]))
+    for frame, (supported, unsupported) in SUPPORTED_PAIRS.items():
+        for label, group in data[data["segment"] == frame].groupby("label", sort=True):
+            wide = group.pivot_table(index=["subject", "sensor_set"], columns="test", values="rho")
+            if not {supported, unsupported} <= set(wide.columns):
+                continue
+            wide = wide[[supported, unsupported]].dropna()
+            rows.append({"segment": label, "supported": supported, "unsupported": unsupported,
+                         **paired_ttest(wide[supported].to_numpy(), wide[unsupported].to_numpy())})
+    result = pd.DataFrame(rows, columns=["segment", "supported", "unsupported", *TTEST_COLUMNS])
+    result["p_holm"] = holm(result["p"])
+    published = _published_table1().set_index(["test", "segment"])
+    for side, column in (("a", "supported"), ("b", "unsupported")):
+        keys = list(zip(result[column], result["segment"]))
+        result[f"published_mean_{side}"] = [published["published_mean"].get(k, np.nan) for k in keys]
+    result["published_p"] = "< 0.05"
+    return result
+
+
+def _published_lm() -> pd.DataFrame:
+    return pd.read_csv(REFERENCE / "lm_published.csv", comment="#", dtype={"test": str}).fillna({"test": ""})
+
+
+def lm_table(calibrations: pd.DataFrame) -> pd.DataFrame:
+    """LM iterations per frame (mean, SD, n IMUs), the share that converged, and the random starts:
+    the share that reach the closed-form optimum and their iterations; published beside."""
+    lm = calibrations[calibrations["method"] == "ricci_lm"]
+    result = lm.groupby("segment").agg(
+        mean=("n_iterations", "mean"), sd=("n_iterations", "std"), n=("n_iterations", "count"),
+        converged_share=("converged", "mean"),
+        random_starts=("random_starts", "sum"), random_starts_optimum=("random_starts_optimum", "sum"),
+        random_start_iterations_mean=("random_start_iterations_mean", "mean"),
+        random_start_iterations_max=("random_start_iterations_max", "max"),
+    ).reset_index()
+    result["random_starts_optimum_share"] = result["random_starts_optimum"] / result["random_starts"]
+    published = _published_lm().query("quantity == 'iterations'").rename(
+        columns={"frame": "segment", "mean": "published_mean", "sd": "published_sd"})
+    merged = result.merge(published[["segment", "published_mean", "published_sd"]], on="segment", how="outer")
+    merged["difference"] = merged["mean"] - merged["published_mean"]
+    return merged
+
+
+def residual_table(axes: pd.DataFrame, paper_names: dict | None = None) -> pd.DataFrame:
+    """Ricci Fig. 5 / Eq. 13: residual angle (deg) between each reference axis and its estimate,
+    before (identity) and after the LM fit, mean and SD per segment (with side) and test."""
+    names = paper_names or {}
+    used = axes.dropna(subset=["residual_after_deg"])
+    data = used.assign(segment=segment_label(used["segment"], used["side"]))
+    result = data.groupby(["segment", "test"]).agg(
+        before_mean=("residual_before_deg", "mean"), before_sd=("residual_before_deg", "std"),
+        mean=("residual_after_deg", "mean"), sd=("residual_after_deg", "std"),
+        n=("residual_after_deg", "count")).reset_index()
+    overall = data.groupby("segment").agg(
+        before_mean=("residual_before_deg", "mean"), before_sd=("residual_before_deg", "std"),
+        mean=("residual_after_deg", "mean"), sd=("residual_after_deg", "std"),
+        n=("residual_after_deg", "count")).reset_index().assign(test="all")
+    result = pd.concat([result, overall], ignore_index=True)
+    published = _published_lm().query("quantity == 'residual_after_deg'").rename(
+        columns={"frame": "segment", "mean": "published_mean"})[["segment", "test", "published_mean"]]
+    merged = result.merge(published, on=["segment", "test"], how="left")
+    merged["difference"] = merged["mean"] - merged["published_mean"]
+    merged["test"] = merged["test"].map(lambda t: names.get(t, t))
+    return merged
+
+
+# --- Kong's datasets -------------------------------------------------------------------------
+
+
+def kong_units(axes: pd.DataFrame, calibrations: pd.DataFrame, angles: pd.DataFrame | None) -> pd.DataFrame:
+    """One row per (subject, set, IMU, motion test): rho of the gyroscope axis (Ricci), Kong's
+    planarity (smallest/largest eigenvalue of the acceleration second moment; 0 = a perfect
+    plane), both from all repetitions, and the mean Obj 4 test-retest angle (deg)."""
+    key = ["subject", "sensor_set", "imu", "test"]
+    motion = axes[axes["kind"] == "motion"][key + ["segment", "side", "rho"]]
+    kong = calibrations[calibrations["method"] == "kong"]
+    full = kong[kong["n_reps"] == kong.groupby(key)["n_reps"].transform("max")][key + ["planarity"]]
+    units = motion.merge(full, on=key, how="left")
+    if angles is not None and len(angles):
+        retest = (angles[angles["comparison"] == "test_retest"].groupby(key)["error_angle_deg"].mean()
+                  .rename("test_retest_deg").reset_index())
+        units = units.merge(retest, on=key, how="left")
+    else:
+        units["test_retest_deg"] = np.nan
+    return units
+
+
+INDICES = {"rho_gyro": "rho of the gyroscope axis (Ricci Eq. 2; 1 = one axis)",
+           "planarity": "Kong planarity (smallest/largest eigenvalue; 0 = one plane)"}
+
+
+def kong_reliability_table(units: pd.DataFrame) -> pd.DataFrame:
+    """Both indices in Table 1's layout: mean, SD and n per test and segment."""
+    long = units.rename(columns={"rho": "rho_gyro"}).melt(
+        id_vars=["test", "segment"], value_vars=list(INDICES), var_name="index", value_name="value")
+    return long.groupby(["index", "test", "segment"])["value"].agg(mean="mean", sd="std", n="count").reset_index()
+
+
+def reliability_vs_retest(units: pd.DataFrame) -> pd.DataFrame:
+    """Spearman rank correlation of each index with the test-retest angle, over all units and
+    within each test (n = units)."""
+    rows = []
+    data = units.rename(columns={"rho": "rho_gyro"})
+    for index in INDICES:
+        for test, group in [("all", data), *data.groupby("test", sort=True)]:
+            pair = group[[index, "test_retest_deg"]].dropna()
+            if len(pair) >= 3 and pair[index].nunique() > 1 and pair["test_retest_deg"].nunique() > 1:
+                from scipy import stats
+
+                result = stats.spearmanr(pair[index], pair["test_retest_deg"])
+                rho_s, p = float(result.statistic), float(result.pvalue)
+            else:
+                rho_s, p = np.nan, np.nan
+            rows.append({"index": index, "test": test, "spearman_r": rho_s, "p": p, "n": len(pair)})
+    table = pd.DataFrame(rows)
+    table["p_holm"] = holm(table["p"])
+    return table
