@@ -6,19 +6,36 @@ import pandas as pd
 
 DATASETS = config["datasets"]
 SIMULATED = [name for name, spec in DATASETS.items() if "simulate" in spec]
-#: what each analysis produces (Kong et al. 2016 table and figure numbers)
+#: what each analysis produces: Kong et al. 2016 tables and figures (tableN, figureN), the Ricci
+#: et al. 2014 reproduction, the reliability of Kong's tests; "methods" joins every dataset with
+#: ground truth
 ANALYSES = {
-    "kong": {"tables": [3, 6, 7, 8, 9, 10, 11], "figures": [6, 8, 9, 10]},
-    "box": {"tables": [4, 5], "figures": []},
+    "kong": {"tables": ["table3", "table6", "table7", "table8", "table9", "table10", "table11",
+                        "reliability", "reliability_retest"],
+             "figures": ["figure6", "figure8", "figure9", "figure10", "reliability"]},
+    "box": {"tables": ["table4", "table5"], "figures": []},
+    "ricci": {"tables": ["ricci_table1", "ricci_ttest", "ricci_lm", "ricci_residuals"],
+              "figures": ["ricci_figure4", "ricci_figure5"]},
+    "methods": {"tables": ["methods", "methods_best"], "figures": ["methods"]},
 }
-CORRELATION_TABLES = {3, 4, 5, 6, 7}
-ANGLE_TABLES = {8, 9, 10, 11}
+#: the inputs of each table and figure (Kong's by number: correlations or error angles)
+INPUTS = {
+    **{f"table{n}": ["correlations"] for n in (3, 4, 5, 6, 7)},
+    **{f"table{n}": ["angles"] for n in (8, 9, 10, 11)},
+    "figure6": ["correlations"], "figure8": ["correlations"], "figure9": ["angles"], "figure10": ["angles"],
+    "ricci_table1": ["axes"], "ricci_ttest": ["axes"], "ricci_lm": ["calibrations"], "ricci_residuals": ["axes"],
+    "ricci_figure4": ["axes"], "ricci_figure5": ["axes"],
+    "reliability": ["axes", "calibrations", "angles"], "reliability_retest": ["axes", "calibrations", "angles"],
+    "methods": ["calibrations"], "methods_best": ["calibrations"],
+}
+ALL_UNITS = "_all"  # the calibration "unit" of a dataset calibrated in one job
 
 
 wildcard_constraints:
     dataset="|".join(map(re.escape, DATASETS)),
     subject=r"[^/]+",
-    number=r"\d+",
+    table="|".join(sorted({t for a in ANALYSES.values() for t in a["tables"]})),
+    figure="|".join(sorted({f for a in ANALYSES.values() for f in a["figures"]})),
 
 
 def dataset_dir(dataset):
@@ -43,18 +60,29 @@ def subjects(dataset):
     return list(table["subject"].str.strip())
 
 
+def calibration_units(dataset):
+    """What one calibration job covers: each subject, or the whole dataset (``calibration_jobs: one``)."""
+    if DATASETS[dataset].get("calibration_jobs", "per_subject") == "one":
+        return [ALL_UNITS]
+    return subjects(dataset)
+
+
 def subject_recordings(wildcards):
     """A lab dataset's recording files of one subject (so that editing them reruns only that subject)."""
     if wildcards.dataset in SIMULATED:
         return []
     root = dataset_dir(wildcards.dataset)
     table = pd.read_csv(f"{root}/recordings.tsv", sep="\t", dtype=str)
-    paths = table.loc[table["subject"].str.strip() == wildcards.subject, "path"].str.strip()
-    return [f"{root}/{p}" for p in paths]
+    chosen = table if wildcards.subject == ALL_UNITS else table[table["subject"].str.strip() == wildcards.subject]
+    return [f"{root}/{p}" for p in chosen["path"].str.strip()]
+
+
+def has_ground_truth(dataset):
+    return dataset in SIMULATED or os.path.exists(f"{dataset_dir(dataset)}/ground_truth.tsv")
 
 
 def analyses(dataset):
-    return DATASETS[dataset].get("analyses", [])
+    return DATASETS[dataset].get("analyses", []) + (["methods"] if has_ground_truth(dataset) else [])
 
 
 def tables_of(dataset):
@@ -77,6 +105,6 @@ def all_outputs(wildcards):
     out = []
     for dataset in DATASETS:
         out.append(f"results/{dataset}/SUMMARY.md")
-        out += [f"results/{dataset}/tables/table{n}.md" for n in tables_of(dataset)]
-        out += [f"results/{dataset}/figures/figure{n}.png" for n in figures_of(dataset)]
+        out += [f"results/{dataset}/tables/{name}.md" for name in tables_of(dataset)]
+        out += [f"results/{dataset}/figures/{name}.png" for name in figures_of(dataset)]
     return out

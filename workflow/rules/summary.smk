@@ -1,10 +1,11 @@
-# Stage 4: per dataset, each of Kong's claims with holds / does not hold / not testable.
+# Stage 4: per dataset, each claim of Kong et al. 2016 and Ricci et al. 2014 with holds / does not hold /
+# not testable, and which test to use for which segment (datasets with ground truth).
 
 
 def summary_inputs(wildcards):
     dataset = wildcards.dataset
     inputs = {"validation": f"results/{dataset}/validation.txt",
-              "tables": [f"results/{dataset}/tables/table{n}.csv" for n in tables_of(dataset)]}
+              "tables": [f"results/{dataset}/tables/{name}.csv" for name in tables_of(dataset)]}
     if "kong" in analyses(dataset):
         inputs["angles"] = f"results/{dataset}/angles.csv"
         inputs["calibrations"] = calibration_files(wildcards)
