@@ -11,6 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from .tables import SEGMENT_ORDER
+
 #: Kong et al. 2016 Sec. 4: the test recommended for each segment
 KONG_RECOMMENDATION = {"head": "T3", "chest": "T3", "waist": "T3", "thigh": "T6", "shank": "T6"}
 METHOD_ORDER = ["kong", "ricci_lm", "align_vectors", "triad"]
@@ -64,4 +66,10 @@ def best_tests(calibrations: pd.DataFrame) -> pd.DataFrame:
         rows.append({"segment": segment, "method": method, "best_test": best["test"],
                      "best_median_deg": best["error_deg"], "kong_recommends": recommended,
                      "recommended_median_deg": float(at_recommended.iloc[0]) if len(at_recommended) else np.nan})
-    return pd.DataFrame(rows)
+    table = pd.DataFrame(rows)
+    if table.empty:
+        return table
+    rank = table["segment"].map(lambda s: SEGMENT_ORDER.index(s) if s in SEGMENT_ORDER else len(SEGMENT_ORDER))
+    table["method_rank"] = table["method"].map({m: i for i, m in enumerate(METHOD_ORDER)})
+    return (table.assign(segment_rank=rank).sort_values(["segment_rank", "segment", "method_rank"])
+            .drop(columns=["segment_rank", "method_rank"]))

@@ -312,9 +312,9 @@ def methods_section(tables: dict) -> list[str]:
     lines.append("")
     for segment, group in best.groupby("segment", sort=False):
         parts = [f"{r['method']} {r['best_test']} ({r['best_median_deg']:.2f} deg)" for _, r in group.iterrows()]
-        kong = group[group["method"] == "kong"]
+        kong = group[(group["method"] == "kong") & group["kong_recommends"].notna() & (group["kong_recommends"] != "")]
         text = f"- **{segment}**: smallest median error with " + ", ".join(parts)
-        if len(kong) and kong["kong_recommends"].iloc[0]:
+        if len(kong):
             row = kong.iloc[0]
             agree = "agrees with" if row["best_test"] == row["kong_recommends"] else "differs from"
             text += (f". Kong recommends {row['kong_recommends']} ({row['recommended_median_deg']:.2f} deg with Kong's "

@@ -1,0 +1,135 @@
+"""Axis moments, first-phase signs, the axis methods (Ricci LM, align_vectors, TRIAD) and Ricci's
+functional design, each on a hand-made case with a known answer."""
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.spatial.transform import Rotation
+
+from aceval.calibration.ricci import axis_from_moments, first_phase_sign, functional_axis, unit_moments
+from aceval.dataset import load_dataset, validate
+from aceval.functional import (
+    AXIS_METHODS, MOMENT_COLUMNS, fit_axes, functional_fits, pool, recording_moments, sagittal_fits, subset_rho,
+    triad_pair,
+)
+from aceval.pipeline import calibrate, summarise_recordings
+from aceval.rotations import error_angle_deg
+from aceval.simulate import SimOptions
+from aceval.simulate.ricci import simulate_ricci
+
+TRUE = Rotation.from_euler("xyz", [25, -40, 110], degrees=True).as_matrix()  # sensor -> body
+
+
+def test_pooled_moments_equal_the_axis_of_the_joined_samples():
+    rng = np.random.default_rng(0)
+    first, second = rng.normal(size=(300, 3)) + [3, 0, 0], rng.normal(size=(200, 3)) + [2, 1, 0]
+    rows = pd.DataFrame([recording_moments(x, 100.0, motion=False) for x in (first, second)])
+    pooled = pool(rows)
+    joined = functional_axis(np.vstack([first, second]))
+    assert pooled.rho == pytest.approx(joined.rho, abs=1e-12)
+    np.testing.assert_allclose(pooled.axis, joined.axis, atol=1e-12)
+    scatters = rows[MOMENT_COLUMNS[3:12]].to_numpy().reshape(-1, 3, 3)
+    rho = subset_rho(scatters, np.array([[1, 0], [0, 1], [1, 1]]))
+    assert rho[2] == pytest.approx(joined.rho, abs=1e-12)
+    assert rho[0] == pytest.approx(functional_axis(first).rho, abs=1e-12)
+
+
+def test_rho_of_a_rotated_recording_is_unchanged_and_its_axis_rotates():
+    rng = np.random.default_rng(1)
+    samples = np.outer(np.sin(np.linspace(0, 9, 500)), [0.2, 0.9, 0.1]) + rng.normal(0, 0.05, (500, 3))
+    Q = Rotation.from_rotvec([0.3, -1.2, 0.5]).as_matrix()
+    plain, rotated = functional_axis(samples), functional_axis(samples @ Q.T)
+    assert rotated.rho == pytest.approx(plain.rho, abs=1e-12)
+    assert abs(rotated.axis @ (Q @ plain.axis)) == pytest.approx(1.0, abs=1e-12)
+
+
+def test_first_phase_sign_follows_the_first_movement_direction():
+    t = np.linspace(0, 2, 200)
+    speed = np.sin(2 * np.pi * t / 2)  # out (positive) then back (negative): one repetition
+    axis = np.array([0.0, 1.0, 0.0])
+    assert first_phase_sign(np.outer(speed, axis), axis, 100.0) == 1.0
+    assert first_phase_sign(np.outer(-speed, axis), axis, 100.0) == -1.0
+    assert first_phase_sign(np.outer(speed, axis), -axis, 100.0) == -1.0
+    assert first_phase_sign(np.zeros((10, 3)), axis, 100.0) == 0.0
+    row = recording_moments(np.outer(-speed, axis) + 1e-3, 100.0, motion=True)
+    assert row["phase_y"] == pytest.approx(-1.0, abs=1e-3)
+
+
+def test_every_method_fed_the_true_axes_has_zero_error():
+    z0, y = TRUE.T @ [0, 0, 1], TRUE.T @ [0, 1, 0]  # the body axes seen in the sensor frame
+    for fits in (sagittal_fits(z0, 0.99, y, 0.6),
+                 fit_axes(np.eye(3), np.eye(3) @ TRUE, np.array([0.9, 0.5, 0.7]), (0, 1), random_starts=3)):
+        for method in AXIS_METHODS:
+            assert error_angle_deg(fits[method]["R"], TRUE) == pytest.approx(0.0, abs=1e-5), method
+    lm = fits["ricci_lm"]
+    assert lm["converged"] and lm["random_starts_optimum"] == 3
+    np.testing.assert_allclose(lm["residual_after_deg"], 0.0, atol=1e-4)
+
+
+def test_a_rotated_sensor_gives_a_correspondingly_rotated_calibration():
+    rng = np.random.default_rng(2)
+    z0 = TRUE.T @ [0, 0, 1] + rng.normal(0, 0.02, 3)
+    y = TRUE.T @ [0, 1, 0] + rng.normal(0, 0.05, 3)
+    Q = Rotation.from_rotvec([0.4, 0.1, -0.9]).as_matrix()  # the sensor turned on its segment
+    plain, turned = sagittal_fits(z0, 0.99, y, 0.6), sagittal_fits(Q @ z0, 0.99, Q @ y, 0.6)
+    for method in AXIS_METHODS:
+        np.testing.assert_allclose(turned[method]["R"], plain[method]["R"] @ Q.T, atol=1e-6)
+
+
+def test_triad_keeps_z0_and_weights_pull_the_lm_towards_the_reliable_axis():
+    z0 = TRUE.T @ [0, 0, 1]
+    y = Rotation.from_rotvec(np.radians(4) * TRUE.T @ [1, 0, 0]).as_matrix() @ (TRUE.T @ [0, 1, 0])  # 4 deg off
+    fits = sagittal_fits(z0, 0.99, y, 0.6)
+    np.testing.assert_allclose(fits["triad"]["R"] @ z0, [0, 0, 1], atol=1e-12)
+    z_error = np.degrees(np.arccos(np.clip(fits["ricci_lm"]["R"] @ z0 @ [0, 0, 1], -1, 1)))
+    assert 0.0 < z_error < 2.0  # the more reliable z0 moves less than half of the 4 deg
+    # Ricci's stop rule (relative cost change < 1e-4) ends near, not at, the closed-form optimum
+    assert error_angle_deg(fits["ricci_lm"]["R"], fits["align_vectors"]["R"]) < 0.01
+
+
+def test_triad_pair_skips_a_reference_parallel_to_the_primary():
+    v_ref = np.array([[0, 1, 0], [0, 1, 0], [0, 0, 1.0]])  # forearm: supine and FFEB both along y
+    assert triad_pair(v_ref, np.array([0.98, 0.74, 0.83])) == (0, 2)
+    assert triad_pair(v_ref, np.array([0.5, 0.9, 0.6])) == (1, 2)
+
+
+def test_aligned_axes_are_flagged_not_raised():
+    fits = sagittal_fits(np.array([0, 0, 1.0]), 0.99, np.array([0, 0.01, 1.0]), 0.6)
+    assert fits["triad"]["R"] is None and fits["triad"]["flag"] == "aligned_axes"
+
+
+@pytest.fixture(scope="module")
+def ricci_child(tmp_path_factory):
+    """One simulated child, ideal sensors and no wobble: only the off-axis movement remains."""
+    root = tmp_path_factory.mktemp("ricci") / "child"
+    return simulate_ricci(root, seed=4, n_subjects=1, options=SimOptions(noise=False, wobble=0.0))
+
+
+def test_functional_design_signs_axes_and_recovers_the_mountings(ricci_child):
+    dataset = load_dataset(ricci_child)
+    calibrations, axes = calibrate(dataset, summarise_recordings(dataset))
+    assert set(calibrations["method"]) == set(AXIS_METHODS)
+    assert len(calibrations) == 5 * len(AXIS_METHODS)
+    assert calibrations["error_deg"].max() < 3.0, calibrations[["imu", "method", "error_deg"]]
+    used = axes[axes["reference"].fillna("") != ""]
+    assert len(used) == 3 + 4 * 2 + 3 * 2  # thorax S TR TFE; upper arms S AA FE FEB; forearms S PS FFEB
+    assert (used["residual_after_deg"] < 10).all()  # a wrong sign would leave ~180 deg
+    lm = calibrations[calibrations["method"] == "ricci_lm"]
+    assert lm["converged"].all() and (lm["random_starts_optimum"] == lm["random_starts"]).all()
+    static = axes[axes["kind"] == "static"]
+    assert static["rho"].between(0.95, 1.0).all()
+
+
+def test_functional_axes_sheet_is_validated(ricci_child, tmp_path):
+    import shutil
+
+    root = tmp_path / "bad"
+    shutil.copytree(ricci_child, root)
+    sheet = root / "functional_axes.tsv"
+    sheet.write_text(sheet.read_text() + "TR\tthorax\tz\nXX\tthorax\t+x\nFE\tpelvis\t+y\n")
+    _, report = validate(root, check_files=False)
+    text = report.format()
+    assert "axis 'z' must be a signed axis" in text
+    assert "test 'XX' is not defined" in text
+    assert "segment 'pelvis'" in text
+    assert "given twice" in text
