@@ -27,7 +27,7 @@ TABLES = {
     "ricci_lm": dict(
         needs="calibrations", title="Ricci et al. 2014: Levenberg-Marquardt iterations per frame, and random starts",
         unit="IMUs (subject x side); q0 = identity, lambda = 1e-3, stop at relative cost change < 1e-4; "
-             "each fit also from 10 random unit quaternions, counted as reaching the optimum when within "
+             "each fit also from random unit quaternions (how many: random_starts), counted as reaching the optimum when within "
              "0.1 deg of SciPy's closed-form solution",
         build=lambda d: reliability.lm_table(d["calibrations"])),
     "ricci_residuals": dict(

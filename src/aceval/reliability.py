@@ -95,6 +95,7 @@ def lm_table(calibrations: pd.DataFrame) -> pd.DataFrame:
         random_start_iterations_max=("random_start_iterations_max", "max"),
     ).reset_index()
     result["random_starts_optimum_share"] = result["random_starts_optimum"] / result["random_starts"]
+    result[["random_starts", "random_starts_optimum"]] = result[["random_starts", "random_starts_optimum"]].astype(int)
     published = _published_lm().query("quantity == 'iterations'").rename(
         columns={"frame": "segment", "mean": "published_mean", "sd": "published_sd"})
     merged = result.merge(published[["segment", "published_mean", "published_sd"]], on="segment", how="outer")
