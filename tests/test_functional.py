@@ -6,11 +6,10 @@ import pandas as pd
 import pytest
 from scipy.spatial.transform import Rotation
 
-from aceval.calibration.ricci import axis_from_moments, first_phase_sign, functional_axis, unit_moments
+from aceval.calibration.ricci import first_phase_sign, functional_axis
 from aceval.dataset import load_dataset, validate
 from aceval.functional import (
-    AXIS_METHODS, MOMENT_COLUMNS, fit_axes, functional_fits, pool, recording_moments, sagittal_fits, subset_rho,
-    triad_pair,
+    AXIS_METHODS, MOMENT_COLUMNS, fit_axes, pool, recording_moments, sagittal_fits, subset_rho, triad_pair,
 )
 from aceval.pipeline import calibrate, summarise_recordings
 from aceval.rotations import error_angle_deg
