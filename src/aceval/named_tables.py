@@ -8,11 +8,10 @@ beside each reproduced one where the paper gives one.
 
 from __future__ import annotations
 
-import numpy as np
 import pandas as pd
 
 from . import comparison, reliability
-from .tables import _fmt, _fmt_p
+from .tables import _fmt, _fmt_p, rounded
 
 TABLES = {
     "ricci_table1": dict(
@@ -64,12 +63,7 @@ def build(name: str, axes=None, calibrations=None, angles=None, paper_names=None
         raise ValueError(f"unknown table {name!r}: one of {', '.join(TABLES)} or a Kong table number")
     table = TABLES[name]["build"](dict(axes=axes, calibrations=calibrations, angles=angles,
                                        paper_names=paper_names or {}))
-    for column in table.columns:
-        if column in ("p", "p_holm"):
-            table[column] = [float(f"{v:.3g}") if np.isfinite(v) else np.nan for v in table[column]]
-        elif pd.api.types.is_float_dtype(table[column]):
-            table[column] = table[column].round(4)
-    return table.reset_index(drop=True)
+    return rounded(table.reset_index(drop=True))
 
 
 def to_markdown(table: pd.DataFrame, name: str, dataset: str, simulated: bool) -> str:

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .objectives import full_sets
 from .stats import TTEST_COLUMNS, holm, paired_ttest
 
 REFERENCE = Path(__file__).parent / "reference" / "ricci2014"
@@ -135,9 +136,7 @@ def kong_units(axes: pd.DataFrame, calibrations: pd.DataFrame, angles: pd.DataFr
     plane), both from all repetitions, and the mean Obj 4 test-retest angle (deg)."""
     key = ["subject", "sensor_set", "imu", "test"]
     motion = axes[axes["kind"] == "motion"][key + ["segment", "side", "rho"]]
-    kong = calibrations[calibrations["method"] == "kong"]
-    full = kong[kong["n_reps"] == kong.groupby(key)["n_reps"].transform("max")][key + ["planarity"]]
-    units = motion.merge(full, on=key, how="left")
+    units = motion.merge(full_sets(calibrations)[key + ["planarity"]], on=key, how="left")
     if angles is not None and len(angles):
         retest = (angles[angles["comparison"] == "test_retest"].groupby(key)["error_angle_deg"].mean()
                   .rename("test_retest_deg").reset_index())

@@ -197,11 +197,16 @@ def _tidy(table: pd.DataFrame, number: int) -> pd.DataFrame:
     spec = TABLES[number]
     keys = [k for k in (spec["row"], spec.get("column")) if k]
     table = table.sort_values(keys, key=_sort_key).reset_index(drop=True)
+    if "n" in table.columns:
+        table["n"] = table["n"].fillna(0).astype(int)
+    return rounded(table)
+
+
+def rounded(table: pd.DataFrame) -> pd.DataFrame:
+    """p-values to 3 significant digits, other floats to 4 decimals (stable, diff-friendly CSVs)."""
     for column in table.columns:
         if column in ("p", "p_holm"):
             table[column] = [float(f"{v:.3g}") if np.isfinite(v) else np.nan for v in table[column]]
-        elif column == "n":
-            table[column] = table[column].fillna(0).astype(int)
         elif pd.api.types.is_float_dtype(table[column]):
             table[column] = table[column].round(4)
     return table
