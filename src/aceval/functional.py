@@ -87,6 +87,11 @@ def _seed(*key) -> int:
     return zlib.crc32("|".join(map(str, key)).encode())
 
 
+def _failed(exc: Exception) -> dict:
+    """A method's entry when it could not calibrate: no R, the error's code as flag, its message."""
+    return {"R": None, "flag": getattr(exc, "code", "calibration_error"), "message": str(exc)}
+
+
 def fit_axes(v_ref: np.ndarray, v_est: np.ndarray, rho: np.ndarray, triad_pair: tuple[int, int],
              random_starts: int = 0, seed: int = 0) -> dict[str, dict]:
     """R (sensor -> body) by each of ``AXIS_METHODS`` from axis pairs ``v_ref ~ R v_est``.
@@ -102,7 +107,7 @@ def fit_axes(v_ref: np.ndarray, v_est: np.ndarray, rho: np.ndarray, triad_pair: 
         out["align_vectors"] = {"R": optimum}
     except (CalibrationError, ValueError) as exc:
         optimum = None
-        out["align_vectors"] = {"R": None, "flag": getattr(exc, "code", "calibration_error"), "message": str(exc)}
+        out["align_vectors"] = _failed(exc)
     try:
         fit = lm_fit(v_ref, v_est, rho)
         entry = {"R": fit.R, "n_iterations": fit.n_iterations, "converged": fit.converged,
@@ -119,12 +124,12 @@ def fit_axes(v_ref: np.ndarray, v_est: np.ndarray, rho: np.ndarray, triad_pair: 
                          random_start_iterations_max=int(max(r.n_iterations for r in runs)))
         out["ricci_lm"] = entry
     except (CalibrationError, ValueError) as exc:
-        out["ricci_lm"] = {"R": None, "flag": getattr(exc, "code", "calibration_error"), "message": str(exc)}
+        out["ricci_lm"] = _failed(exc)
     try:
         primary, secondary = triad_pair
         out["triad"] = {"R": triad(v_ref[[primary, secondary]], v_est[[primary, secondary]])}
     except (CalibrationError, ValueError) as exc:
-        out["triad"] = {"R": None, "flag": getattr(exc, "code", "calibration_error"), "message": str(exc)}
+        out["triad"] = _failed(exc)
     return out
 
 
