@@ -1,4 +1,4 @@
-"""Command line: ``aceval simulate|validate|calibrate|correlate|angles|table|figure|summary``
+"""Command line: ``aceval simulate|import|validate|calibrate|apply|correlate|angles|table|figure|summary``
 (also ``python -m aceval``). The workflow's rules are thin calls of these commands."""
 
 from __future__ import annotations
@@ -10,26 +10,16 @@ import tempfile
 from pathlib import Path
 
 
-def _simulate(args) -> int:
-    from .simulate import GENERATORS, SimOptions
-
-    out = Path(args.out)
-    if out.exists() and any(out.iterdir()):
-        if not args.force:
-            print(f"aceval simulate: {out} exists and is not empty (use --force to replace it)", file=sys.stderr)
-            return 2
-    options = SimOptions(
-        noise=not args.no_noise, offplane=0.0 if args.no_offplane else 1.0,
-        wobble=0.0 if args.no_wobble else 1.0, repetitions=args.repetitions,
-    )
-    kwargs = {"options": options}
-    if args.subjects is not None:
-        kwargs["n_subjects"] = args.subjects
-    # write into a temporary sibling and move it into place: a failed run leaves nothing behind
+def _staged(out: Path, force: bool, command: str, write) -> int:
+    """Call ``write(folder)`` on a temporary sibling of ``out``, then move it into place: a failed
+    run leaves nothing behind, and a non-empty ``out`` is only replaced with ``force``."""
+    if out.exists() and any(out.iterdir()) and not force:
+        print(f"aceval {command}: {out} exists and is not empty (use --force to replace it)", file=sys.stderr)
+        return 2
     out.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
     try:
-        GENERATORS[args.protocol](staging, args.seed, **kwargs)
+        write(staging)
         if out.exists():
             shutil.rmtree(out)
         staging.rename(out)
@@ -38,6 +28,33 @@ def _simulate(args) -> int:
             shutil.rmtree(staging)
     print(f"wrote {out}", file=sys.stderr)
     return 0
+
+
+def _simulate(args) -> int:
+    from .simulate import GENERATORS, SimOptions
+
+    options = SimOptions(
+        noise=not args.no_noise, offplane=0.0 if args.no_offplane else 1.0,
+        wobble=0.0 if args.no_wobble else 1.0, repetitions=args.repetitions,
+    )
+    kwargs = {"options": options}
+    if args.subjects is not None:
+        kwargs["n_subjects"] = args.subjects
+    return _staged(Path(args.out), args.force, "simulate",
+                   lambda folder: GENERATORS[args.protocol](folder, args.seed, **kwargs))
+
+
+def _import(args) -> int:
+    from .importers import FormatError
+    from .importers.run import run_import
+
+    try:
+        return _staged(Path(args.out), args.force, "import",
+                       lambda folder: print(run_import(folder, args.format, args.src, args.sensors, args.subject,
+                                                       args.vicon, args.name).summary(), file=sys.stderr))
+    except (FormatError, OSError) as exc:
+        print(f"aceval import {args.format}: {exc}", file=sys.stderr)
+        return 1
 
 
 def _validate(args) -> int:
@@ -226,6 +243,18 @@ def main(argv: list[str] | None = None) -> int:
     simulate.add_argument("--no-wobble", action="store_true", help="no soft-tissue wobble")
     simulate.add_argument("--force", action="store_true", help="replace a non-empty output folder")
     simulate.set_defaults(run=_simulate)
+
+    importer = commands.add_parser("import", help="convert recordings in a foreign format into a dataset folder "
+                                   "(with import_report.tsv: what was imported, flagged or left out, and why)")
+    importer.add_argument("format", choices=["hugadb", "xsens"])
+    importer.add_argument("src", help="hugadb: the folder of HuGaDB_*.txt; xsens: the folder of MT Manager exports")
+    importer.add_argument("--out", required=True, help="output dataset folder (created)")
+    importer.add_argument("--sensors", help="xsens: sensor sheet (sensor_id imu sensor_set segment side region right_axis)")
+    importer.add_argument("--subject", default="S01", help="xsens: subject name (S01)")
+    importer.add_argument("--vicon", help="xsens: Vicon .mat of the same trial: writes ground_truth.tsv (see docs)")
+    importer.add_argument("--name", help="dataset name (default: the format)")
+    importer.add_argument("--force", action="store_true", help="replace a non-empty output folder")
+    importer.set_defaults(run=_import)
 
     validate = commands.add_parser("validate", help="check a dataset folder against the contract")
     validate.add_argument("dataset")

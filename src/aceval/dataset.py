@@ -32,7 +32,10 @@ SHEETS = {
 }
 OPTIONAL_SHEETS = {"ground_truth.tsv": ["subject", "sensor_set", "imu", *R_COLUMNS],
                    "functional_axes.tsv": ["test", "segment", "axis"]}
-#: |acc| at rest must lie within this band around 1 g, else the declared units are probably wrong
+#: median |acc| (g) of a static recording: outside the wide band the declared units are wrong (an
+#: error: g and m/s^2 differ 9.81-fold); outside the narrow one the subject was not at rest (a
+#: warning: e.g. a fallback static test taken from walking)
+UNITS_GRAVITY_BAND = (0.5, 2.0)
 REST_GRAVITY_BAND = (0.8, 1.2)
 #: a sample within this fraction of the declared range counts as saturated
 SATURATION_FRACTION = 0.999
@@ -144,6 +147,12 @@ class Dataset:
     @cached_property
     def imu_regions(self) -> dict[tuple[str, str], str]:
         return self.imus["region"].to_dict()
+
+    def acc_limit(self, sensor_set: str, imu: str) -> float | None:
+        """|acc| (m/s^2, any axis) at or above which a sample counts as clipped at the range
+        declared in dataset.yaml ``acc_range_g`` for the IMU's region; None when none is declared."""
+        acc_range = (self.meta.get("acc_range_g") or {}).get(self.imu_regions[(sensor_set, imu)])
+        return SATURATION_FRACTION * float(acc_range) * GRAVITY if acc_range else None
 
     def static_tests(self) -> list[str]:
         return list(self.tests.index[self.tests["kind"] == "static"])
@@ -403,10 +412,11 @@ def check_recording(dataset: Dataset, row, report: ValidationReport) -> None:
     acc = values[:, 1:4]
     if dataset.test_kinds[row["test"]] == "static":
         magnitude_g = float(np.median(np.linalg.norm(acc, axis=1))) * dataset.acc_scale / GRAVITY
-        low, high = REST_GRAVITY_BAND
-        if not low <= magnitude_g <= high:
+        if not UNITS_GRAVITY_BAND[0] <= magnitude_g <= UNITS_GRAVITY_BAND[1]:
             report.error(where, f"acceleration at rest is {magnitude_g:.3g} g (expected about 1 g): "
                          f"are units.acc ({dataset.meta['units']['acc']}) right?")
+        elif not REST_GRAVITY_BAND[0] <= magnitude_g <= REST_GRAVITY_BAND[1]:
+            report.warning(where, f"static recording with median |acc| {magnitude_g:.3g} g: not at rest")
     region = dataset.imu_regions[(row["sensor_set"], row["imu"])]
     acc_range = (dataset.meta.get("acc_range_g") or {}).get(region)
     if acc_range:

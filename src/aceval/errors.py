@@ -24,6 +24,10 @@ class NoMovementError(CalibrationError):
     code = "no_movement"
 
 
+class SaturatedError(CalibrationError):
+    code = "saturated"
+
+
 class NotPlanarError(CalibrationError):
     code = "not_planar"
 

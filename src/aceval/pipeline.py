@@ -14,7 +14,7 @@ import pandas as pd
 
 from .calibration.kong import KongLimits, kong_from_scatters, scatter, vertical_axis
 from .dataset import Dataset, R_COLUMNS
-from .errors import CalibrationError
+from .errors import CalibrationError, SaturatedError
 from .functional import (
     AXIS_METHODS, MOMENT_COLUMNS, SCATTER_COLUMNS as UNIT_SCATTER_COLUMNS, functional_fits, pool, pool_summed,
     recording_moments, sagittal_fits, subset_rho,
@@ -25,6 +25,10 @@ from .segmentation import TrimParams, mask_to_ranges, movement_mask
 
 SCATTER_COLUMNS = [f"s{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
 KEY = ["subject", "sensor_set", "imu"]
+#: a motion recording is left out when more than this fraction of its moving samples is clipped at
+#: the accelerometer range (a choice, not from the papers: the clipped samples themselves are always
+#: left out of the scatter, and beyond a fifth of them the plane rests on a biased remainder)
+MAX_CLIPPED_FRACTION = 0.2
 
 
 def summarise_recordings(dataset: Dataset, subject: str | None = None,
@@ -33,6 +37,8 @@ def summarise_recordings(dataset: Dataset, subject: str | None = None,
 
     Static tests: ``z0_x, z0_y, z0_z`` (Kong Eq. 2). Motion tests that may calibrate the IMU
     (calibrates.tsv): ``n_samples`` kept by the trimmer and the scatter ``s11..s33`` (m^2/s^4).
+    Samples clipped at the declared accelerometer range (``n_clipped``) carry a wrong direction
+    and are left out of the scatter; above :data:`MAX_CLIPPED_FRACTION` the recording is left out.
     A recording that cannot be used gets ``flag`` (the error code) and ``message`` naming the file.
     """
     recordings = dataset.recordings
@@ -55,6 +61,13 @@ def summarise_recordings(dataset: Dataset, subject: str | None = None,
                 row.update(recording_moments(data.acc, dataset.fs_hz, motion=False))
             else:
                 mask = movement_mask(data.gyr, dataset.fs_hz, trim)
+                limit = dataset.acc_limit(rec["sensor_set"], rec["imu"])
+                clipped = mask & (np.abs(data.acc) >= limit).any(axis=1) if limit else np.zeros_like(mask)
+                row["n_clipped"] = int(clipped.sum())
+                if row["n_clipped"] > MAX_CLIPPED_FRACTION * mask.sum():
+                    raise SaturatedError(f"{row['n_clipped']} of {int(mask.sum())} moving samples are clipped at "
+                                         f"the accelerometer range (more than {MAX_CLIPPED_FRACTION:.0%})")
+                mask = mask & ~clipped
                 kept = data.acc[mask]
                 row["n_samples"] = int(mask.sum())
                 row["n_segments"] = len(mask_to_ranges(mask))
@@ -137,7 +150,8 @@ def calibrate_sagittal(dataset: Dataset, summaries: pd.DataFrame, subsets: str =
     z0 comes from the IMU's static recording(s) (Kong Eq. 2; several are averaged). One row per
     calibration: key columns, ``repetitions`` ('R1+R3+R4'), ``n_reps``, ``method``, r11..r33,
     diagnostics (Kong: eigenvalues, planarity...; all: ``rho_static`` and ``rho_motion``, the
-    reliability of the static and gyroscope axes, Ricci Eq. 2), ``flag`` ('' when valid) and,
+    reliability of the static and gyroscope axes, Ricci Eq. 2; ``z0_tests``, the static test(s)
+    z0 came from), ``flag`` ('' when valid) and,
     with ground truth, ``error_deg`` and ``error_vertical_share``. ``axes``: one row per
     (subject, set, IMU, test) with the axis and rho of all its repetitions.
     """
@@ -164,7 +178,8 @@ def calibrate_sagittal(dataset: Dataset, summaries: pd.DataFrame, subsets: str =
         for row, subset in enumerate(members):
             membership[row, subset] = 1.0
         rho_motion = subset_rho(group[UNIT_SCATTER_COLUMNS].to_numpy(float).reshape(-1, 3, 3), membership)
-        rho_static = static_axes[(subject, sensor_set, imu)][0].rho
+        static_axis, z0_tests, _ = static_axes[(subject, sensor_set, imu)]
+        rho_static = static_axis.rho
         truth = dataset.ground_truth_matrix(subject, sensor_set, imu)
         errors = _truth_columns(truth, result.R)
         identity = _identity(dataset, subject, sensor_set, imu)
@@ -176,13 +191,14 @@ def calibrate_sagittal(dataset: Dataset, summaries: pd.DataFrame, subsets: str =
                 "eig1": result.eigenvalues[k, 0], "eig2": result.eigenvalues[k, 1], "eig3": result.eigenvalues[k, 2],
                 "planarity": result.planarity[k], "normal_ratio": result.normal_ratio[k],
                 "normal_vertical_angle_deg": result.normal_vertical_angle_deg[k],
-                "rho_static": rho_static, "rho_motion": rho_motion[k],
+                "rho_static": rho_static, "rho_motion": rho_motion[k], "z0_tests": z0_tests,
                 "flag": result.flag[k], **{name: values[k] for name, values in errors.items()},
             })
         gyro_axis = pool(group, orient=right)
         axes.append(_axis_row(identity, test, "motion", gyro_axis, "+y", len(reps)))
         base = {**identity, "test": test, "repetitions": subset_label(reps), "n_reps": len(reps),
-                "n_samples": int(group["n_samples"].sum()), "rho_static": rho_static, "rho_motion": gyro_axis.rho}
+                "n_samples": int(group["n_samples"].sum()), "rho_static": rho_static, "rho_motion": gyro_axis.rho,
+                "z0_tests": z0_tests}
         fits = sagittal_fits(z0_imu, rho_static, gyro_axis.axis, gyro_axis.rho)
         out += _method_rows(base, fits, truth)
     return pd.DataFrame(out), pd.DataFrame(axes, columns=AXES_COLUMNS)

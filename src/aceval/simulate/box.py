@@ -12,7 +12,7 @@ from .common import SimOptions, progress, sensor_signals
 from .engine import band_noise, euler_pitch_roll_yaw, fine_time, small_rotations
 from .kong import ACC_RANGE_G, GYR_RANGE_DPS, IMUS, SENSOR_SETS, UNITS
 from .motion import bell
-from .writer import DatasetWriter, simulated_meta, write_sheet
+from ..writer import DatasetWriter, simulated_meta, write_sheet
 
 #: box size (m): Kong does not give it; a hand-held aluminium box of this size is assumed
 BOX = np.array([0.30, 0.20, 0.15])

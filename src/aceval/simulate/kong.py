@@ -12,7 +12,7 @@ from .common import SimOptions, progress, sensor_signals
 from .engine import euler_pitch_roll_yaw
 from .kong_protocol import PROTOCOL
 from .motion import segment_poses
-from .writer import DatasetWriter, simulated_meta, write_sheet
+from ..writer import DatasetWriter, simulated_meta, write_sheet
 
 IMUS = [  # Kong Sec. 2.3 and Fig. 4
     ("IMU1", "head", "center", "upper_body"),

@@ -18,7 +18,7 @@ from .body import Placement, random_mount
 from .common import SimOptions, progress, sensor_signals
 from .engine import ImuErrorModel, band_noise, euler_pitch_roll_yaw, fine_time, small_rotations
 from .motion import bell
-from .writer import DatasetWriter, simulated_meta, write_sheet
+from ..writer import DatasetWriter, simulated_meta, write_sheet
 
 SEGMENTS = ["thorax", "upper_arm_r", "upper_arm_l", "forearm_r", "forearm_l"]
 IMUS = [  # Ricci Fig. 2: 1 thorax, 2/3 right/left upper arm, 4/5 right/left forearm

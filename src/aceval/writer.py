@@ -1,4 +1,5 @@
-"""Write a simulated dataset in the on-disk contract (DESIGN.md section 1), streaming to disk."""
+"""Write a dataset in the on-disk contract (DESIGN.md section 1), streaming to disk: used by the
+simulator and the importers."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from ..dataset import ACC_UNITS, GYR_UNITS, R_COLUMNS, RECORDING_COLUMNS
+from .dataset import ACC_UNITS, GYR_UNITS, R_COLUMNS, RECORDING_COLUMNS
 
 
 def write_sheet(path: Path, columns: list[str], rows: list) -> None:
@@ -49,8 +50,8 @@ class DatasetWriter:
         self._recordings.write("subject\tsensor_set\ttest\trep\timu\tpath\n")
         self._ground_truth: list = []
 
-    def recording(self, subject, sensor_set, test, rep, imu, gyr, acc) -> None:
-        """Write one recording (SI in, dataset.yaml's units out)."""
+    def recording(self, subject, sensor_set, test, rep, imu, gyr, acc) -> str:
+        """Write one recording (SI in, dataset.yaml's units out); returns its path in the dataset."""
         rel = Path("data") / subject / sensor_set / f"{test}_R{rep}_{imu}.csv"
         path = self.root / rel
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -59,7 +60,12 @@ class DatasetWriter:
         row_format = ",".join(["%.6g"] * table.shape[1]) + "\n"
         # one %-format over the whole table: the same text as np.savetxt, several times faster
         path.write_text(",".join(RECORDING_COLUMNS) + "\n" + (row_format * len(table)) % tuple(table.ravel()))
-        self._recordings.write(f"{subject}\t{sensor_set}\t{test}\t{rep}\t{imu}\t{rel.as_posix()}\n")
+        self.reference(subject, sensor_set, test, rep, imu, rel.as_posix())
+        return rel.as_posix()
+
+    def reference(self, subject, sensor_set, test, rep, imu, path: str) -> None:
+        """A recordings.tsv row for a file already written (one file serving two tests)."""
+        self._recordings.write(f"{subject}\t{sensor_set}\t{test}\t{rep}\t{imu}\t{path}\n")
 
     def protocol_sheets(self, tests: dict, repetitions: dict, calibrates: dict) -> None:
         """tests.tsv from ``{test: (kind, description)}`` and ``{test: repetitions}``, and

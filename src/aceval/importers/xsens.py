@@ -1,0 +1,185 @@
+"""Xsens MT Manager text exports -> the dataset contract (one trial: standing, then walking).
+
+An export has ``//`` header lines (``// Update Rate: 100.0Hz`` ...), a CSV header line and one
+row per sample with at least PacketCounter, Acc_X..Z (m/s^2) and Gyr_X..Z (rad/s). A sensor sheet
+(tab-separated: ``sensor_id imu sensor_set segment side region right_axis``) says which sensor is
+which IMU; e.g. config/real/neura_sensors.tsv for ../shared/data/neura_gaittoolbox.
+
+Rules (documented in config/README.md "Real datasets"):
+
+* All files of the trial must share their PacketCounter range (one synchronised recording);
+  byte-identical files are reported as duplicates and only the one the sheet names is used.
+* Movement is Kong's trimmer (Fig. 5) on each sensor; the trial moves from the first moving
+  sample of any sensor to the last. T0 = from the start to 1 s before the movement (at least 2 s).
+* T6 = the straight strides of the movement (strides from the first shank IMU of the sheet;
+  a stride during which the waist sensor's heading turns by 20 deg or more is left out), grouped
+  into at most 5 repetitions of equal numbers of whole strides
+  (:func:`aceval.importers.common.walking_bouts`).
+* Kong Table 2: T6 may calibrate thighs, shanks and feet (not the pelvis, which Kong calibrates
+  from the trunk tests T1-T3, absent here).
+"""
+
+from __future__ import annotations
+
+import filecmp
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..segmentation import movement_mask
+from ..writer import DatasetWriter, write_sheet
+from .common import FormatError, ImportReport, straight_strides, stride_peaks, stride_spans, walking_bouts
+
+REQUIRED = ["PacketCounter", "Acc_X", "Acc_Y", "Acc_Z", "Gyr_X", "Gyr_Y", "Gyr_Z"]
+SHEET_COLUMNS = ["sensor_id", "imu", "sensor_set", "segment", "side", "region", "right_axis"]
+STANDING_MARGIN_S = 1.0
+MIN_STANDING_S = 2.0
+#: Kong Table 2: which segments T6 (walking) may calibrate
+T6_SEGMENTS = ("thigh", "shank", "foot")
+#: Xsens MTw datasheet: +-160 m/s^2 (16 g), +-2000 deg/s
+ACC_RANGE_G = 16.0
+GYR_RANGE_DPS = 2000.0
+_ID = re.compile(r"_([0-9A-Fa-f]{8})\.txt$")
+
+
+def read_mt_export(path: str | Path) -> tuple[dict, pd.DataFrame]:
+    """(header fields, samples) of one MT Manager export; FormatError names the file and line."""
+    path = Path(path)
+    header, lines = {}, []
+    with open(path, encoding="utf-8", errors="replace") as handle:
+        for number, line in enumerate(handle, start=1):
+            if line.startswith("//"):
+                key, _, value = line[2:].partition(":")
+                header[key.strip()] = value.strip()
+            elif line.strip():
+                lines.append((number, line))
+    if not lines:
+        raise FormatError(f"{path}: no column header and no samples (is this an MT Manager export?)")
+    columns = [c.strip() for c in lines[0][1].rstrip("\r\n").split(",")]
+    missing = [c for c in REQUIRED if c not in columns]
+    if missing:
+        raise FormatError(f"{path}: line {lines[0][0]}: missing column(s) {', '.join(missing)} "
+                          f"(an MT Manager export with Acc in m/s^2 and Gyr in rad/s is expected)")
+    rows = []
+    for number, line in lines[1:]:
+        fields = line.rstrip("\r\n").split(",")
+        if len(fields) != len(columns):
+            raise FormatError(f"{path}: line {number}: {len(fields)} fields, the header has {len(columns)} "
+                              "(a truncated or garbled file?)")
+        rows.append(fields)
+    table = pd.DataFrame(rows, columns=columns)
+    values = table[REQUIRED].apply(pd.to_numeric, errors="coerce")
+    bad = ~np.isfinite(values.to_numpy(dtype=float)).all(axis=1)
+    if bad.any():
+        first = int(np.flatnonzero(bad)[0])
+        raise FormatError(f"{path}: line {lines[first + 1][0]}: missing or non-numeric values in {', '.join(REQUIRED)}")
+    if len(values) < 2:
+        raise FormatError(f"{path}: fewer than 2 samples")
+    return header, values
+
+
+def sampling_rate(header: dict, path) -> float:
+    match = re.match(r"([\d.]+)\s*Hz", header.get("Update Rate", ""))
+    if not match:
+        raise FormatError(f"{path}: no '// Update Rate: <n>Hz' header line")
+    return float(match.group(1))
+
+
+def read_sensor_sheet(path: str | Path) -> pd.DataFrame:
+    sheet = pd.read_csv(path, sep="\t", dtype=str, comment="#").apply(lambda c: c.str.strip())
+    missing = [c for c in SHEET_COLUMNS if c not in sheet.columns]
+    if missing:
+        raise FormatError(f"{path}: missing column(s) {', '.join(missing)} (needs {', '.join(SHEET_COLUMNS)})")
+    return sheet
+
+
+def trial_spans(gyr_by_imu: dict, stride_imu: str, fs_hz: float, yaw_rate: np.ndarray | None = None
+                ) -> dict[str, list[tuple[int, int]]]:
+    """T0 and T6 sample ranges of a standing-then-walking trial (the module's rules); ``yaw_rate``
+    (rad/s about the vertical, e.g. of a waist sensor) leaves turning strides out."""
+    masks = [movement_mask(gyr, fs_hz) for gyr in gyr_by_imu.values()]
+    moving = np.flatnonzero(np.any(masks, axis=0))
+    start, stop = int(moving[0]), int(moving[-1]) + 1
+    standing_end = start - int(STANDING_MARGIN_S * fs_hz)
+    spans = {}
+    if standing_end >= MIN_STANDING_S * fs_hz:
+        spans["T0"] = [(0, standing_end)]
+    strides = [(start + a, start + b) for a, b in stride_spans(stride_peaks(gyr_by_imu[stride_imu][start:stop], fs_hz))]
+    if yaw_rate is not None:
+        strides = straight_strides(strides, yaw_rate, fs_hz)
+    bouts = walking_bouts(strides)
+    if bouts:
+        spans["T6"] = bouts
+    return spans
+
+
+def import_xsens(src: str | Path, out: Path, sensors: str | Path, subject: str, name: str = "xsens",
+                 description: str = "") -> tuple[ImportReport, dict]:
+    """Convert one trial's exports in ``src`` (``*_<sensor id>.txt``) into a dataset at ``out``.
+
+    Returns the report and ``{imu key (sensor_set, imu): (samples table, spans)}`` for callers that
+    add ground truth (:mod:`aceval.importers.vicon`)."""
+    src = Path(src)
+    sheet = read_sensor_sheet(sensors)
+    files = {m.group(1).upper(): p for p in sorted(src.glob("*.txt")) if (m := _ID.search(p.name))}
+    if not files:
+        raise FormatError(f"{src}: no MT Manager exports named *_<8-hex sensor id>.txt")
+    report = ImportReport()
+    wanted = {row["sensor_id"].upper(): row for row in sheet.to_dict("records")}
+    for sensor_id, path in files.items():
+        if sensor_id in wanted:
+            continue
+        twin = next((s for s in wanted if s in files and filecmp.cmp(files[s], path, shallow=False)), None)
+        report.add(path.name, subject, sensor_id, "skipped",
+                   f"byte-identical duplicate of {twin}" if twin else "sensor not in the sensor sheet")
+    absent = [s for s in wanted if s not in files]
+    if absent:
+        raise FormatError(f"{src}: no export for sensor(s) {', '.join(absent)} of {sensors}")
+    tables, rates = {}, set()
+    for sensor_id, row in wanted.items():
+        header, table = read_mt_export(files[sensor_id])
+        rates.add(sampling_rate(header, files[sensor_id]))
+        tables[sensor_id] = table
+    counters = {s: (int(t["PacketCounter"].iloc[0]), int(t["PacketCounter"].iloc[-1]), len(t)) for s, t in tables.items()}
+    if len(set(counters.values())) != 1 or len(rates) != 1:
+        raise FormatError(f"{src}: the exports are not one synchronised trial (PacketCounter first, last, "
+                          f"count per sensor: {counters}; rates {sorted(rates)} Hz)")
+    fs_hz = rates.pop()
+    gyr = {s: t[["Gyr_X", "Gyr_Y", "Gyr_Z"]].to_numpy(float) for s, t in tables.items()}
+    acc = {s: t[["Acc_X", "Acc_Y", "Acc_Z"]].to_numpy(float) for s, t in tables.items()}
+    shanks = [s for s, row in wanted.items() if row["segment"] == "shank"]
+    if not shanks:
+        raise FormatError(f"{sensors}: no shank sensor to count strides with")
+    waist = [s for s, row in wanted.items() if row["segment"] == "waist"]
+    yaw_rate = None
+    if waist:  # vertical from the first second, when the subject stands
+        vertical = acc[waist[0]][:int(fs_hz)].mean(axis=0)
+        yaw_rate = gyr[waist[0]] @ (vertical / np.linalg.norm(vertical))
+    spans = trial_spans(gyr, shanks[0], fs_hz, yaw_rate)
+    if "T0" not in spans or "T6" not in spans:
+        raise FormatError(f"{src}: expected standing then walking; found {', '.join(spans) or 'neither'}")
+    sensor_sets = list(dict.fromkeys(sheet["sensor_set"]))
+    meta = {"name": name, "description": description or f"Xsens MT Manager exports of {src}, imported by aceval import xsens",
+            "simulated": False, "sampling_rate_hz": fs_hz, "units": {"acc": "m/s^2", "gyr": "rad/s"},
+            "sensor_sets": sensor_sets, "acc_range_g": {"upper_body": ACC_RANGE_G, "lower_body": ACC_RANGE_G},
+            "gyr_range_dps": GYR_RANGE_DPS}
+    writer = DatasetWriter(out, meta)
+    for sensor_id, row in wanted.items():
+        for test, ranges in spans.items():
+            for rep, (a, b) in enumerate(ranges, start=1):
+                writer.recording(subject, row["sensor_set"], test, rep, row["imu"], gyr[sensor_id][a:b], acc[sensor_id][a:b])
+        report.add(files[sensor_id].name, subject, row["imu"], "imported",
+                   f"set {row['sensor_set']}; " + "; ".join(f"{t} x{len(r)}" for t, r in spans.items()))
+    t6_imus = sorted({row["imu"] for row in wanted.values() if row["segment"] in T6_SEGMENTS})
+    writer.protocol_sheets({"T0": ("static", "quiet standing before the walk"),
+                            "T6": ("motion", "walking, repetitions of equal numbers of whole strides")},
+                           {test: len(r) for test, r in spans.items()}, {"T6": t6_imus})
+    writer.close()
+    write_sheet(out / "subjects.tsv", ["subject"], [[subject]])
+    write_sheet(out / "imus.tsv", ["imu", "sensor_set", "segment", "side", "region", "right_axis"],
+                sheet[["imu", "sensor_set", "segment", "side", "region", "right_axis"]].to_numpy().tolist())
+    report.write(out / "import_report.tsv")
+    signals = {(row["sensor_set"], row["imu"]): (gyr[s], acc[s]) for s, row in wanted.items()}
+    return report, {"signals": signals, "spans": spans, "fs_hz": fs_hz, "sensor_ids": {(r["sensor_set"], r["imu"]): s for s, r in wanted.items()}}
