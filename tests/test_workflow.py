@@ -96,6 +96,14 @@ def test_workflow_end_to_end_then_nothing_to_do(tiny, tmp_path):
     assert not list(results.rglob(".tmp.*"))
     assert digest(tiny) == before
 
+    # a lab calibrating the same folder with one command gets exactly the workflow's calibrations
+    standalone = tmp_path / "standalone.csv"
+    subprocess.run([sys.executable, "-m", "aceval", "calibrate", str(lab), "--out", str(standalone)],
+                   check=True, capture_output=True)
+    per_subject = sorted((results / "lab" / "calibrations").glob("S?.csv"))
+    workflow = pd.concat([pd.read_csv(p) for p in per_subject], ignore_index=True)
+    pd.testing.assert_frame_equal(pd.read_csv(standalone), workflow)
+
     again = snakemake(work, "--dry-run")
     assert again.returncode == 0
     assert "Nothing to be done" in again.stdout + again.stderr

@@ -100,35 +100,81 @@ def _read_csvs(paths) -> "pd.DataFrame":
     return pd.concat(non_empty, ignore_index=True) if non_empty else pd.DataFrame()
 
 
+#: ``--method`` choices of ``aceval calibrate`` -> the ``method`` values of the calibrations table
+METHODS = {"kong": ["kong"], "ricci": ["ricci_lm"], "align_vectors": ["align_vectors"], "triad": ["triad"],
+           "all": ["kong", "ricci_lm", "align_vectors", "triad"]}
+
+
+def _progress(done: int, total: int, what: str) -> None:
+    """A one-line progress bar on stderr (only on a terminal: logs stay clean)."""
+    if sys.stderr.isatty():
+        filled = int(30 * done / total)
+        print(f"\r[{'#' * filled}{'.' * (30 - filled)}] {done}/{total} {what}", end="" if done < total else "\n",
+              file=sys.stderr, flush=True)
+
+
 def _calibrate(args) -> int:
-    from .dataset import load_dataset
+    from .dataset import DatasetError, load_dataset
     from .pipeline import calibrate, summarise_recordings
     from .segmentation import TrimParams
+    from .summary import calibration_screen
 
     import numpy as np
 
     import pandas as pd
 
-    dataset = load_dataset(args.dataset)
+    try:  # the workflow has validated the files already (validation.txt); a user's call checks them
+        dataset = load_dataset(args.dataset, check_files=not args.validated)
+    except DatasetError as exc:
+        print(f"aceval calibrate: {args.dataset} is not a valid dataset:\n{exc}", file=sys.stderr)
+        return 1
     if args.subject is not None and args.subject not in dataset.subjects.index:
         print(f"aceval calibrate: subject {args.subject!r} is not in {args.dataset}/subjects.tsv", file=sys.stderr)
         return 2
+    unknown = sorted(set(args.tests or []) - set(dataset.tests.index))
+    if unknown:
+        print(f"aceval calibrate: test(s) {', '.join(unknown)} not in {args.dataset}/tests.tsv", file=sys.stderr)
+        return 2
     trim = TrimParams(threshold=args.trim_threshold, closing_s=args.closing_s, window_s=args.window_s,
                       min_peak_rad_s=np.radians(args.min_peak_deg_s))
-    summaries = summarise_recordings(dataset, args.subject, trim)
+    subjects = [args.subject] if args.subject is not None else list(dataset.subjects.index)
+    parts = []
+    for done, subject in enumerate(subjects, start=1):
+        parts.append(summarise_recordings(dataset, subject, trim, args.tests))
+        _progress(done, len(subjects), "subjects read")
+    non_empty = [p for p in parts if len(p)]
+    summaries = pd.concat(non_empty, ignore_index=True) if non_empty else pd.DataFrame()
     unusable = summaries[summaries["flag"] != ""] if len(summaries) else summaries
     for message in unusable.get("message", []):
         print(f"aceval calibrate: left out {message}", file=sys.stderr)
-    calibrations, axes = calibrate(dataset, summaries) if len(summaries) else (summaries, pd.DataFrame())
+    calibrations, axes = calibrate(dataset, summaries, args.subsets) if len(summaries) else (summaries, pd.DataFrame())
+    if len(calibrations) and "method" in calibrations:
+        calibrations = calibrations[calibrations["method"].isin(METHODS[args.method])].reset_index(drop=True)
     _write_csv(args.out, calibrations)
     if args.recordings_out:
         _write_csv(args.recordings_out, summaries)
     if args.axes_out:
         _write_csv(args.axes_out, axes)
-    print(f"aceval calibrate: {args.subject or 'all subjects'}: {len(calibrations)} calibrations "
-          f"({int((calibrations.get('flag', '') != '').sum()) if len(calibrations) else 0} flagged), "
-          f"{len(unusable)} recordings left out", file=sys.stderr)
+    print(calibration_screen(calibrations, len(unusable), args.out), file=sys.stderr)
     return 0
+
+
+def _apply(args) -> int:
+    from .apply import apply_calibrations
+    from .dataset import DatasetError, load_dataset
+
+    out, root = Path(args.out).resolve(), Path(args.dataset).resolve()
+    if out == root or root in out.parents:
+        print(f"aceval apply: --out {args.out} is inside the dataset; calibrated copies go to a new folder", file=sys.stderr)
+        return 2
+    try:
+        dataset = load_dataset(args.dataset)
+    except DatasetError as exc:
+        print(f"aceval apply: {args.dataset} is not a valid dataset:\n{exc}", file=sys.stderr)
+        return 1
+    calibrations = _read_csvs([args.calibrations])
+    return _staged(Path(args.out), args.force, "apply", lambda folder: print(
+        apply_calibrations(dataset, calibrations, folder, args.method, args.test, _progress), file=sys.stderr))
 
 
 def _correlate(args) -> int:
@@ -269,12 +315,30 @@ def main(argv: list[str] | None = None) -> int:
     calibrate.add_argument("--out", required=True, help="calibrations CSV")
     calibrate.add_argument("--recordings-out", help="per-recording summary CSV (what was kept or left out, and why)")
     calibrate.add_argument("--axes-out", help="functional axes CSV: axis and rho per subject, IMU and test")
+    calibrate.add_argument("--method", choices=list(METHODS), default="all",
+                           help="kong (every subset of repetitions), ricci (rho-weighted LM), align_vectors, triad "
+                                "(the axis methods: all repetitions), or all (default)")
+    calibrate.add_argument("--tests", nargs="+", help="only these motion tests (default: all; static tests always)")
+    calibrate.add_argument("--subsets", choices=["all", "full"], default="all",
+                           help="Kong: every subset of repetitions (all, default) or all of them together (full)")
+    calibrate.add_argument("--validated", action="store_true",
+                           help="skip the recording-file checks (the workflow has run `aceval validate`)")
     calibrate.add_argument("--trim-threshold", type=float, default=0.1, help="Kong Fig. 5 threshold (0.1)")
     calibrate.add_argument("--closing-s", type=float, default=1.0, help="morphological closing length, s (1.0)")
     calibrate.add_argument("--window-s", type=float, default=0.5, help="moving-SD window, s (0.5)")
     calibrate.add_argument("--min-peak-deg-s", type=float, default=20.0,
                            help="a 'motion' whose peak |gyro| is below this (deg/s) is refused (20)")
     calibrate.set_defaults(run=_calibrate)
+
+    apply = commands.add_parser("apply", help="write body-frame copies of a dataset's recordings into a new folder")
+    apply.add_argument("dataset")
+    apply.add_argument("--calibrations", required=True, help="CSV of `aceval calibrate`")
+    apply.add_argument("--out", required=True, help="new folder (never the dataset itself)")
+    apply.add_argument("--method", default="kong", help="method whose calibrations to apply (kong)")
+    apply.add_argument("--test", help="calibration test (default: per IMU, the first test of calibrates.tsv "
+                                      "with a valid all-repetitions calibration)")
+    apply.add_argument("--force", action="store_true", help="replace a non-empty output folder")
+    apply.set_defaults(run=_apply)
 
     correlate = commands.add_parser("correlate", help="Kong Obj 1-2 correlations of calibrated signals (one subject)")
     correlate.add_argument("dataset")

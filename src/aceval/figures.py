@@ -63,13 +63,15 @@ def plot(number: int, correlations: pd.DataFrame | None, angles: pd.DataFrame | 
     if x == "t_ap":
         data["t_ap"] = rename_tests(data["t_ap"], names)
     grid = sns.catplot(data=data, x=x, y=y, hue="t_ex", col=panel, col_order=order_panels,
-                       col_wrap=min(3, len(order_panels)), kind="point", errorbar="sd", dodge=0.3,
+                       col_wrap=min(3, len(order_panels)), kind="point", errorbar="sd",
+                       dodge=0.3 if data["t_ex"].nunique() > 1 else False,  # seaborn divides by levels - 1
                        hue_order=sorted(data["t_ex"].unique()), order=sorted(data[x].unique()),
                        height=2.6, aspect=1.15, markersize=4, linewidth=1)
     grid.set_axis_labels({"t_ap": "T_ap (test the matrix is applied to)",
                           "k": "k (repetitions before adding one)" if number == 9 else "k (repetitions used)"}[x], ylabel)
     grid.set_titles("{col_name}")
-    grid.legend.set_title("T_ex")
+    if grid.legend is not None:  # seaborn draws none for a single T_ex
+        grid.legend.set_title("T_ex")
     grid.figure.suptitle(f"Kong Fig. {number} in spirit, {title}", y=1.02, fontsize=9)
     grid.figure.savefig(out, dpi=120, bbox_inches="tight", metadata={"Software": None})
     plt.close(grid.figure)

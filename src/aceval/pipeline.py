@@ -32,7 +32,7 @@ MAX_CLIPPED_FRACTION = 0.2
 
 
 def summarise_recordings(dataset: Dataset, subject: str | None = None,
-                         trim: TrimParams = TrimParams()) -> pd.DataFrame:
+                         trim: TrimParams = TrimParams(), tests: list[str] | None = None) -> pd.DataFrame:
     """One row per recording of ``subject`` (all subjects if None) that some analysis needs.
 
     Static tests: ``z0_x, z0_y, z0_z`` (Kong Eq. 2). Motion tests that may calibrate the IMU
@@ -40,11 +40,14 @@ def summarise_recordings(dataset: Dataset, subject: str | None = None,
     Samples clipped at the declared accelerometer range (``n_clipped``) carry a wrong direction
     and are left out of the scatter; above :data:`MAX_CLIPPED_FRACTION` the recording is left out.
     A recording that cannot be used gets ``flag`` (the error code) and ``message`` naming the file.
+    ``tests``: only these motion tests (default: all).
     """
     recordings = dataset.recordings
     if subject is not None:
         recordings = recordings[recordings["subject"] == subject]
     static = set(dataset.static_tests())
+    if tests is not None:  # only these motion tests (static tests always: they give z0)
+        recordings = recordings[recordings["test"].isin(static | set(tests))]
     allowed = set(map(tuple, dataset.calibrates[["test", "imu"]].to_numpy()))
     rows = []
     for rec in recordings.to_dict("records"):

@@ -19,7 +19,7 @@ rule calibrate:
     log:
         "logs/{dataset}/calibrate_{subject}.log",
     shell:
-        "python -m aceval calibrate {params.root} {params.subject} "
+        "python -m aceval calibrate {params.root} {params.subject} --validated "
         "--out {output.calibrations} --recordings-out {output.recordings} --axes-out {output.axes} "
         "--trim-threshold {params.trim[threshold]} --closing-s {params.trim[closing_s]} "
         "--window-s {params.trim[window_s]} --min-peak-deg-s {params.trim[min_peak_deg_s]} 2> {log}"

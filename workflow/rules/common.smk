@@ -4,8 +4,31 @@ import os
 
 import pandas as pd
 
-DATASETS = config["datasets"]
+#: the datasets this run covers: ``run`` names them (default: every dataset of the config)
+DATASETS = {name: config["datasets"][name] for name in config.get("run", config["datasets"])}
 SIMULATED = [name for name, spec in DATASETS.items() if "simulate" in spec]
+IMPORTED = [name for name, spec in DATASETS.items() if "import" in spec]
+GENERATED = SIMULATED + IMPORTED  # written by the workflow into resources/{dataset}
+DATA_ROOT = config.get("data_root", "../shared/data")
+
+
+def import_source(dataset, key="source"):
+    """A path of an imported dataset's ``import`` spec, under ``data_root`` (the repository's
+    own sheets, e.g. config/real/*.tsv, stay relative to the project)."""
+    path = DATASETS[dataset]["import"].get(key)
+    if path is None:
+        return None
+    return os.path.join(workflow.basedir, path) if path.startswith("config/") else os.path.join(DATA_ROOT, path)
+
+
+for _name in IMPORTED:
+    if not os.path.exists(import_source(_name)):
+        raise WorkflowError(
+            f"dataset {_name}: the real recordings are not at {import_source(_name)}. They are public data "
+            f"this project does not ship (../shared/data/README.md says where each comes from: HuGaDB from "
+            f"github.com/romanchereshnev/HuGaDB, the NeuRA trial from the NeuRA gait toolbox repository). "
+            f"Put them there or pass --config data_root=/path/to/data."
+        )
 #: what each analysis produces: Kong et al. 2016 tables and figures (tableN, figureN), the Ricci
 #: et al. 2014 reproduction, the reliability of Kong's tests; "methods" joins every dataset with
 #: ground truth
@@ -40,13 +63,13 @@ wildcard_constraints:
 
 def dataset_dir(dataset):
     spec = DATASETS[dataset]
-    return f"resources/{dataset}" if "simulate" in spec else spec["path"]
+    return f"resources/{dataset}" if dataset in GENERATED else spec["path"]
 
 
 def dataset_input(wildcards):
     """The dataset as an input: the generated folder, or a lab dataset's sheets and files."""
     root = dataset_dir(wildcards.dataset)
-    if wildcards.dataset in SIMULATED:
+    if wildcards.dataset in GENERATED:
         return root
     sheets = [f"{root}/{name}" for name in ("dataset.yaml", "imus.tsv", "tests.tsv", "calibrates.tsv",
                                             "subjects.tsv", "recordings.tsv")]
@@ -69,7 +92,7 @@ def calibration_units(dataset):
 
 def subject_recordings(wildcards):
     """A lab dataset's recording files of one subject (so that editing them reruns only that subject)."""
-    if wildcards.dataset in SIMULATED:
+    if wildcards.dataset in GENERATED:
         return []
     root = dataset_dir(wildcards.dataset)
     table = pd.read_csv(f"{root}/recordings.tsv", sep="\t", dtype=str)
@@ -78,6 +101,8 @@ def subject_recordings(wildcards):
 
 
 def has_ground_truth(dataset):
+    if dataset in IMPORTED:
+        return "vicon" in DATASETS[dataset]["import"]
     return dataset in SIMULATED or os.path.exists(f"{dataset_dir(dataset)}/ground_truth.tsv")
 
 

@@ -1,8 +1,15 @@
-# Stage 1: the datasets. Simulated ones are generated from a seed; every dataset is validated
+# Stage 1: the datasets. Simulated ones are generated from a seed, real recordings imported; every dataset is validated
 # against the contract before anything else runs (a failed validation stops the workflow).
 
 
+def only(names):
+    """A wildcard constraint matching exactly these datasets (nothing when there are none)."""
+    return "|".join(map(re.escape, names)) or "(?!)"
+
+
 rule simulate:
+    wildcard_constraints:
+        dataset=only(SIMULATED),
     output:
         directory("resources/{dataset}"),
     params:
@@ -17,6 +24,28 @@ rule simulate:
         "logs/{dataset}/simulate.log",
     shell:
         "python -m aceval simulate {params.protocol} --out {output} --seed {params.seed} {params.options} --force 2> {log}"
+
+
+rule import_dataset:
+    wildcard_constraints:
+        dataset=only(IMPORTED),
+    input:
+        lambda w: [p for p in (import_source(w.dataset), import_source(w.dataset, "sensors"),
+                               import_source(w.dataset, "vicon")) if p],
+    output:
+        directory("resources/{dataset}"),
+    params:
+        format=lambda w: DATASETS[w.dataset]["import"]["format"],
+        options=lambda w: " ".join(
+            [f"--name {w.dataset}"]
+            + [f"--{key} {import_source(w.dataset, key)}" for key in ("sensors", "vicon") if key in DATASETS[w.dataset]["import"]]
+            + [f"--subject {DATASETS[w.dataset]['import']['subject']}" for _ in [0] if "subject" in DATASETS[w.dataset]["import"]]
+        ),
+        source=lambda w: import_source(w.dataset),
+    log:
+        "logs/{dataset}/import.log",
+    shell:
+        "python -m aceval import {params.format} {params.source} --out {output} {params.options} --force 2> {log}"
 
 
 checkpoint validate:

@@ -119,7 +119,9 @@ def read_hugadb(path: str | Path) -> HugadbFile:
     try:
         table = pd.read_csv(path, sep="\t", skiprows=4, header=None, names=names, engine="c", dtype=str)
     except pd.errors.ParserError as exc:
-        raise FormatError(f"{path}: {exc} (lines counted after the 4 header lines)") from exc
+        found = re.search(r"Expected (\d+) fields in line (\d+), saw (\d+)", str(exc))
+        where = f"line {found.group(2)}: {found.group(3)} fields, expected {found.group(1)}" if found else str(exc)
+        raise FormatError(f"{path}: {where} (a truncated or garbled file?)") from exc
     values = table.apply(pd.to_numeric, errors="coerce").to_numpy(dtype=float)
     bad = ~np.isfinite(values).all(axis=1)
     if bad.any():

@@ -161,7 +161,7 @@ def import_xsens(src: str | Path, out: Path, sensors: str | Path, subject: str, 
     if "T0" not in spans or "T6" not in spans:
         raise FormatError(f"{src}: expected standing then walking; found {', '.join(spans) or 'neither'}")
     sensor_sets = list(dict.fromkeys(sheet["sensor_set"]))
-    meta = {"name": name, "description": description or f"Xsens MT Manager exports of {src}, imported by aceval import xsens",
+    meta = {"name": name, "description": description or f"Xsens MT Manager exports ({src.name}), imported by aceval import xsens",
             "simulated": False, "sampling_rate_hz": fs_hz, "units": {"acc": "m/s^2", "gyr": "rad/s"},
             "sensor_sets": sensor_sets, "acc_range_g": {"upper_body": ACC_RANGE_G, "lower_body": ACC_RANGE_G},
             "gyr_range_dps": GYR_RANGE_DPS}
