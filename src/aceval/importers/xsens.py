@@ -119,8 +119,9 @@ def import_xsens(src: str | Path, out: Path, sensors: str | Path, subject: str, 
                  description: str = "") -> tuple[ImportReport, dict]:
     """Convert one trial's exports in ``src`` (``*_<sensor id>.txt``) into a dataset at ``out``.
 
-    Returns the report and ``{imu key (sensor_set, imu): (samples table, spans)}`` for callers that
-    add ground truth (:mod:`aceval.importers.vicon`)."""
+    Returns the report and, for callers that add ground truth (:mod:`aceval.importers.vicon`),
+    ``{"signals": {(sensor_set, imu): (gyr, acc)}, "spans": {test: ranges}, "fs_hz": ...,
+    "sensor_ids": {(sensor_set, imu): id}}`` (SI units, sample ranges half-open)."""
     src = Path(src)
     sheet = read_sensor_sheet(sensors)
     files = {m.group(1).upper(): p for p in sorted(src.glob("*.txt")) if (m := _ID.search(p.name))}
