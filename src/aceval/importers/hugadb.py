@@ -142,7 +142,7 @@ def read_hugadb(path: str | Path) -> HugadbFile:
 
 def gyro_fault(gyr_counts: np.ndarray) -> str:
     """'' when the gyroscope is plausible, else the cause (see the module's rules)."""
-    clipped = float(((gyr_counts <= INT16_LIMITS[0]) | (gyr_counts >= INT16_LIMITS[1])).any(axis=1).mean())
+    clipped = clipped_fraction(gyr_counts)
     p995 = float(np.percentile(np.abs(gyr_counts), 99.5)) / GYR_COUNTS_PER_DPS
     causes = []
     if p995 > MAX_PLAUSIBLE_GYRO_DPS:
@@ -152,8 +152,9 @@ def gyro_fault(gyr_counts: np.ndarray) -> str:
     return "corrupted gyroscope: " + "; ".join(causes) if causes else ""
 
 
-def acc_clipped_fraction(acc_counts: np.ndarray) -> float:
-    return float(((acc_counts <= INT16_LIMITS[0]) | (acc_counts >= INT16_LIMITS[1])).any(axis=1).mean())
+def clipped_fraction(counts: np.ndarray) -> float:
+    """Fraction of samples (N, 3) with any axis at the int16 limits."""
+    return float(((counts <= INT16_LIMITS[0]) | (counts >= INT16_LIMITS[1])).any(axis=1).mean())
 
 
 def mean_posture(signal: np.ndarray, fs_hz: float = SAMPLING_RATE_HZ) -> np.ndarray:
@@ -233,7 +234,7 @@ def import_hugadb(src: str | Path, out: Path) -> ImportReport:
             if fault:
                 report.add(path.name, subject, imu, "excluded", fault)
                 continue
-            clipped = acc_clipped_fraction(acc_counts)
+            clipped = clipped_fraction(acc_counts)
             if clipped > 0:
                 report.add(path.name, subject, imu, "flagged",
                            f"{clipped:.1%} of samples clipped at +-2 g (left out of Kong's scatter by aceval calibrate)")
