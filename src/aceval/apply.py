@@ -14,6 +14,8 @@ import numpy as np
 import pandas as pd
 
 from .dataset import R_COLUMNS, RECORDING_COLUMNS, Dataset
+from .objectives import unflagged
+from .safety import contained
 from .writer import write_sheet
 
 KEY = ["subject", "sensor_set", "imu"]
@@ -23,7 +25,7 @@ def chosen_calibrations(dataset: Dataset, calibrations: pd.DataFrame, method: st
                         test: str | None = None) -> pd.DataFrame:
     """One valid calibration per (subject, set, IMU): ``method``, all repetitions (the largest
     ``n_reps``), from ``test`` or else the first test of calibrates.tsv that has one."""
-    valid = calibrations[(calibrations["method"] == method) & (calibrations["flag"].fillna("") == "")]
+    valid = calibrations[(calibrations["method"] == method) & unflagged(calibrations)]
     if test is not None:
         valid = valid[valid["test"] == test]
     order = {t: k for k, t in enumerate(dict.fromkeys(dataset.calibrates["test"]))}
@@ -48,7 +50,7 @@ def apply_calibrations(dataset: Dataset, calibrations: pd.DataFrame, out: Path, 
         R = rotations[(row["subject"], row["sensor_set"], row["imu"])]
         data = dataset.read_recording(row["path"])
         table = np.column_stack([data.t, data.acc @ R.T / dataset.acc_scale, data.gyr @ R.T / dataset.gyr_scale])
-        target = out / row["path"]
+        target = contained(out, row["path"])  # never outside the output folder, whatever the sheet says
         target.parent.mkdir(parents=True, exist_ok=True)
         pd.DataFrame(table, columns=RECORDING_COLUMNS).to_csv(target, index=False, float_format="%.6g")
         if progress:

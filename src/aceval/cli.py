@@ -4,28 +4,19 @@
 from __future__ import annotations
 
 import argparse
-import shutil
 import sys
-import tempfile
 from pathlib import Path
 
 
 def _staged(out: Path, force: bool, command: str, write) -> int:
-    """Call ``write(folder)`` on a temporary sibling of ``out``, then move it into place: a failed
-    run leaves nothing behind, and a non-empty ``out`` is only replaced with ``force``."""
-    if out.exists() and any(out.iterdir()) and not force:
-        print(f"aceval {command}: {out} exists and is not empty (use --force to replace it)", file=sys.stderr)
-        return 2
-    out.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    """Write a folder output through :func:`aceval.safety.staged_folder` (nothing is left behind
+    on failure; ``--force`` replaces only a folder aceval wrote)."""
+    from .safety import UnsafeOutputError, fail, staged_folder
+
     try:
-        write(staging)
-        if out.exists():
-            shutil.rmtree(out)
-        staging.rename(out)
-    finally:
-        if staging.exists():
-            shutil.rmtree(staging)
+        staged_folder(out, force, write)
+    except UnsafeOutputError as exc:
+        return fail(command, exc)
     print(f"wrote {out}", file=sys.stderr)
     return 0
 
@@ -68,15 +59,9 @@ def _validate(args) -> int:
 
 
 def _atomic(path: str | Path, write) -> None:
-    """Call ``write(tmp_path)`` then move the file into place: a failed step leaves no output."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".tmp.{path.name}")  # same suffix: writers pick the format from it
-    try:
-        write(tmp)
-        tmp.replace(path)
-    finally:
-        tmp.unlink(missing_ok=True)
+    from .safety import atomic_file
+
+    atomic_file(path, write)
 
 
 def _write_csv(path, table) -> None:
@@ -115,7 +100,7 @@ def _progress(done: int, total: int, what: str) -> None:
 
 def _calibrate(args) -> int:
     from .dataset import DatasetError, load_dataset
-    from .pipeline import calibrate, summarise_recordings
+    from .pipeline import AXES_COLUMNS, CALIBRATION_COLUMNS, calibrate, summarise_recordings
     from .segmentation import TrimParams
     from .summary import calibration_screen
 
@@ -147,9 +132,16 @@ def _calibrate(args) -> int:
     unusable = summaries[summaries["flag"] != ""] if len(summaries) else summaries
     for message in unusable.get("message", []):
         print(f"aceval calibrate: left out {message}", file=sys.stderr)
-    calibrations, axes = calibrate(dataset, summaries, args.subsets) if len(summaries) else (summaries, pd.DataFrame())
-    if len(calibrations) and "method" in calibrations:
+    calibrations, axes = calibrate(dataset, summaries, args.subsets) if len(summaries) else (
+        pd.DataFrame(columns=CALIBRATION_COLUMNS), pd.DataFrame(columns=AXES_COLUMNS))
+    if len(calibrations):
         calibrations = calibrations[calibrations["method"].isin(METHODS[args.method])].reset_index(drop=True)
+    if calibrations.empty and not args.allow_empty:
+        why = (f"{len(unusable)} recording(s) were left out (listed above) and none remained" if len(unusable)
+               else "no subject has a static test and a motion test that calibrates one of its IMUs "
+                    "(calibrates.tsv)" if len(summaries) else "no recording of a test that calibrates an IMU")
+        print(f"aceval calibrate: nothing to calibrate in {args.dataset}: {why}; no file written", file=sys.stderr)
+        return 1
     _write_csv(args.out, calibrations)
     if args.recordings_out:
         _write_csv(args.recordings_out, summaries)
@@ -160,19 +152,25 @@ def _calibrate(args) -> int:
 
 
 def _apply(args) -> int:
-    from .apply import apply_calibrations
+    from .apply import apply_calibrations, chosen_calibrations
     from .dataset import DatasetError, load_dataset
 
-    out, root = Path(args.out).resolve(), Path(args.dataset).resolve()
-    if out == root or root in out.parents:
-        print(f"aceval apply: --out {args.out} is inside the dataset; calibrated copies go to a new folder", file=sys.stderr)
-        return 2
     try:
         dataset = load_dataset(args.dataset)
     except DatasetError as exc:
         print(f"aceval apply: {args.dataset} is not a valid dataset:\n{exc}", file=sys.stderr)
         return 1
     calibrations = _read_csvs([args.calibrations])
+    missing = {"subject", "sensor_set", "imu", "test", "method", "n_reps", "flag"} - set(calibrations.columns)
+    if calibrations.empty or missing:
+        print(f"aceval apply: {args.calibrations} holds no calibrations"
+              + (f" (missing column(s) {', '.join(sorted(missing))}: is it a file of `aceval calibrate`?)" if missing
+                 and not calibrations.empty else ""), file=sys.stderr)
+        return 1
+    if chosen_calibrations(dataset, calibrations, args.method, args.test).empty:
+        print(f"aceval apply: {args.calibrations} has no valid {args.method} calibration"
+              + (f" from test {args.test}" if args.test else "") + ": nothing to apply", file=sys.stderr)
+        return 1
     return _staged(Path(args.out), args.force, "apply", lambda folder: print(
         apply_calibrations(dataset, calibrations, folder, args.method, args.test, _progress), file=sys.stderr))
 
@@ -252,6 +250,7 @@ def _summary(args) -> int:
     import re
 
     from . import summary
+    from .comparison import truth_warning
 
     meta = _dataset_meta(args.dataset)
     tables, calibration_files, angles = {}, [], None
@@ -267,6 +266,8 @@ def _summary(args) -> int:
             calibration_files.append(path)
     calibrations = _read_csvs(calibration_files) if calibration_files else None
     notes = [f"- {line}" for line in args.note if line]
+    if calibrations is not None and (warning := truth_warning(calibrations)):
+        notes.append(f"- {warning}")
     text = summary.to_markdown(summary.claims(tables, angles, calibrations), meta.get("name", ""),
                                meta.get("description", ""), bool(meta.get("simulated")), notes,
                                summary.methods_section(tables))
@@ -321,6 +322,8 @@ def main(argv: list[str] | None = None) -> int:
     calibrate.add_argument("--tests", nargs="+", help="only these motion tests (default: all; static tests always)")
     calibrate.add_argument("--subsets", choices=["all", "full"], default="all",
                            help="Kong: every subset of repetitions (all, default) or all of them together (full)")
+    calibrate.add_argument("--allow-empty", action="store_true",
+                           help="write a table with no rows (and exit 0) when nothing can be calibrated (the workflow)")
     calibrate.add_argument("--validated", action="store_true",
                            help="skip the recording-file checks (the workflow has run `aceval validate`)")
     calibrate.add_argument("--trim-threshold", type=float, default=0.1, help="Kong Fig. 5 threshold (0.1)")
@@ -384,7 +387,35 @@ def main(argv: list[str] | None = None) -> int:
     summarise.set_defaults(run=_summary)
 
     args = parser.parse_args(argv)
+    from .safety import UnsafeOutputError, check_outputs, exit_cleanly_on_sigterm, fail
+
+    if argv is None:  # a command-line run (not a call from Python): SIGTERM cleans up
+        exit_cleanly_on_sigterm()
+    try:
+        check_outputs(*_outputs_and_inputs(args))
+    except UnsafeOutputError as exc:
+        return fail(args.command, exc)
     return args.run(args)
+
+
+#: options that name what a command writes, and what it reads (``check_outputs`` keeps them apart)
+OUTPUT_OPTIONS = {"out": "--out", "csv": "--csv", "md": "--md", "recordings_out": "--recordings-out",
+                  "axes_out": "--axes-out"}
+INPUT_OPTIONS = {"dataset": "dataset", "src": "source", "sensors": "--sensors", "vicon": "--vicon",
+                 "calibrations": "--calibrations", "correlations": "--correlations", "axes": "--axes",
+                 "angles": "--angles", "inputs": "input"}
+#: commands whose --out is a folder written as a whole
+FOLDER_COMMANDS = {"simulate", "import", "apply"}
+
+
+def _outputs_and_inputs(args) -> tuple[dict, dict, tuple]:
+    outputs = {flag: getattr(args, name) for name, flag in OUTPUT_OPTIONS.items() if getattr(args, name, None)}
+    inputs = {}
+    for name, label in INPUT_OPTIONS.items():
+        value = getattr(args, name, None)
+        for k, path in enumerate(value if isinstance(value, list) else [value] if value else []):
+            inputs[f"{label}[{k}]" if isinstance(value, list) else label] = path
+    return outputs, inputs, ("--out",) if args.command in FOLDER_COMMANDS else ()
 
 
 if __name__ == "__main__":
