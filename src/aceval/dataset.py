@@ -8,6 +8,7 @@ config/README.md for the user-facing description.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -17,6 +18,7 @@ import pandas as pd
 import yaml
 
 from .rotations import AXIS_VECTORS
+from .safety import path_problem
 
 GRAVITY = 9.81  # m/s^2: 1 g, used for unit conversion and by the simulator's physics
 ACC_UNITS = {"g": GRAVITY, "m/s^2": 1.0}
@@ -39,6 +41,17 @@ UNITS_GRAVITY_BAND = (0.5, 2.0)
 REST_GRAVITY_BAND = (0.8, 1.2)
 #: a sample within this fraction of the declared range counts as saturated
 SATURATION_FRACTION = 0.999
+#: imus.tsv right_axis: a signed sensor axis; a bare letter means the positive axis
+RIGHT_AXIS_SPELLINGS = (*AXIS_VECTORS, "x", "y", "z")
+#: tests.tsv first_phase: the body-frame rotation of the first movement phase (right-hand rule:
+#: -y = the segment's top tilts forward, e.g. bowing), or ``gait`` (walking: no first phase, the
+#: shanks swing forward fastest), or empty (no direction check)
+FIRST_PHASES = ("-y", "+y", "gait", "")
+#: first_phase of Kong's tests when tests.tsv has no first_phase column (Kong Sec. 2.2: bowing,
+#: sit-to-stand flex forward first; the seated shank lift and the leg swing move forward first)
+KONG_FIRST_PHASE = {"T1": "-y", "T2": "-y", "T3": "-y", "T4": "+y", "T5": "+y", "T6": "gait"}
+#: a run of at least this many equal samples at a signal's largest |value| is a clipping plateau
+PLATEAU_RUN = 3
 #: recordings shorter than this (s) get a warning
 SHORT_RECORDING_S = 1.0
 #: sampling interval in t may differ from 1/sampling_rate_hz by this fraction
@@ -140,6 +153,10 @@ class Dataset:
         general = sheet[(sheet["segment"] == segment) & ~sheet["test"].isin(specific["test"])]
         return pd.concat([specific, general])[["test", "axis"]].reset_index(drop=True)
 
+    def first_phase(self, test: str) -> str:
+        """tests.tsv ``first_phase`` of ``test`` ('-y', '+y', 'gait' or '': no direction check)."""
+        return str(self.tests["first_phase"].get(test, "")) if "first_phase" in self.tests else ""
+
     @cached_property
     def test_kinds(self) -> dict[str, str]:
         return self.tests["kind"].to_dict()
@@ -158,10 +175,17 @@ class Dataset:
         return list(self.tests.index[self.tests["kind"] == "static"])
 
     def read_recording(self, path: str | Path) -> Recording:
-        """Read one recording file (relative to the dataset) and convert it to SI."""
+        """Read one recording file (relative to the dataset) and convert it to SI. RecordingError
+        (naming the file and the cause) when it cannot be read, has fewer than 2 samples or holds
+        NaN, inf or non-numeric values."""
         full = self.root / path
-        table = _read_recording_table(full)
-        values = _numeric_values(table)
+        values = recording_values(full)
+        if len(values) < 2:
+            raise RecordingError(full, f"{len(values)} samples: a recording needs at least 2")
+        bad = ~np.isfinite(values).all(axis=1)
+        if bad.any():
+            raise RecordingError(full, f"{int(bad.sum())} rows with NaN, inf or non-numeric values "
+                                       f"(first at line {int(np.flatnonzero(bad)[0]) + 2})")
         return Recording(values[:, 0], values[:, 1:4] * self.acc_scale, values[:, 4:7] * self.gyr_scale, full)
 
     def ground_truth_matrix(self, subject: str, sensor_set: str, imu: str) -> np.ndarray | None:
@@ -174,8 +198,31 @@ class Dataset:
         return row[R_COLUMNS].to_numpy(dtype=float).reshape(3, 3)
 
 
-def _read_recording_table(path: Path) -> pd.DataFrame:
-    return pd.read_csv(path, sep=",", engine="c")
+class RecordingError(ValueError):
+    """A recording file cannot be read as the contract says. ``cause`` is the reason without the
+    file name; the message names the file."""
+
+    def __init__(self, path, cause: str):
+        super().__init__(f"{path}: {cause}")
+        self.path, self.cause = path, cause
+
+
+def recording_values(path: Path) -> np.ndarray:
+    """The (N, 7) values of a recording file (``RECORDING_COLUMNS``, in the file's units; a cell
+    that is not a number becomes NaN). RecordingError when it is missing, unreadable or lacks a
+    column."""
+    try:
+        table = pd.read_csv(path, sep=",", engine="c")
+    except FileNotFoundError:
+        raise RecordingError(path, "file is missing") from None
+    except Exception as exc:  # pandas raises many types for a damaged or binary file
+        raise RecordingError(path, f"cannot be read as CSV: {str(exc).splitlines()[0] if str(exc) else exc!r}") from None
+    missing = [c for c in RECORDING_COLUMNS if c not in table.columns]
+    if missing:
+        header = ",".join(map(str, table.columns))[:60]
+        hint = " (is the file comma-separated?)" if len(table.columns) == 1 else ""
+        raise RecordingError(path, f"missing column(s) {', '.join(missing)}; the header is {header!r}{hint}")
+    return _numeric_values(table)
 
 
 def _numeric_values(table: pd.DataFrame) -> np.ndarray:
@@ -209,33 +256,45 @@ def _line(index: int) -> str:
     return f"line {index + 2}"  # header is line 1
 
 
+#: keys of dataset.yaml that aceval reads (others are kept but get a warning: a typo disables a check)
+META_KEYS = ("name", "description", "simulated", "sampling_rate_hz", "units", "sensor_sets", "acc_range_g",
+             "gyr_range_dps")
+
+
+def _meta_schema() -> dict:
+    return yaml.safe_load((Path(__file__).parent / "schemas" / "dataset.schema.yaml").read_text())
+
+
 def _check_meta(root: Path, report: ValidationReport) -> dict | None:
+    """dataset.yaml against ``schemas/dataset.schema.yaml``: each violation is an error naming
+    the key and the cause."""
+    import jsonschema
+
     path = root / "dataset.yaml"
     if not path.exists():
         report.error("dataset.yaml", "missing")
         return None
     try:
-        meta = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as exc:
+        meta = yaml.safe_load(path.read_text())
+    except (yaml.YAMLError, UnicodeDecodeError) as exc:
         report.error("dataset.yaml", f"not valid YAML: {exc}")
         return None
-    ok = True
-    fs = meta.get("sampling_rate_hz")
-    if not isinstance(fs, (int, float)) or fs <= 0:
-        report.error("dataset.yaml", f"sampling_rate_hz must be a positive number, got {fs!r}")
-        ok = False
-    units = meta.get("units") or {}
-    if units.get("acc") not in ACC_UNITS:
-        report.error("dataset.yaml", f"units.acc must be one of {list(ACC_UNITS)}, got {units.get('acc')!r}")
-        ok = False
-    if units.get("gyr") not in GYR_UNITS:
-        report.error("dataset.yaml", f"units.gyr must be one of {list(GYR_UNITS)}, got {units.get('gyr')!r}")
-        ok = False
-    sets = meta.get("sensor_sets")
-    if not isinstance(sets, list) or not sets:
-        report.error("dataset.yaml", f"sensor_sets must be a non-empty list, got {sets!r}")
-        ok = False
-    return meta if ok else None
+    if not isinstance(meta, dict):
+        report.error("dataset.yaml", f"must be a mapping of keys to values (name: ..., sampling_rate_hz: ...), "
+                                     f"got {type(meta).__name__} {str(meta)[:60]!r}")
+        return None
+    validator = jsonschema.Draft202012Validator(_meta_schema())
+    errors = sorted(validator.iter_errors(meta), key=lambda e: list(map(str, e.absolute_path)))
+    for error in errors:
+        key = ".".join(map(str, error.absolute_path)) or "(top level)"
+        report.error("dataset.yaml", f"{key}: {error.message}")
+    for key in ("sampling_rate_hz", "gyr_range_dps"):
+        value = meta.get(key)
+        if isinstance(value, float) and not np.isfinite(value):
+            report.error("dataset.yaml", f"{key}: {value} is not a finite number")
+    for key in sorted(set(meta) - set(META_KEYS)):
+        report.warning("dataset.yaml", f"unknown key {key!r} is ignored (aceval reads {', '.join(META_KEYS)})")
+    return None if errors else meta
 
 
 def _expand_imus(imus: pd.DataFrame, sensor_sets: list[str], report: ValidationReport) -> pd.DataFrame:
@@ -244,7 +303,7 @@ def _expand_imus(imus: pd.DataFrame, sensor_sets: list[str], report: ValidationR
         imus = imus.assign(sensor_set="")
     rows = []
     for index, row in imus.iterrows():
-        if row["right_axis"].lower() not in AXIS_VECTORS and row["right_axis"].lower() not in "xyz":
+        if row["right_axis"].lower() not in RIGHT_AXIS_SPELLINGS:
             report.error(f"imus.tsv {_line(index)}", f"IMU {row['imu']}: right_axis {row['right_axis']!r} "
                          f"is not one of {', '.join(AXIS_VECTORS)}")
         if row["sensor_set"] and row["sensor_set"] not in sensor_sets:
@@ -276,10 +335,19 @@ def read_sheets(root: str | Path, report: ValidationReport | None = None) -> tup
     report.dataset = str(meta.get("name", root.name))
 
     imus = _expand_imus(sheets["imus.tsv"], meta["sensor_sets"], report)
+    regions = set(imus["region"])
+    for region in sorted(set(meta.get("acc_range_g") or {}) - regions):
+        report.error("dataset.yaml", f"acc_range_g names region {region!r}, which no IMU of imus.tsv has "
+                                     f"(regions: {', '.join(sorted(regions))}): the clipping check would be off")
     tests = sheets["tests.tsv"]
+    if "first_phase" not in tests.columns:  # Kong's tests by name; others unchecked
+        tests = tests.assign(first_phase=tests["test"].map(KONG_FIRST_PHASE).fillna(""))
     for index, row in tests.iterrows():
         if row["kind"] not in ("static", "motion"):
             report.error(f"tests.tsv {_line(index)}", f"test {row['test']}: kind {row['kind']!r} must be static or motion")
+        if row["first_phase"] not in FIRST_PHASES:
+            report.error(f"tests.tsv {_line(index)}", f"test {row['test']}: first_phase {row['first_phase']!r} must be "
+                         f"one of -y, +y, gait or empty")
     subjects = sheets["subjects.tsv"]
     for sheet, table, column in (("tests.tsv", tests, "test"), ("subjects.tsv", subjects, "subject")):
         for index in table.index[table.duplicated(column, keep="first")]:
@@ -307,14 +375,22 @@ def read_sheets(root: str | Path, report: ValidationReport | None = None) -> tup
                 report.error(where, f"{column} {row[column]!r} is not defined in {sheet}")
         if row["sensor_set"] not in meta["sensor_sets"]:
             report.error(where, f"sensor_set {row['sensor_set']!r} is not in dataset.yaml sensor_sets")
-        if not row["rep"].isdigit():
+        if not row["rep"].isdigit() or int(row["rep"]) < 1:
             report.error(where, f"rep {row['rep']!r} must be a positive integer")
-    key = ["subject", "sensor_set", "test", "rep", "imu"]
+        if problem := path_problem(row["path"]):
+            report.error(where, problem)
+    recordings = recordings.assign(rep=pd.to_numeric(recordings["rep"], errors="coerce").astype("Int64"))
+    key = ["subject", "sensor_set", "test", "rep", "imu"]  # rep as a number: '01' and '1' are one repetition
     for index in recordings.index[recordings.duplicated(key, keep="first")]:
         row = recordings.loc[index]
-        report.error(f"recordings.tsv {_line(index)}", "duplicate recording " + " ".join(row[key]))
+        report.error(f"recordings.tsv {_line(index)}", "duplicate recording " + " ".join(map(str, row[key]))
+                     + " (repetitions are compared as numbers)")
     recordings = recordings[~recordings.duplicated(key, keep="first")].copy()
-    recordings["rep"] = pd.to_numeric(recordings["rep"], errors="coerce").astype("Int64")
+    same_file = recordings["path"].map(os.path.normpath)
+    for index in recordings.index[same_file.duplicated(keep="first")]:
+        first = recordings.index[same_file == same_file[index]][0]
+        report.warning(f"recordings.tsv {_line(index)}", f"path {recordings.loc[index, 'path']!r} is also the file "
+                       f"of {_line(first)}: one file serves two recordings")
 
     _check_static_available(recordings, tests, calibrates, report)
 
@@ -358,6 +434,11 @@ def _check_static_available(recordings, tests, calibrates, report) -> None:
 
 
 def _check_ground_truth(ground_truth, report):
+    key = ["subject", "sensor_set", "imu"]
+    for index in ground_truth.index[ground_truth.duplicated(key, keep=False)]:
+        report.error(f"ground_truth.tsv {_line(index)}", "IMU " + " ".join(ground_truth.loc[index, key])
+                     + " has more than one row: which is the truth?")
+    ground_truth = ground_truth.drop_duplicates(key, keep=False)
     values = ground_truth[R_COLUMNS].apply(pd.to_numeric, errors="coerce")
     for index in values.index:
         R = values.loc[index].to_numpy(dtype=float).reshape(3, 3)
@@ -379,15 +460,10 @@ def check_recording(dataset: Dataset, row, report: ValidationReport) -> None:
         report.error(where, "file is missing")
         return
     try:
-        table = _read_recording_table(path)
-    except Exception as exc:
-        report.error(where, f"cannot be read as CSV: {exc}")
+        values = recording_values(path)
+    except RecordingError as exc:
+        report.error(where, exc.cause)
         return
-    missing = [c for c in RECORDING_COLUMNS if c not in table.columns]
-    if missing:
-        report.error(where, f"missing column(s) {', '.join(missing)}")
-        return
-    values = _numeric_values(table)
     if len(values) < 2:
         report.error(where, f"{len(values)} samples: a recording needs at least 2")
         return
@@ -424,12 +500,34 @@ def check_recording(dataset: Dataset, row, report: ValidationReport) -> None:
         n_sat = int((np.abs(acc) >= limit).any(axis=1).sum())
         if n_sat:
             report.warning(where, f"{n_sat} samples at the accelerometer range +-{acc_range} g (saturated)")
+    if dataset.test_kinds[row["test"]] == "motion" and (plateau := plateau_limit(acc)) is not None:
+        level_g = plateau * dataset.acc_scale / GRAVITY
+        if not acc_range or level_g < SATURATION_FRACTION * float(acc_range):
+            n_flat = int((np.abs(acc) >= plateau).any(axis=1).sum())
+            report.warning(where, f"{n_flat} samples sit at +-{level_g:.3g} g, {PLATEAU_RUN} or more in a row: "
+                           f"clipped below the declared range ({acc_range or 'none'} g)? aceval leaves them out")
     gyr_range = dataset.meta.get("gyr_range_dps")
     if gyr_range:
         limit = SATURATION_FRACTION * np.radians(float(gyr_range)) / dataset.gyr_scale
         n_sat = int((np.abs(values[:, 4:7]) >= limit).any(axis=1).sum())
         if n_sat:
             report.warning(where, f"{n_sat} samples at the gyroscope range +-{gyr_range} deg/s (saturated)")
+
+
+def plateau_limit(signal: np.ndarray, run: int = PLATEAU_RUN) -> float | None:
+    """The |value| (in the signal's units) at which an (N, 3) signal is clipped, found from the data
+    alone: the largest |value| of an axis held for ``run`` or more consecutive samples (a smooth
+    signal passes its peak in one sample; a clipped one sits on the rail). The lowest such level over
+    the axes, or None when no axis has a plateau at its extreme."""
+    magnitude = np.abs(np.asarray(signal, dtype=float))
+    if len(magnitude) < run:
+        return None
+    peak = magnitude.max(axis=0)
+    at_peak = magnitude >= peak * (1 - 1e-9)
+    # a window of ``run`` samples all at the peak <=> a plateau
+    windows = np.lib.stride_tricks.sliding_window_view(at_peak, run, axis=0).all(axis=-1)
+    clipped = windows.any(axis=0) & (peak > 0)
+    return float(peak[clipped].min()) if clipped.any() else None
 
 
 def known_recordings(dataset: Dataset) -> pd.DataFrame:

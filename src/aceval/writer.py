@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .dataset import ACC_UNITS, GYR_UNITS, R_COLUMNS, RECORDING_COLUMNS
+from .dataset import ACC_UNITS, GYR_UNITS, KONG_FIRST_PHASE, R_COLUMNS, RECORDING_COLUMNS
 
 
 def write_sheet(path: Path, columns: list[str], rows: list) -> None:
@@ -68,10 +68,12 @@ class DatasetWriter:
         self._recordings.write(f"{subject}\t{sensor_set}\t{test}\t{rep}\t{imu}\t{path}\n")
 
     def protocol_sheets(self, tests: dict, repetitions: dict, calibrates: dict) -> None:
-        """tests.tsv from ``{test: (kind, description)}`` and ``{test: repetitions}``, and
+        """tests.tsv from ``{test: (kind, description)}`` and ``{test: repetitions}`` (``first_phase``
+        from Kong's test names, :data:`aceval.dataset.KONG_FIRST_PHASE`), and
         calibrates.tsv from ``{test: [imu, ...]}``."""
-        write_sheet(self.root / "tests.tsv", ["test", "kind", "repetitions", "description"],
-                    [[test, kind, repetitions[test], text] for test, (kind, text) in tests.items()])
+        write_sheet(self.root / "tests.tsv", ["test", "kind", "repetitions", "first_phase", "description"],
+                    [[test, kind, repetitions[test], KONG_FIRST_PHASE.get(test, "") if kind == "motion" else "", text]
+                     for test, (kind, text) in tests.items()])
         write_sheet(self.root / "calibrates.tsv", ["test", "imu"],
                     [[test, imu] for test, imus in calibrates.items() for imu in imus])
 
