@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from .objectives import unflagged
 from .tables import SEGMENT_ORDER
 
 #: Kong et al. 2016 Sec. 4: the test recommended for each segment
@@ -21,7 +22,7 @@ KEY = ["subject", "sensor_set", "imu", "test", "method"]
 
 def full_set_errors(calibrations: pd.DataFrame) -> pd.DataFrame:
     """The unflagged calibrations from all repetitions, with a finite error to the truth."""
-    data = calibrations[calibrations["flag"].fillna("") == ""]
+    data = calibrations[unflagged(calibrations)]
     data = data[data["n_reps"] == data.groupby(KEY[:-1] + ["method"])["n_reps"].transform("max")]
     return data[np.isfinite(data["error_deg"])]
 
@@ -73,3 +74,22 @@ def best_tests(calibrations: pd.DataFrame) -> pd.DataFrame:
     table["method_rank"] = table["method"].map({m: i for i, m in enumerate(METHOD_ORDER)})
     return (table.assign(segment_rank=rank).sort_values(["segment_rank", "segment", "method_rank"])
             .drop(columns=["segment_rank", "method_rank"]))
+
+
+#: a ground truth disagreeing by more than this with most IMUs' calibrations is suspect
+SUSPECT_TRUTH_DEG = 90.0
+
+
+def truth_warning(calibrations: pd.DataFrame) -> str:
+    """A warning when, for most IMUs with a ground truth, the median error of their valid
+    calibrations exceeds 90 deg: a transposed matrix (sensor <- body instead of body <- sensor) or
+    rows given to the wrong IMUs is likelier than a method that far off. '' otherwise."""
+    if "error_deg" not in calibrations:
+        return ""
+    data = calibrations[(unflagged(calibrations)) & np.isfinite(calibrations["error_deg"])]
+    per_imu = data.groupby(["subject", "sensor_set", "imu"])["error_deg"].median()
+    if per_imu.empty or (per_imu > SUSPECT_TRUTH_DEG).mean() <= 0.5:
+        return ""
+    return (f"WARNING: for {int((per_imu > SUSPECT_TRUTH_DEG).sum())} of {len(per_imu)} IMUs every method is more than "
+            f"{SUSPECT_TRUTH_DEG:g} deg from ground_truth.tsv: is the truth transposed (R must map sensor to body, "
+            f"d_body = R d_sensor) or given to the wrong IMUs?")

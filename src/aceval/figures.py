@@ -11,6 +11,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 import seaborn as sns  # noqa: E402
 
+from .objectives import unflagged  # noqa: E402
 from .tables import SEGMENT_ORDER, rename_tests  # noqa: E402
 
 FIGURES = {
@@ -39,7 +40,7 @@ def plot(number: int, correlations: pd.DataFrame | None, angles: pd.DataFrame | 
     if number in (6, 8):
         objective = "frontal_lateral" if number == 6 else "segment_pair"
         data = correlations[(correlations["objective"] == objective) & (correlations["signal"] == "acc")
-                            & (correlations["flag"].fillna("") == "")].copy()
+                            & unflagged(correlations)].copy()
         panel = "segment" if number == 6 else "pair"
         keys = ["subject", "sensor_set", "imu", panel, "t_ex", "t_ap"]
         data = data.groupby(keys, as_index=False)["correlation"].mean()

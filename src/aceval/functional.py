@@ -22,6 +22,7 @@ Two designs say which axes go into one calibration:
 from __future__ import annotations
 
 import zlib
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -133,12 +134,66 @@ def fit_axes(v_ref: np.ndarray, v_est: np.ndarray, rho: np.ndarray, triad_pair: 
     return out
 
 
-def sagittal_fits(z0: np.ndarray, rho_static: float, motion_axis: np.ndarray, rho_motion: float) -> dict[str, dict]:
+@dataclass(frozen=True)
+class AxisLimits:
+    """Limits beyond which a calibration of the axis methods is flagged (like :class:`KongLimits`):
+
+    * ``min_rho``: a movement axis with a lower rho has no preferred direction (0.40; samples spread
+      evenly in 3-D give 1/3, simulated random hand-held rotation 0.37-0.49 per recording, Kong's
+      simulated sagittal tests 0.43-0.77 over 5 repetitions);
+    * ``min_vertical_angle_deg``: the sagittal design's movement axis (body y) must be at least this
+      far from z0 (45 deg, as Kong's plane normal);
+    * ``max_spread_deg``: the repetitions' own axes must agree: median angle between each
+      repetition's axis and the pooled one at most 40 deg (axes drawn at random give 60 deg; the
+      simulated Kong protocol up to 31 deg, in the leg swing T5);
+    * ``max_residual_deg``: Ricci's functional design, the largest residual angle between a
+      reference axis and its fitted estimate (30 deg): beyond it the axes do not form one frame.
+    """
+
+    min_rho: float = 0.40
+    min_vertical_angle_deg: float = 45.0
+    max_spread_deg: float = 40.0
+    max_residual_deg: float = 30.0
+
+
+def axis_spread_deg(repetition_axes: np.ndarray, pooled: np.ndarray) -> float:
+    """Median angle (deg, sign ignored) between each repetition's own axis (rows; NaN rows skipped)
+    and the pooled axis; NaN with no repetition axis."""
+    axes = np.asarray(repetition_axes, float)
+    axes = axes[np.isfinite(axes).all(axis=1)]
+    if not len(axes):
+        return float("nan")
+    cos = np.abs(axes @ np.asarray(pooled, float)) / np.linalg.norm(axes, axis=1)
+    return float(np.degrees(np.median(np.arccos(np.clip(cos, 0.0, 1.0)))))
+
+
+def _flag_all(fits: dict[str, dict], code: str, message: str) -> dict[str, dict]:
+    for fit in fits.values():
+        if not fit.get("flag"):
+            fit.update(flag=code, message=message)
+    return fits
+
+
+def sagittal_fits(z0: np.ndarray, rho_static: float, motion_axis: np.ndarray, rho_motion: float,
+                  spread_deg: float = float("nan"), limits: AxisLimits = AxisLimits()) -> dict[str, dict]:
     """Kong's protocol, axis methods: body z (down) <- z0 from quiet stance, body y (right) <- the
-    gyroscope axis of the motion test (already oriented to the right), weighted by their rho."""
+    gyroscope axis of the motion test (already oriented to the right), weighted by their rho.
+    Flagged (every method) beyond :class:`AxisLimits`: ``low_rho``, ``axis_near_vertical``,
+    ``axes_disagree`` (``spread_deg``: :func:`axis_spread_deg` of the repetitions)."""
     v_ref = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
     v_est = np.array([z0, motion_axis])
-    return fit_axes(v_ref, v_est, np.array([rho_static, rho_motion]), (0, 1))
+    fits = fit_axes(v_ref, v_est, np.array([rho_static, rho_motion]), (0, 1))
+    vertical_angle = float(np.degrees(np.arccos(min(1.0, abs(float(np.dot(z0, motion_axis)))))))
+    if rho_motion < limits.min_rho:
+        return _flag_all(fits, "low_rho", f"rho of the movement axis {rho_motion:.2f} < {limits.min_rho}: "
+                                          f"no preferred rotation axis")
+    if vertical_angle < limits.min_vertical_angle_deg:
+        return _flag_all(fits, "axis_near_vertical", f"movement axis {vertical_angle:.0f} deg from z0 "
+                                                     f"(< {limits.min_vertical_angle_deg:g}): not a sagittal motion")
+    if spread_deg > limits.max_spread_deg:
+        return _flag_all(fits, "axes_disagree", f"the repetitions' axes are {spread_deg:.0f} deg (median) from "
+                                                f"the pooled one (> {limits.max_spread_deg:g})")
+    return fits
 
 
 def triad_pair(v_ref: np.ndarray, rho: np.ndarray, min_angle_deg: float = 30.0) -> tuple[int, int]:
@@ -154,19 +209,32 @@ def triad_pair(v_ref: np.ndarray, rho: np.ndarray, min_angle_deg: float = 30.0) 
     return primary, order[1] if len(order) > 1 else primary
 
 
-def functional_fits(axes: pd.DataFrame, random_starts: int = RANDOM_STARTS, seed_key=()) -> dict[str, dict]:
+def functional_fits(axes: pd.DataFrame, random_starts: int = RANDOM_STARTS, seed_key=(),
+                    limits: AxisLimits = AxisLimits()) -> dict[str, dict]:
     """Ricci's protocol: one calibration per IMU from every axis in ``axes`` (rows with
-    ``reference`` ('+x', ...), ``axis_x/y/z`` and ``rho``)."""
+    ``reference`` ('+x', ...), ``axis_x/y/z`` and ``rho``). Flagged (every method) beyond
+    :class:`AxisLimits`: ``low_rho`` (fewer than 2 axes with rho >= min_rho), ``axes_inconsistent``
+    (an LM residual above max_residual_deg)."""
     v_ref = np.stack([axis_vector(a) for a in axes["reference"]])
     v_est = axes[["axis_x", "axis_y", "axis_z"]].to_numpy(float)
     rho = axes["rho"].to_numpy(float)
-    return fit_axes(v_ref, v_est, rho, triad_pair(v_ref, rho), random_starts, _seed(*seed_key))
+    fits = fit_axes(v_ref, v_est, rho, triad_pair(v_ref, rho), random_starts, _seed(*seed_key))
+    if np.sum(rho >= limits.min_rho) < 2:
+        return _flag_all(fits, "low_rho", f"fewer than 2 axes with rho >= {limits.min_rho} "
+                                          f"({', '.join(f'{r:.2f}' for r in rho)})")
+    residual = fits["ricci_lm"].get("residual_after_deg")
+    if residual is not None and np.max(residual) > limits.max_residual_deg:
+        return _flag_all(fits, "axes_inconsistent", f"an axis is {np.max(residual):.0f} deg from its reference "
+                                                    f"after the fit (> {limits.max_residual_deg:g}): the axes do "
+                                                    f"not form one frame")
+    return fits
 
 
-def subset_rho(scatters: np.ndarray, membership: np.ndarray) -> np.ndarray:
-    """rho (Ricci Eq. 2) of every subset of repetitions at once: ``scatters`` (n_rep, 3, 3) unit
-    scatters, ``membership`` (n_subsets, n_rep) 0/1."""
+def subset_axes(scatters: np.ndarray, membership: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """rho (Ricci Eq. 2) and axis (unit, sign arbitrary) of every subset of repetitions at once:
+    ``scatters`` (n_rep, 3, 3) unit scatters, ``membership`` (n_subsets, n_rep) 0/1."""
     total = np.einsum("sr,rij->sij", membership, scatters)
-    singular = np.sqrt(np.clip(np.linalg.eigvalsh(total), 0.0, None))
+    eigenvalues, vectors = np.linalg.eigh(total)
+    singular = np.sqrt(np.clip(eigenvalues, 0.0, None))
     with np.errstate(invalid="ignore", divide="ignore"):
-        return singular[:, -1] / singular.sum(axis=1)
+        return singular[:, -1] / singular.sum(axis=1), vectors[:, :, -1]

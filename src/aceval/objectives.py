@@ -64,11 +64,17 @@ def matrices(table: pd.DataFrame) -> np.ndarray:
     return table[R_COLUMNS].to_numpy(float).reshape(-1, 3, 3)
 
 
+def unflagged(table: pd.DataFrame) -> pd.Series:
+    """True for the rows whose ``flag`` is empty (read back from a CSV, an empty flag is NaN)."""
+    flag = table["flag"]
+    return flag.isna() | (flag.astype(str) == "")
+
+
 def usable(calibrations: pd.DataFrame) -> pd.DataFrame:
     """Kong calibrations that are not flagged (Objectives 1-5 are about Kong's method; the axis
     methods' rows, ``method`` != 'kong', are compared in :mod:`aceval.comparison`)."""
     calibrations = kong_rows(calibrations)
-    return calibrations[calibrations["flag"].fillna("") == ""]
+    return calibrations[unflagged(calibrations)]
 
 
 def kong_rows(calibrations: pd.DataFrame) -> pd.DataFrame:

@@ -13,18 +13,24 @@ import numpy as np
 import pandas as pd
 
 from .calibration.kong import KongLimits, kong_from_scatters, scatter, vertical_axis
-from .dataset import Dataset, R_COLUMNS
+from .checks import (
+    AGREEMENT_COLUMNS, MAX_NORMAL_GYRO_ANGLE_DEG, THIRD_MOMENT_COLUMNS, agreement_moments, direction_checks,
+    sensor_problem, third_moments,
+)
+from .dataset import R_COLUMNS, Dataset, RecordingError, plateau_limit
 from .errors import CalibrationError, SaturatedError
 from .functional import (
-    AXIS_METHODS, MOMENT_COLUMNS, SCATTER_COLUMNS as UNIT_SCATTER_COLUMNS, functional_fits, pool, pool_summed,
-    recording_moments, sagittal_fits, subset_rho,
+    AXIS_METHODS, MOMENT_COLUMNS, PHASE_COLUMNS, SCATTER_COLUMNS as UNIT_SCATTER_COLUMNS, axis_spread_deg, functional_fits, pool, pool_summed,
+    recording_moments, sagittal_fits, subset_axes,
 )
-from .objectives import correlation_3d, frontal_lateral_plan, full_sets, segment_pair_plan
+from .objectives import correlation_3d, frontal_lateral_plan, full_sets, segment_pair_plan, unflagged
 from .rotations import axis_vector, error_angle_deg, vertical_share
 from .segmentation import TrimParams, mask_to_ranges, movement_mask
 
 SCATTER_COLUMNS = [f"s{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
 KEY = ["subject", "sensor_set", "imu"]
+#: the columns every calibration table has (an empty table keeps them)
+CALIBRATION_COLUMNS = [*KEY, "segment", "side", "test", "repetitions", "n_reps", "method", *R_COLUMNS, "flag"]
 #: a motion recording is left out when more than this fraction of its moving samples is clipped at
 #: the accelerometer range (a choice, not from the papers: the clipped samples themselves are always
 #: left out of the scatter, and beyond a fifth of them the plane rests on a biased remainder)
@@ -58,13 +64,21 @@ def summarise_recordings(dataset: Dataset, subject: str | None = None,
         row.update(kind="static" if is_static else "motion", flag="", message="")
         try:
             data = dataset.read_recording(rec["path"])
+        except RecordingError as exc:
+            rows.append(row | {"flag": "unreadable", "message": str(exc)})
+            continue
+        try:
             if is_static:
                 row.update(zip(["z0_x", "z0_y", "z0_z"], vertical_axis(data.acc)))
                 row["n_samples"] = len(data.acc)
                 row.update(recording_moments(data.acc, dataset.fs_hz, motion=False))
             else:
+                row.update(agreement_moments(data.acc, data.gyr, dataset.fs_hz))
+                row["gyro_p995_deg_s"] = float(np.degrees(np.percentile(np.linalg.norm(data.gyr, axis=1), 99.5)))
                 mask = movement_mask(data.gyr, dataset.fs_hz, trim)
                 limit = dataset.acc_limit(rec["sensor_set"], rec["imu"])
+                if limit is None and (plateau := plateau_limit(data.acc)) is not None:
+                    limit, row["clipping_from_data"] = plateau, True  # clipped at a range nobody declared
                 clipped = mask & (np.abs(data.acc) >= limit).any(axis=1) if limit else np.zeros_like(mask)
                 row["n_clipped"] = int(clipped.sum())
                 if row["n_clipped"] > MAX_CLIPPED_FRACTION * mask.sum():
@@ -76,6 +90,7 @@ def summarise_recordings(dataset: Dataset, subject: str | None = None,
                 row["n_segments"] = len(mask_to_ranges(mask))
                 row.update(zip(SCATTER_COLUMNS, scatter(kept).ravel()))
                 row.update(recording_moments(data.gyr[mask], dataset.fs_hz, motion=True))
+                row.update(third_moments(data.gyr[mask]))
         except CalibrationError as exc:
             row.update(flag=exc.code, message=f"{rec['path']}: {exc}")
         rows.append(row)
@@ -131,7 +146,8 @@ def _method_rows(base: dict, fits: dict, truth) -> list[dict]:
 
 
 LM_COLUMNS = ["n_iterations", "converged", "cost", "random_starts", "random_starts_optimum",
-              "random_start_iterations_mean", "random_start_iterations_max"]
+              "random_start_iterations_mean", "random_start_iterations_max", "first_phase_agreement",
+              "right_axis_angle_deg"]
 
 
 def _static_axes(summaries: pd.DataFrame) -> tuple[pd.DataFrame, dict]:
@@ -142,6 +158,33 @@ def _static_axes(summaries: pd.DataFrame) -> tuple[pd.DataFrame, dict]:
     axes = {key: (pool(group), ",".join(sorted(group["test"].unique())), len(group))
             for key, group in static.groupby(KEY)}
     return z0, axes
+
+
+def imu_checks(dataset: Dataset, summaries: pd.DataFrame) -> dict[tuple, dict]:
+    """Per (subject, set, IMU), what its motion recordings say about the sensor itself
+    (:func:`aceval.checks.sensor_problem`; walking recordings are left out of the agreement)."""
+    motion = summaries[summaries["kind"] == "motion"]
+    if motion.empty or AGREEMENT_COLUMNS[0] not in motion:
+        return {}
+    gait = motion["test"].map(dataset.first_phase) == "gait"
+    out = {}
+    for key, group in motion.groupby(KEY, sort=False):
+        summed = group.loc[~gait[group.index], AGREEMENT_COLUMNS].sum().to_numpy(float)
+        verdict = sensor_problem(summed, float(group["gyro_p995_deg_s"].max()), dataset.meta["units"]["gyr"])
+        if verdict["message"]:
+            verdict["message"] = f"{' '.join(key)}: {verdict['message']}"
+        out[key] = verdict
+    return out
+
+
+def _direction(dataset: Dataset, test: str, segment: str, group: pd.DataFrame, membership, R, right) -> dict:
+    third = group[THIRD_MOMENT_COLUMNS].to_numpy(float) if THIRD_MOMENT_COLUMNS[0] in group else None
+    return direction_checks(dataset.first_phase(test), segment, group[PHASE_COLUMNS].to_numpy(float), third,
+                            membership, R, right)
+
+
+def _first_flag(*flags) -> str:
+    return next((f for f in flags if f), "")
 
 
 def calibrate_sagittal(dataset: Dataset, summaries: pd.DataFrame, subsets: str = "all",
@@ -159,6 +202,7 @@ def calibrate_sagittal(dataset: Dataset, summaries: pd.DataFrame, subsets: str =
     (subject, set, IMU, test) with the axis and rho of all its repetitions.
     """
     z0, static_axes = _static_axes(summaries)
+    sensors = imu_checks(dataset, summaries)
     motion = summaries[(summaries["kind"] == "motion") & (summaries["flag"] == "")]
     out, axes = [], []
     for key, (estimate, tests, n_recordings) in static_axes.items():
@@ -180,12 +224,21 @@ def calibrate_sagittal(dataset: Dataset, summaries: pd.DataFrame, subsets: str =
         membership = np.zeros((len(chosen), len(reps)))
         for row, subset in enumerate(members):
             membership[row, subset] = 1.0
-        rho_motion = subset_rho(group[UNIT_SCATTER_COLUMNS].to_numpy(float).reshape(-1, 3, 3), membership)
+        rho_motion, gyro_axes = subset_axes(group[UNIT_SCATTER_COLUMNS].to_numpy(float).reshape(-1, 3, 3), membership)
+        gyro_angle = np.degrees(np.arccos(np.clip(np.abs(np.einsum("ki,ki->k", result.R[:, 1], gyro_axes)), 0.0, 1.0)))
         static_axis, z0_tests, _ = static_axes[(subject, sensor_set, imu)]
         rho_static = static_axis.rho
         truth = dataset.ground_truth_matrix(subject, sensor_set, imu)
         errors = _truth_columns(truth, result.R)
         identity = _identity(dataset, subject, sensor_set, imu)
+        sensor = sensors.get((subject, sensor_set, imu), {"flag": ""})
+        sensor_columns = {k: sensor.get(k, np.nan) for k in ("gyro_acc_agreement", "gyro_acc_evidence_deg")}
+        direction = _direction(dataset, test, identity["segment"], group, membership, result.R, right)
+        # forward or backward is a property of the IMU's mounting: judged on all repetitions together
+        # (the largest subset, last), it holds for every subset of them
+        full = _direction(dataset, test, identity["segment"], group, np.ones((1, len(reps))), result.R[-1:], right)
+        own_mismatch = np.where(direction["flag"] == "right_axis_mismatch", "right_axis_mismatch", "")
+        direction["flag"] = np.where(full["flag"][0] == "backward", "backward", own_mismatch)
         for k, subset in enumerate(chosen):
             out.append({
                 **identity, "test": test, "repetitions": subset_label(subset), "n_reps": len(subset), "method": "kong",
@@ -195,16 +248,53 @@ def calibrate_sagittal(dataset: Dataset, summaries: pd.DataFrame, subsets: str =
                 "planarity": result.planarity[k], "normal_ratio": result.normal_ratio[k],
                 "normal_vertical_angle_deg": result.normal_vertical_angle_deg[k],
                 "rho_static": rho_static, "rho_motion": rho_motion[k], "z0_tests": z0_tests,
-                "flag": result.flag[k], **{name: values[k] for name, values in errors.items()},
+                "normal_gyro_angle_deg": gyro_angle[k], "first_phase_agreement": direction["first_phase_agreement"][k],
+                "right_axis_angle_deg": direction["right_axis_angle_deg"][k], **sensor_columns,
+                "flag": _first_flag(sensor["flag"], result.flag[k], "normal_gyro_disagree" if gyro_angle[k] >
+                                    MAX_NORMAL_GYRO_ANGLE_DEG else "", direction["flag"][k]),
+                **{name: values[k] for name, values in errors.items()},
             })
         gyro_axis = pool(group, orient=right)
         axes.append(_axis_row(identity, test, "motion", gyro_axis, "+y", len(reps)))
+        spread = axis_spread_deg(group[PHASE_COLUMNS].to_numpy(float), gyro_axis.axis)
         base = {**identity, "test": test, "repetitions": subset_label(reps), "n_reps": len(reps),
                 "n_samples": int(group["n_samples"].sum()), "rho_static": rho_static, "rho_motion": gyro_axis.rho,
-                "z0_tests": z0_tests}
-        fits = sagittal_fits(z0_imu, rho_static, gyro_axis.axis, gyro_axis.rho)
+                "z0_tests": z0_tests, "axis_spread_deg": spread, **sensor_columns}
+        fits = sagittal_fits(z0_imu, rho_static, gyro_axis.axis, gyro_axis.rho, spread)
+        all_reps = np.ones((1, len(reps)))
+        for method in AXIS_METHODS:  # the same direction checks as Kong's
+            if fits[method].get("R") is not None:
+                checked = _direction(dataset, test, identity["segment"], group, all_reps, fits[method]["R"][None], right)
+                fits[method]["flag"] = _first_flag(sensor["flag"], fits[method].get("flag", ""), checked["flag"][0])
+                fits[method]["first_phase_agreement"] = checked["first_phase_agreement"][0]
+                fits[method]["right_axis_angle_deg"] = checked["right_axis_angle_deg"][0]
         out += _method_rows(base, fits, truth)
-    return pd.DataFrame(out), pd.DataFrame(axes, columns=AXES_COLUMNS)
+    calibrations = pd.DataFrame(out, columns=None if out else CALIBRATION_COLUMNS)
+    return propagate_backward(calibrations), pd.DataFrame(axes, columns=AXES_COLUMNS)
+
+
+def propagate_backward(calibrations: pd.DataFrame) -> pd.DataFrame:
+    """Tests whose direction cannot be checked (e.g. the thigh in walking) inherit the verdict of a
+    checked test of the same IMU: every test's y axis takes its sign from the same ``right_axis``,
+    so a calibration within 90 deg of one found backward is backward too. Judged on Kong's
+    calibrations from all repetitions; the flag goes to every calibration (and method) of the test."""
+    if calibrations.empty or "first_phase_agreement" not in calibrations:
+        return calibrations
+    kong = calibrations[calibrations["method"] == "kong"]
+    full = kong[kong["n_reps"] == kong.groupby(KEY + ["test"])["n_reps"].transform("max")]
+    flags = np.where(unflagged(calibrations), "", calibrations["flag"].astype(str)).astype(object)
+    for _, imu in full.groupby(KEY, sort=False):
+        backward = imu[imu["flag"] == "backward"]
+        unchecked = imu[imu["first_phase_agreement"].isna() & unflagged(imu)]
+        if backward.empty or unchecked.empty:
+            continue
+        R_unchecked = unchecked[R_COLUMNS].to_numpy(float).reshape(-1, 1, 3, 3)
+        R_backward = backward[R_COLUMNS].to_numpy(float).reshape(1, -1, 3, 3)
+        near = (error_angle_deg(R_unchecked, R_backward) < 90.0).any(axis=1)
+        for test in unchecked["test"][near]:
+            same = ((calibrations[KEY] == imu.iloc[0][KEY]).all(axis=1) & (calibrations["test"] == test)).to_numpy()
+            flags[same & (flags == "")] = "backward"
+    return calibrations.assign(flag=flags)
 
 
 AXES_COLUMNS = ["subject", "sensor_set", "imu", "segment", "side", "test", "kind", "signal", "n_recordings",
@@ -257,7 +347,7 @@ def calibrate_functional(dataset: Dataset, summaries: pd.DataFrame) -> tuple[pd.
                     "n_reps": int(used["n_recordings"].sum()), "n_samples": int(used["n_samples"].sum())}
             calibrations += _method_rows(base, fits, dataset.ground_truth_matrix(subject, sensor_set, imu))
         axes.append(table)
-    return pd.DataFrame(calibrations), (pd.concat(axes, ignore_index=True)[AXES_COLUMNS] if axes
+    return pd.DataFrame(calibrations, columns=None if calibrations else CALIBRATION_COLUMNS), (pd.concat(axes, ignore_index=True)[AXES_COLUMNS] if axes
                                         else pd.DataFrame(columns=AXES_COLUMNS))
 
 

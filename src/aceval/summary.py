@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from .objectives import kong_rows
+from .objectives import kong_rows, unflagged
 
 HOLDS, FAILS, UNTESTABLE = "holds", "does not hold", "not testable on this dataset"
 UPPER, LOWER = ["head", "chest", "waist"], ["thigh", "shank", "foot"]
@@ -348,14 +348,16 @@ def calibration_screen(calibrations: pd.DataFrame, n_left_out: int, path) -> str
     calibrations, how many flagged and (with ground truth) the median error."""
     if calibrations.empty:
         return f"aceval calibrate: wrote {path}: no calibrations ({n_left_out} recordings left out)"
-    flagged = calibrations["flag"].fillna("") != ""
+    flagged = ~unflagged(calibrations)
     per_method = calibrations.assign(flagged=flagged).groupby("method", sort=False).agg(
         calibrations=("flag", "size"), flagged=("flagged", "sum"), median_error_deg=("error_deg", "median"))
     if per_method["median_error_deg"].isna().all():
         per_method = per_method.drop(columns="median_error_deg")
+    from .comparison import truth_warning
+
     lines = [f"aceval calibrate: wrote {path}",
              f"  {len(calibrations)} calibrations ({int(flagged.sum())} flagged) of {calibrations['subject'].nunique()} "
              f"subject(s), {calibrations[['sensor_set', 'imu']].drop_duplicates().shape[0]} IMU(s), tests "
              f"{', '.join(sorted(calibrations['test'].unique()))}; {n_left_out} recording(s) left out",
              *("  " + line for line in per_method.round(2).to_string().splitlines())]
-    return "\n".join(lines)
+    return "\n".join(lines + [warning for warning in [truth_warning(calibrations)] if warning])

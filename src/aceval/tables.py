@@ -13,6 +13,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .objectives import unflagged
+
 
 REFERENCE = Path(__file__).parent / "reference" / "kong2016"
 SEGMENT_ORDER = ["head", "chest", "waist", "thigh", "shank", "foot"]
@@ -81,7 +83,7 @@ def _compare(result: pd.DataFrame, published: pd.DataFrame, keys: list[str], col
 
 def _frontal_lateral_units(correlations: pd.DataFrame, signal: str) -> pd.DataFrame:
     table = correlations[(correlations["objective"] == "frontal_lateral") & (correlations["signal"] == signal)
-                         & (correlations["flag"].fillna("") == "")]
+                         & unflagged(correlations)]
     return table.groupby(["subject", "imu", "segment", "t_ex", "t_ap"], as_index=False)["correlation"].mean()
 
 
@@ -102,7 +104,7 @@ def box_table(number: int, correlations: pd.DataFrame, paper_names: dict) -> pd.
 
 
 def table6(correlations: pd.DataFrame, paper_names: dict) -> pd.DataFrame:
-    table = correlations[(correlations["objective"] == "segment_pair") & (correlations["flag"].fillna("") == "")]
+    table = correlations[(correlations["objective"] == "segment_pair") & unflagged(correlations)]
     units = table.groupby(["subject", "sensor_set", "side", "pair", "t_ex", "t_ap"], as_index=False)["correlation"].mean()
     units["t_ap"] = rename_tests(units["t_ap"], paper_names)
     result = _summary(units, ["pair", "t_ap"], "correlation")
@@ -142,7 +144,7 @@ def ttest_table(number: int, correlations: pd.DataFrame | None, angles: pd.DataF
 
     set_a, set_b = (list(sensor_sets) + ["(no second set)"] * 2)[:2]  # one set: nothing is paired, n = 0
     if number == 7:
-        data = correlations[(correlations["objective"] == "segment_pair") & (correlations["flag"].fillna("") == "")]
+        data = correlations[(correlations["objective"] == "segment_pair") & unflagged(correlations)]
         rows, value, pair_on = "pair", "correlation", ["subject", "side", "t_ex", "t_ap", "rep"]
     else:
         comparison = "incremental" if number == 8 else "test_retest"

@@ -1,0 +1,181 @@
+"""Plausibility checks of a calibration from the motion itself (beyond both papers).
+
+Each check turns a silent wrong result into a visible flag. All of them work from small
+per-recording statistics computed in the one pass over the samples (:func:`recording_checks`),
+so that any subset of repetitions is checked without reading the samples again.
+
+* **Gyroscope and accelerometer agree** (:func:`gyro_acc_agreement`): a rigid sensor's gyroscope
+  must turn its gravity reading the way the accelerometer sees it turn. Over windows of slow motion
+  (``WINDOW_S`` long, specific force within ``SLOW_MAX_DEV_G`` of 1 g, angular speed below
+  ``SLOW_MAX_RATE_RAD_S``) the direction change of the specific force, ``Delta x a``, is compared
+  with the gyroscope's rotation vector ``r`` over the window: for a consistent sensor
+  ``Delta x a ~ r`` (its part perpendicular to a). Their agreement ``kappa = sum (Delta x a).r /
+  sqrt(sum |Delta x a|^2 sum |r|^2)`` is near 1; swapped or mirrored accelerometer axes, another
+  sensor's columns or a permuted gyroscope give values near or below 0. The sums are additive over
+  windows and recordings. Windows whose turn is not about as large as the gyroscope's are left out
+  (linear acceleration), and so is walking (``first_phase`` gait), where linear accelerations turn
+  the specific force as much as the rotation does. A gyroscope read in the wrong units is caught by
+  its range instead (the next check), or by Kong's no-movement rule.
+* **Gyroscope range** (:data:`MAX_PLAUSIBLE_RATE_DEG_S`): human segments rarely exceed 1000 deg/s
+  at the 99.5th percentile; beyond it the units are wrong (deg/s read as rad/s) or the sensor is
+  faulty.
+* **Forward is forward** (:func:`direction_checks`, :func:`swing_skew`): the protocol fixes
+  the direction of the first movement phase (bowing and sit-to-stand flex forward: a rotation about
+  body -y; the seated shank lift and the leg swing move forward: +y). A calibration whose y axis
+  (and so its x axis) points the wrong way sees the opposite; e.g. a ``right_axis`` declared with
+  the wrong sign. In walking the shank swings forward faster than it moves back: the third moment
+  of its angular velocity about body y is positive.
+* **The declared right axis points roughly right** (:data:`MAX_RIGHT_AXIS_ANGLE_DEG`).
+* **Kong's plane is the plane of a rotation** (:data:`MAX_NORMAL_GYRO_ANGLE_DEG`): the normal of
+  the accelerations' plane and the gyroscope's principal axis must roughly agree.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+from scipy.ndimage import maximum_filter1d
+
+from .dataset import GRAVITY
+
+WINDOW_S = 0.25
+SLOW_MAX_DEV_G = 0.1
+SLOW_MAX_RATE_RAD_S = 2.0
+MIN_TURN_DEG = 1.0
+#: a window is used only when the specific force turns about as far as the gyroscope turns
+#: (perpendicular to it): a window whose turn is mostly linear acceleration is left out, while a
+#: mirrored or permuted frame, which turns as far but about another axis, stays in
+SIZE_RATIO_BAND = (0.7, 1.4)
+#: evidence (sum of the slow windows' direction changes, deg) below which agreement is not judged
+MIN_EVIDENCE_DEG = 300.0
+#: kappa below this: the accelerometer's turns do not follow the gyroscope's rotation (measured
+#: values: docs/checks.md)
+MIN_AGREEMENT = 0.3
+MAX_PLAUSIBLE_RATE_DEG_S = 1000.0
+#: a recording votes on the first phase only when its own axis is within 45 deg of body y
+MIN_AXIS_ALIGNMENT = np.cos(np.radians(45.0))
+MAX_RIGHT_AXIS_ANGLE_DEG = 60.0
+#: Kong's plane normal and the gyroscope's principal axis estimate the same axis in a planar
+#: rotation; farther apart than this the motion is not one (measured: simulated Kong protocol up to
+#: 73 deg in 3 of 8370 single leg-swing subsets, real walking up to 52 deg; random 3-D motion 70-88)
+MAX_NORMAL_GYRO_ANGLE_DEG = 60.0
+
+AGREEMENT_COLUMNS = [f"ga_c{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)] + ["ga_ww", "ga_rr", "ga_turn_deg"]
+_TRIPLES = [(i, j, k) for i in range(3) for j in range(i, 3) for k in range(j, 3)]
+THIRD_MOMENT_COLUMNS = ["w3_" + "".join("xyz"[a] for a in t) for t in _TRIPLES]
+#: (value index, i, j, k) for every entry of the symmetric 3x3x3 tensor
+_TENSOR_ENTRIES = [(v, *p) for v, t in enumerate(_TRIPLES) for p in set(itertools.permutations(t))]
+
+
+def agreement_moments(acc: np.ndarray, gyr: np.ndarray, fs_hz: float) -> dict:
+    """Sums over the slow-motion windows of one recording (columns ``AGREEMENT_COLUMNS``): the
+    cross-moment C = sum (Delta x a) r^T (3x3), sum |Delta x a|^2, sum |r|^2 and the summed
+    direction change (deg). ``acc`` m/s^2, ``gyr`` rad/s, both (N, 3)."""
+    k = max(1, int(round(WINDOW_S * fs_hz)))
+    zero = dict.fromkeys(AGREEMENT_COLUMNS, 0.0)
+    if len(acc) <= k:
+        return zero
+    norm = np.linalg.norm(acc, axis=1)
+    direction = acc / np.where(norm > 0, norm, 1.0)[:, None]
+    start = np.arange(len(acc) - k)
+    cumulative = np.vstack([np.zeros(3), np.cumsum(gyr, axis=0) / fs_hz])
+    rotation = (cumulative[k:] - cumulative[:-k])[start]  # rad, over [start, start + k)
+    deviation = maximum_filter1d(np.abs(norm - GRAVITY), k + 1, origin=-(k // 2))[start]
+    speed = maximum_filter1d(np.linalg.norm(gyr, axis=1), k + 1, origin=-(k // 2))[start]
+    a, b = direction[start], direction[start + k]
+    turn = np.degrees(np.arccos(np.clip(np.sum(a * b, axis=1), -1.0, 1.0)))
+    seen = np.cross(b - a, a)  # the direction change as a rotation vector (its part perpendicular to a)
+    middle = a + b
+    middle /= np.maximum(np.linalg.norm(middle, axis=1, keepdims=True), 1e-12)
+    rotation_perpendicular = np.linalg.norm(rotation - middle * np.sum(rotation * middle, axis=1, keepdims=True), axis=1)
+    size_ratio = np.linalg.norm(seen, axis=1) / np.maximum(rotation_perpendicular, 1e-12)
+    slow = ((deviation < SLOW_MAX_DEV_G * GRAVITY) & (speed < SLOW_MAX_RATE_RAD_S) & (turn >= MIN_TURN_DEG)
+            & (size_ratio > SIZE_RATIO_BAND[0]) & (size_ratio < SIZE_RATIO_BAND[1]))
+    if not slow.any():
+        return zero
+    seen, r = seen[slow], rotation[slow]
+    out = dict(zip(AGREEMENT_COLUMNS[:9], (seen.T @ r).ravel()))
+    return out | {"ga_ww": float(np.sum(seen * seen)), "ga_rr": float(np.sum(r * r)),
+                  "ga_turn_deg": float(turn[slow].sum())}
+
+
+def gyro_acc_agreement(summed: np.ndarray) -> tuple[float, float]:
+    """(kappa, evidence_deg) from summed ``AGREEMENT_COLUMNS`` (one row, in that order)."""
+    C, ww, rr, evidence = summed[:9].reshape(3, 3), summed[9], summed[10], float(summed[11])
+    if ww <= 0 or rr <= 0:
+        return np.nan, evidence
+    return float(np.trace(C) / np.sqrt(ww * rr)), evidence
+
+
+def agreement_problem(kappa: float, evidence_deg: float) -> str:
+    """'' when the gyroscope and accelerometer agree (or there is too little slow motion to tell),
+    else the cause."""
+    if not evidence_deg >= MIN_EVIDENCE_DEG or not np.isfinite(kappa) or kappa >= MIN_AGREEMENT:
+        return ""
+    return (f"the accelerometer's turns do not follow the gyroscope's rotation (agreement {kappa:.2f} < "
+            f"{MIN_AGREEMENT} over {evidence_deg:.0f} deg of slow motion): swapped or mirrored axes, or "
+            f"columns of two different sensors?")
+
+
+def third_moments(gyr: np.ndarray) -> dict:
+    """The unique entries of the third-moment tensor sum w_i w_j w_k of angular velocities (rad/s)."""
+    return {name: float(np.sum(gyr[:, i] * gyr[:, j] * gyr[:, k])) for name, (i, j, k) in zip(THIRD_MOMENT_COLUMNS, _TRIPLES)}
+
+
+def swing_skew(moments: np.ndarray, axes: np.ndarray) -> np.ndarray:
+    """sum (u . w)^3 for each unit vector u in ``axes`` (..., 3), from summed third moments
+    (..., 10): positive when the fastest rotations about u are positive."""
+    tensor = np.zeros(moments.shape[:-1] + (3, 3, 3))
+    for value_index, i, j, k in _TENSOR_ENTRIES:
+        tensor[..., i, j, k] = moments[..., value_index]
+    return np.einsum("...ijk,...i,...j,...k->...", tensor, axes, axes, axes)
+
+
+def direction_checks(expected: str, segment: str, phase_axes: np.ndarray, third: np.ndarray | None,
+                     membership: np.ndarray, R: np.ndarray, right: np.ndarray) -> dict[str, np.ndarray]:
+    """Is forward forward? For calibrations ``R`` (n, 3, 3) of one IMU, each from a subset
+    (``membership`` (n, n_rep) of 0/1) of the recordings of one test.
+
+    ``expected``: the test's ``first_phase`` ('-y', '+y', 'gait' or ''). ``phase_axes`` (n_rep, 3):
+    each recording's rotation axis signed so that its first phase is positive about it; a recording
+    votes when that axis is within 45 deg of the calibration's body y (sensor frame: ``R[:, 1]``)
+    and agrees when the sign is the protocol's. ``gait``: shanks only, from the summed third moments
+    ``third`` (n_rep, 10) (:func:`swing_skew`). ``right`` (3,): the declared right axis.
+
+    Returns ``flag`` ('backward' when most votes disagree or the shank swings backward,
+    'right_axis_mismatch' when the declared right axis is more than 60 deg from y0, else ''),
+    ``first_phase_agreement`` (share of agreeing votes; NaN without votes) and
+    ``right_axis_angle_deg``.
+    """
+    body_y = R[:, 1, :]
+    flag = np.full(len(R), "", dtype=object)
+    agreement = np.full(len(R), np.nan)
+    if expected in ("-y", "+y"):
+        dots = np.asarray(phase_axes, float) @ body_y.T  # (n_rep, n)
+        voting = (np.isfinite(dots) & (np.abs(dots) >= MIN_AXIS_ALIGNMENT)).astype(float)
+        agree = voting * (np.sign(dots) == (-1.0 if expected == "-y" else 1.0))
+        votes = np.einsum("kr,rk->k", membership, voting)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            agreement = np.where(votes > 0, np.einsum("kr,rk->k", membership, agree) / votes, np.nan)
+        flag[agreement < 0.5] = "backward"
+    elif expected == "gait" and segment == "shank" and third is not None:
+        skew = swing_skew(membership @ np.asarray(third, float), body_y)
+        agreement = (skew > 0).astype(float)
+        flag[skew < 0] = "backward"
+    angle = np.degrees(np.arccos(np.clip(body_y @ np.asarray(right, float), -1.0, 1.0)))
+    flag[(flag == "") & (angle > MAX_RIGHT_AXIS_ANGLE_DEG)] = "right_axis_mismatch"
+    return {"flag": flag, "first_phase_agreement": agreement, "right_axis_angle_deg": angle}
+
+
+def sensor_problem(summed_agreement: np.ndarray, fastest_deg_s: float, gyr_units: str) -> dict:
+    """The sensor-level verdict of one IMU from its summed ``AGREEMENT_COLUMNS`` (walking left
+    out) and its largest 99.5th-percentile angular speed (deg/s): ``flag`` ('gyro_implausible',
+    'gyro_acc_inconsistent' or ''), ``message``, ``gyro_acc_agreement``, ``gyro_acc_evidence_deg``."""
+    kappa, evidence = gyro_acc_agreement(summed_agreement)
+    message = agreement_problem(kappa, evidence)
+    flag = "gyro_acc_inconsistent" if message else ""
+    if fastest_deg_s > MAX_PLAUSIBLE_RATE_DEG_S:
+        flag, message = "gyro_implausible", (f"angular speed {fastest_deg_s:.0f} deg/s at the 99.5th percentile > "
+                                             f"{MAX_PLAUSIBLE_RATE_DEG_S:.0f}: are units.gyr ({gyr_units}) right?")
+    return {"flag": flag, "message": message, "gyro_acc_agreement": kappa, "gyro_acc_evidence_deg": evidence}
