@@ -1,7 +1,8 @@
 # Stage 2: per subject (or per dataset, `calibration_jobs: one`), every calibration: Kong for every
 # subset of repetitions and the axis methods (Ricci LM, align_vectors, TRIAD), or Ricci's functional
 # design when the dataset has functional_axes.tsv; then (datasets with two sensor sets or segment
-# pairs) the correlations of calibrated signals (Kong Obj 1-2).
+# pairs) the correlations of calibrated signals (Kong Obj 1-2). Every parameter reaches the shell
+# quoted ({...:q}): dataset folders may hold spaces, quotes or any letters.
 
 
 rule calibrate:
@@ -14,15 +15,19 @@ rule calibrate:
         axes="results/{dataset}/calibrations/{subject}_axes.csv",
     params:
         root=lambda w: dataset_dir(w.dataset),
-        subject=lambda w: "" if w.subject == ALL_UNITS else f"--subject {w.subject}",
-        trim=config["calibration"]["trim"],
+        subject=lambda w: [] if w.subject == ALL_UNITS else ["--subject", w.subject],
+        trim=[
+            f"--trim-threshold={config['calibration']['trim']['threshold']}",
+            f"--closing-s={config['calibration']['trim']['closing_s']}",
+            f"--window-s={config['calibration']['trim']['window_s']}",
+            f"--min-peak-deg-s={config['calibration']['trim']['min_peak_deg_s']}",
+        ],
     log:
         "logs/{dataset}/calibrate_{subject}.log",
     shell:
-        "python -m aceval calibrate {params.root} {params.subject} --validated "
-        "--out {output.calibrations} --recordings-out {output.recordings} --axes-out {output.axes} "
-        "--trim-threshold {params.trim[threshold]} --closing-s {params.trim[closing_s]} "
-        "--window-s {params.trim[window_s]} --min-peak-deg-s {params.trim[min_peak_deg_s]} 2> {log}"
+        "python -m aceval calibrate {params.root:q} {params.subject:q} --validated --allow-empty "
+        "--out {output.calibrations:q} --recordings-out {output.recordings:q} --axes-out {output.axes:q} "
+        "{params.trim:q} 2> {log:q}"
 
 
 rule correlate:
@@ -38,5 +43,5 @@ rule correlate:
     log:
         "logs/{dataset}/correlate_{subject}.log",
     shell:
-        "python -m aceval correlate {params.root} --calibrations {input.calibrations} --out {output} "
-        "--mode {params.mode} --pairs '{params.pairs}' 2> {log}"
+        "python -m aceval correlate {params.root:q} --calibrations {input.calibrations:q} --out {output:q} "
+        "--mode {params.mode:q} --pairs {params.pairs:q} 2> {log:q}"

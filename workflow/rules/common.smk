@@ -1,8 +1,11 @@
-# Helpers shared by the rules: where each dataset lives, which subjects, tables and figures it has.
+# Helpers shared by the rules (functions only; the rules are in the other .smk files): where each
+# dataset lives, which subjects, tables and figures it has, and the command-line options of each job.
 import json
 import os
 
 import pandas as pd
+
+from aceval.safety import path_problem
 
 #: the datasets this run covers: ``run`` names them (default: every dataset of the config)
 DATASETS = {name: config["datasets"][name] for name in config.get("run", config["datasets"])}
@@ -29,6 +32,20 @@ for _name in IMPORTED:
             f"github.com/romanchereshnev/HuGaDB, the NeuRA trial from the NeuRA gait toolbox repository). "
             f"Put them there or pass --config data_root=/path/to/data."
         )
+
+
+def import_inputs(wildcards):
+    return [p for p in (import_source(wildcards.dataset, key) for key in ("source", "sensors", "vicon")) if p]
+
+
+def import_options(wildcards):
+    """--name, --sensors, --vicon and --subject of `aceval import`, as a list (quoted by the rule)."""
+    spec = DATASETS[wildcards.dataset]["import"]
+    options = ["--name", wildcards.dataset]
+    options += [item for key in ("sensors", "vicon") if key in spec for item in (f"--{key}", import_source(wildcards.dataset, key))]
+    return options + (["--subject", spec["subject"]] if "subject" in spec else [])
+
+
 #: what each analysis produces: Kong et al. 2016 tables and figures (tableN, figureN), the Ricci
 #: et al. 2014 reproduction, the reliability of Kong's tests; "methods" joins every dataset with
 #: ground truth
@@ -61,25 +78,43 @@ wildcard_constraints:
     figure="|".join(sorted({f for a in ANALYSES.values() for f in a["figures"]})),
 
 
+def only(names):
+    """A wildcard constraint matching exactly these datasets (nothing when there are none)."""
+    return "|".join(map(re.escape, names)) or "(?!)"
+
+
 def dataset_dir(dataset):
     spec = DATASETS[dataset]
     return f"resources/{dataset}" if dataset in GENERATED else spec["path"]
 
 
+def _recording_paths(root, table):
+    """The recording files of a lab dataset's recordings.tsv rows (paths that would leave the
+    folder are not followed: the validation reports them)."""
+    return [os.path.join(root, p) for p in table["path"].str.strip() if not path_problem(p)]
+
+
 def dataset_input(wildcards):
-    """The dataset as an input: the generated folder, or a lab dataset's sheets and files."""
+    """The dataset as an input: the generated folder, or a lab dataset's sheets and every recording
+    file (so that the validation is redone when a file changes)."""
     root = dataset_dir(wildcards.dataset)
     if wildcards.dataset in GENERATED:
         return root
-    sheets = [f"{root}/{name}" for name in ("dataset.yaml", "imus.tsv", "tests.tsv", "calibrates.tsv",
-                                            "subjects.tsv", "recordings.tsv")]
-    return sheets + [p for p in [f"{root}/ground_truth.tsv"] if os.path.exists(p)]
+    sheets = [os.path.join(root, name) for name in ("dataset.yaml", "imus.tsv", "tests.tsv", "calibrates.tsv",
+                                                    "subjects.tsv", "recordings.tsv")]
+    sheets += [p for p in [os.path.join(root, "ground_truth.tsv")] if os.path.exists(p)]
+    try:
+        table = pd.read_csv(os.path.join(root, "recordings.tsv"), sep="\t", dtype=str, keep_default_na=False)
+        files = [p for p in _recording_paths(root, table) if os.path.exists(p)]  # missing ones: reported
+    except (OSError, ValueError, KeyError):  # no or unreadable sheet: the validation reports it
+        files = []
+    return sheets + files
 
 
 def subjects(dataset):
     """Subjects of a dataset, known once it is validated (checkpoint)."""
     checkpoints.validate.get(dataset=dataset)
-    table = pd.read_csv(f"{dataset_dir(dataset)}/subjects.tsv", sep="\t", dtype=str)
+    table = pd.read_csv(os.path.join(dataset_dir(dataset), "subjects.tsv"), sep="\t", dtype=str)
     return list(table["subject"].str.strip())
 
 
@@ -95,15 +130,15 @@ def subject_recordings(wildcards):
     if wildcards.dataset in GENERATED:
         return []
     root = dataset_dir(wildcards.dataset)
-    table = pd.read_csv(f"{root}/recordings.tsv", sep="\t", dtype=str)
+    table = pd.read_csv(os.path.join(root, "recordings.tsv"), sep="\t", dtype=str)
     chosen = table if wildcards.subject == ALL_UNITS else table[table["subject"].str.strip() == wildcards.subject]
-    return [f"{root}/{p}" for p in chosen["path"].str.strip()]
+    return _recording_paths(root, chosen)
 
 
 def has_ground_truth(dataset):
     if dataset in IMPORTED:
         return "vicon" in DATASETS[dataset]["import"]
-    return dataset in SIMULATED or os.path.exists(f"{dataset_dir(dataset)}/ground_truth.tsv")
+    return dataset in SIMULATED or os.path.exists(os.path.join(dataset_dir(dataset), "ground_truth.tsv"))
 
 
 def analyses(dataset):
@@ -123,6 +158,7 @@ def paper_names(dataset):
 
 
 def simulated_label(dataset):
+    """What the report's captions say about the data."""
     return "SIMULATED data (generated by aceval, not the paper's recordings)" if dataset in SIMULATED else "recorded data"
 
 
@@ -133,3 +169,50 @@ def all_outputs(wildcards):
         out += [f"results/{dataset}/tables/{name}.md" for name in tables_of(dataset)]
         out += [f"results/{dataset}/figures/{name}.png" for name in figures_of(dataset)]
     return out
+
+
+# --- inputs and options of the tables, figures and summaries ------------------------------------
+
+
+def calibration_files(wildcards):
+    return [f"results/{wildcards.dataset}/calibrations/{u}.csv" for u in calibration_units(wildcards.dataset)]
+
+
+def axes_files(wildcards):
+    return [f"results/{wildcards.dataset}/calibrations/{u}_axes.csv" for u in calibration_units(wildcards.dataset)]
+
+
+def correlation_files(wildcards):
+    return [f"results/{wildcards.dataset}/correlations/{s}.csv" for s in subjects(wildcards.dataset)]
+
+
+def output_inputs(wildcards):
+    """The inputs of a table or figure (INPUTS), by kind."""
+    files = {"correlations": correlation_files, "calibrations": calibration_files, "axes": axes_files,
+             "angles": lambda w: [f"results/{w.dataset}/angles.csv"]}
+    name = wildcards.table if "table" in wildcards.keys() else wildcards.figure
+    return {kind: files[kind](wildcards) for kind in INPUTS[name]}
+
+
+def source_options(wildcards, input):
+    """--correlations/--calibrations/--axes/--angles options of `aceval table|figure`, as a list."""
+    options = []
+    for kind in ("correlations", "calibrations", "axes", "angles"):
+        if kind in input.keys():
+            options += [f"--{kind}", *input[kind]]
+    return options
+
+
+def kong_number(name):
+    """`aceval table|figure` takes Kong's tables and figures by number, the others by name."""
+    return name[5:] if name.startswith("table") else name[6:] if name.startswith("figure") else name
+
+
+def summary_inputs(wildcards):
+    dataset = wildcards.dataset
+    inputs = {"validation": f"results/{dataset}/validation.txt",
+              "tables": [f"results/{dataset}/tables/{name}.csv" for name in tables_of(dataset)]}
+    if "kong" in analyses(dataset):
+        inputs["angles"] = f"results/{dataset}/angles.csv"
+        inputs["calibrations"] = calibration_files(wildcards)
+    return inputs

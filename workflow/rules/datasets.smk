@@ -1,10 +1,6 @@
-# Stage 1: the datasets. Simulated ones are generated from a seed, real recordings imported; every dataset is validated
-# against the contract before anything else runs (a failed validation stops the workflow).
-
-
-def only(names):
-    """A wildcard constraint matching exactly these datasets (nothing when there are none)."""
-    return "|".join(map(re.escape, names)) or "(?!)"
+# Stage 1: the datasets. Simulated ones are generated from a seed, real recordings imported; every
+# dataset is validated against the contract, its recording files included, before anything else
+# runs (a failed validation stops the workflow; a file changed after a good run validates again).
 
 
 rule simulate:
@@ -15,37 +11,34 @@ rule simulate:
     params:
         protocol=lambda w: DATASETS[w.dataset]["simulate"]["protocol"],
         seed=lambda w: DATASETS[w.dataset]["simulate"].get("seed", 0),
-        options=lambda w: " ".join(
-            f"--{key} {DATASETS[w.dataset]['simulate'][key]}"
+        options=lambda w: [
+            f"--{key}={DATASETS[w.dataset]['simulate'][key]}"
             for key in ("subjects", "repetitions")
             if key in DATASETS[w.dataset]["simulate"]
-        ),
+        ],
     log:
         "logs/{dataset}/simulate.log",
     shell:
-        "python -m aceval simulate {params.protocol} --out {output} --seed {params.seed} {params.options} --force 2> {log}"
+        "python -m aceval simulate {params.protocol:q} --out {output:q} --seed {params.seed:q} {params.options:q} "
+        "--force 2> {log:q}"
 
 
 rule import_dataset:
     wildcard_constraints:
         dataset=only(IMPORTED),
     input:
-        lambda w: [p for p in (import_source(w.dataset), import_source(w.dataset, "sensors"),
-                               import_source(w.dataset, "vicon")) if p],
+        import_inputs,
     output:
         directory("resources/{dataset}"),
     params:
         format=lambda w: DATASETS[w.dataset]["import"]["format"],
-        options=lambda w: " ".join(
-            [f"--name {w.dataset}"]
-            + [f"--{key} {import_source(w.dataset, key)}" for key in ("sensors", "vicon") if key in DATASETS[w.dataset]["import"]]
-            + [f"--subject {DATASETS[w.dataset]['import']['subject']}" for _ in [0] if "subject" in DATASETS[w.dataset]["import"]]
-        ),
+        options=import_options,
         source=lambda w: import_source(w.dataset),
     log:
         "logs/{dataset}/import.log",
     shell:
-        "python -m aceval import {params.format} {params.source} --out {output} {params.options} --force 2> {log}"
+        "python -m aceval import {params.format:q} {params.source:q} --out {output:q} {params.options:q} "
+        "--force 2> {log:q}"
 
 
 checkpoint validate:
@@ -58,4 +51,4 @@ checkpoint validate:
     log:
         "logs/{dataset}/validate.log",
     shell:
-        "python -m aceval validate {params.root} --out {output} > {log} 2>&1 || (cat {log} >&2; exit 1)"
+        "python -m aceval validate {params.root:q} --out {output:q} > {log:q} 2>&1 || (cat {log:q} >&2; exit 1)"

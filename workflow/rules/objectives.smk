@@ -2,37 +2,6 @@
 # Ricci's, reliability, methods against the ground truth).
 
 
-def calibration_files(wildcards):
-    return [f"results/{wildcards.dataset}/calibrations/{u}.csv" for u in calibration_units(wildcards.dataset)]
-
-
-def axes_files(wildcards):
-    return [f"results/{wildcards.dataset}/calibrations/{u}_axes.csv" for u in calibration_units(wildcards.dataset)]
-
-
-def correlation_files(wildcards):
-    return [f"results/{wildcards.dataset}/correlations/{s}.csv" for s in subjects(wildcards.dataset)]
-
-
-def output_inputs(wildcards):
-    """The inputs of a table or figure (INPUTS in common.smk), by kind."""
-    files = {"correlations": correlation_files, "calibrations": calibration_files, "axes": axes_files,
-             "angles": lambda w: f"results/{w.dataset}/angles.csv"}
-    name = wildcards.table if "table" in wildcards.keys() else wildcards.figure
-    return {kind: files[kind](wildcards) for kind in INPUTS[name]}
-
-
-def source_options(inputs):
-    """--correlations/--calibrations/--axes/--angles options of `aceval table|figure`."""
-    return " ".join(f"--{kind} " + " ".join(inputs[kind] if kind != "angles" else [inputs[kind]])
-                    for kind in ("correlations", "calibrations", "axes", "angles") if kind in inputs.keys())
-
-
-def kong_number(name):
-    """`aceval table|figure` takes Kong's tables and figures by number, the others by name."""
-    return name[5:] if name.startswith("table") else name[6:] if name.startswith("figure") else name
-
-
 rule angles:
     input:
         calibration_files,
@@ -43,7 +12,7 @@ rule angles:
     log:
         "logs/{dataset}/angles.log",
     shell:
-        "python -m aceval angles --calibrations {input} --out {output} --test-retest-k {params.k} 2> {log}"
+        "python -m aceval angles --calibrations {input:q} --out {output:q} --test-retest-k {params.k:q} 2> {log:q}"
 
 
 rule table:
@@ -60,15 +29,15 @@ rule table:
         md="results/{dataset}/tables/{table}.md",
     params:
         root=lambda w: dataset_dir(w.dataset),
-        sources=lambda w, input: source_options(input),
+        data_label=lambda w: simulated_label(w.dataset),
+        sources=source_options,
         names=lambda w: paper_names(w.dataset),
         which=lambda w: kong_number(w.table),
-        data_label=lambda w: simulated_label(w.dataset),
     log:
         "logs/{dataset}/{table}.log",
     shell:
-        "python -m aceval table {params.which} --dataset {params.root} {params.sources} "
-        "--paper-names '{params.names}' --csv {output.csv} --md {output.md} 2> {log}"
+        "python -m aceval table {params.which:q} --dataset {params.root:q} {params.sources:q} "
+        "--paper-names {params.names:q} --csv {output.csv:q} --md {output.md:q} 2> {log:q}"
 
 
 rule figure:
@@ -84,12 +53,12 @@ rule figure:
         ),
     params:
         root=lambda w: dataset_dir(w.dataset),
-        sources=lambda w, input: source_options(input),
+        data_label=lambda w: simulated_label(w.dataset),
+        sources=source_options,
         names=lambda w: paper_names(w.dataset),
         which=lambda w: kong_number(w.figure),
-        data_label=lambda w: simulated_label(w.dataset),
     log:
         "logs/{dataset}/{figure}_figure.log",
     shell:
-        "python -m aceval figure {params.which} --dataset {params.root} {params.sources} "
-        "--paper-names '{params.names}' --out {output} 2> {log}"
+        "python -m aceval figure {params.which:q} --dataset {params.root:q} {params.sources:q} "
+        "--paper-names {params.names:q} --out {output:q} 2> {log:q}"

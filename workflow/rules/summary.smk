@@ -2,16 +2,6 @@
 # not testable, and which test to use for which segment (datasets with ground truth).
 
 
-def summary_inputs(wildcards):
-    dataset = wildcards.dataset
-    inputs = {"validation": f"results/{dataset}/validation.txt",
-              "tables": [f"results/{dataset}/tables/{name}.csv" for name in tables_of(dataset)]}
-    if "kong" in analyses(dataset):
-        inputs["angles"] = f"results/{dataset}/angles.csv"
-        inputs["calibrations"] = calibration_files(wildcards)
-    return inputs
-
-
 rule summary:
     input:
         unpack(summary_inputs),
@@ -25,9 +15,9 @@ rule summary:
         ),
     params:
         root=lambda w: dataset_dir(w.dataset),
-        note=lambda w: DATASETS[w.dataset].get("note", "").replace("'", "’"),
+        note=lambda w: DATASETS[w.dataset].get("note", ""),
         data_label=lambda w: simulated_label(w.dataset),
     log:
         "logs/{dataset}/summary.log",
     shell:
-        "python -m aceval summary --dataset {params.root} --note '{params.note}' --out {output} {input} 2> {log}"
+        "python -m aceval summary --dataset {params.root:q} --note={params.note:q} --out {output:q} {input:q} 2> {log:q}"
