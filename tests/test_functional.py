@@ -9,7 +9,7 @@ from scipy.spatial.transform import Rotation
 from aceval.calibration.ricci import first_phase_sign, functional_axis
 from aceval.dataset import load_dataset, validate
 from aceval.functional import (
-    AXIS_METHODS, MOMENT_COLUMNS, fit_axes, pool, recording_moments, sagittal_fits, subset_rho, triad_pair,
+    AXIS_METHODS, MOMENT_COLUMNS, fit_axes, pool, recording_moments, sagittal_fits, subset_axes, triad_pair,
 )
 from aceval.pipeline import calibrate, summarise_recordings
 from aceval.rotations import error_angle_deg
@@ -28,7 +28,7 @@ def test_pooled_moments_equal_the_axis_of_the_joined_samples():
     assert pooled.rho == pytest.approx(joined.rho, abs=1e-12)
     np.testing.assert_allclose(pooled.axis, joined.axis, atol=1e-12)
     scatters = rows[MOMENT_COLUMNS[3:12]].to_numpy().reshape(-1, 3, 3)
-    rho = subset_rho(scatters, np.array([[1, 0], [0, 1], [1, 1]]))
+    rho, _ = subset_axes(scatters, np.array([[1, 0], [0, 1], [1, 1]]))
     assert rho[2] == pytest.approx(joined.rho, abs=1e-12)
     assert rho[0] == pytest.approx(functional_axis(first).rho, abs=1e-12)
 

@@ -101,13 +101,14 @@ def test_neura_import_with_ground_truth(tmp_path):
 ])
 def test_broken_hugadb_file_gives_a_clear_error(tmp_path, damage, message):
     source = HUGADB / "HuGaDB_v1_walking_06_00.txt"
-    broken = tmp_path / source.name
+    broken = tmp_path / "src" / source.name
+    broken.parent.mkdir()
     text = source.read_text()
     lines = text.splitlines(keepends=True)
     broken.write_text("".join(lines[:4]) + damage("".join(lines[4:])))
     with pytest.raises(FormatError, match=rf"{broken.name}: line \d+: .*{message}"):
         read_hugadb(broken)
-    result = run("import", "hugadb", tmp_path, "--out", tmp_path / "out")
+    result = run("import", "hugadb", broken.parent, "--out", tmp_path / "out")
     assert result.returncode == 1 and broken.name in result.stderr
     assert not (tmp_path / "out").exists()  # a failed import leaves nothing
 

@@ -128,3 +128,26 @@ def test_config_is_validated_against_the_schema(tmp_path):
     run = snakemake(tmp_path, "--dry-run")
     assert run.returncode != 0
     assert "nope" in run.stdout + run.stderr
+
+
+def test_any_folder_name_reaches_the_shell_quoted_and_validation_follows_the_files(tmp_path):
+    """A dataset folder with a space, quotes, non-ASCII letters and a command substitution runs
+    through the whole workflow without running anything it names; a recording changed after a good
+    run is validated again (and stops the workflow) instead of being dropped silently."""
+    from .smalldataset import simulate_small
+
+    lab = simulate_small(tmp_path / "lab dir 'ü\" $(touch PWNED)")
+    work = tmp_path / "work"
+    write_config(work, {"lab": {"path": str(lab), "analyses": ["kong"], "note": "it's a note; $(touch PWNED2)"}})
+    run = snakemake(work)
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert (work / "results" / "lab" / "tables" / "table9.md").exists()
+    assert "it's a note; $(touch PWNED2)" in (work / "results" / "lab" / "SUMMARY.md").read_text()
+    assert not list(tmp_path.rglob("PWNED*")) and not list(Path.cwd().glob("PWNED*"))
+
+    changed = lab / "data" / "S1" / "frontal" / "T1_R2_IMU2.csv"
+    changed.write_text(changed.read_text().replace(",", ";"))
+    again = snakemake(work)
+    assert again.returncode != 0
+    assert "T1_R2_IMU2.csv" in again.stderr + again.stdout and "comma-separated" in again.stderr + again.stdout
+    assert not (work / "results" / "lab" / "validation.txt").exists()
