@@ -33,10 +33,12 @@ def sweep_from_scatters(static, reps, rights, subsets):
 
 
 def sweep_from_samples(static, reps, rights, subsets):
-    return np.stack([
-        [kong_calibrate(s, np.vstack([imu[k] for k in subset]), right).R for subset in subsets]
-        for s, imu, right in zip(static, reps, rights)
-    ])
+    return np.stack(
+        [
+            [kong_calibrate(s, np.vstack([imu[k] for k in subset]), right).R for subset in subsets]
+            for s, imu, right in zip(static, reps, rights)
+        ]
+    )
 
 
 def best_time(function, *args):
@@ -54,7 +56,9 @@ def main():
     fast_s, fast = best_time(sweep_from_scatters, *data, subsets)
     slow_s, slow = best_time(sweep_from_samples, *data, subsets)
     assert np.allclose(fast, slow, atol=1e-10)
-    print(f"{N_IMU} IMUs x {len(subsets)} subsets, {N_REP} reps x {N_SAMPLES} samples (best of {REPEATS})")
+    print(
+        f"{N_IMU} IMUs x {len(subsets)} subsets, {N_REP} reps x {N_SAMPLES} samples (best of {REPEATS})"
+    )
     print(f"from scatters: {fast_s * 1e3:8.2f} ms")
     print(f"from samples : {slow_s * 1e3:8.2f} ms")
     print(f"ratio        : {slow_s / fast_s:8.1f}x")

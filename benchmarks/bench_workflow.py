@@ -17,8 +17,22 @@ REPO = Path(__file__).resolve().parents[1]
 
 def timed_run(workdir: str) -> float:
     start = time.perf_counter()
-    subprocess.run([sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "--directory", workdir,
-                    "--cores", "2", "--quiet"], check=True, capture_output=True)
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "snakemake",
+            "-s",
+            str(REPO / "Snakefile"),
+            "--directory",
+            workdir,
+            "--cores",
+            "2",
+            "--quiet",
+        ],
+        check=True,
+        capture_output=True,
+    )
     return time.perf_counter() - start
 
 
@@ -26,8 +40,10 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as workdir:
         clean = timed_run(workdir)
         again = timed_run(workdir)
-    print(f"default workflow from clean: {clean:.1f} s; up-to-date re-run: {again:.1f} s "
-          f"(ratio {clean / again:.0f}x)")
+    print(
+        f"default workflow from clean: {clean:.1f} s; up-to-date re-run: {again:.1f} s "
+        f"(ratio {clean / again:.0f}x)"
+    )
 
 
 if __name__ == "__main__":

@@ -14,12 +14,20 @@ def main(root: str) -> None:
     calibrations, _ = calibrate(dataset, summarise_recordings(dataset), subsets="full")
     calibrations = calibrations.query("method == 'kong'")
     pd.set_option("display.width", 200)
-    by_segment = calibrations.groupby(["segment", "sensor_set"])["error_deg"].agg(["median", "mean", "max", "count"])
+    by_segment = calibrations.groupby(["segment", "sensor_set"])["error_deg"].agg(
+        ["median", "mean", "max", "count"]
+    )
     print("error to ground truth (deg) by segment and sensor set")
     print(by_segment.round(2).unstack())
     print("\nmedian error (deg) by segment and test")
-    print(calibrations.pivot_table(index="segment", columns="test", values="error_deg", aggfunc="median").round(2))
-    print(f"\nall {len(calibrations)} calibrations: median {calibrations['error_deg'].median():.2f} deg")
+    print(
+        calibrations.pivot_table(
+            index="segment", columns="test", values="error_deg", aggfunc="median"
+        ).round(2)
+    )
+    print(
+        f"\nall {len(calibrations)} calibrations: median {calibrations['error_deg'].median():.2f} deg"
+    )
 
 
 if __name__ == "__main__":

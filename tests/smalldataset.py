@@ -16,13 +16,32 @@ SENSOR_SET = "frontal"
 
 def simulate_small(root: Path) -> Path:
     full = root.parent / f"{root.name}_full"
-    subprocess.run([sys.executable, "-m", "aceval", "simulate", "kong", "--out", str(full), "--subjects", "1",
-                    "--repetitions", "3", "--seed", "3"], check=True, capture_output=True)
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "aceval",
+            "simulate",
+            "kong",
+            "--out",
+            str(full),
+            "--subjects",
+            "1",
+            "--repetitions",
+            "3",
+            "--seed",
+            "3",
+        ],
+        check=True,
+        capture_output=True,
+    )
     root.mkdir(parents=True)
     for name in ("tests.tsv", "subjects.tsv"):
         shutil.copy(full / name, root / name)
     meta = yaml.safe_load((full / "dataset.yaml").read_text())
-    (root / "dataset.yaml").write_text(yaml.safe_dump({**meta, "sensor_sets": [SENSOR_SET]}, sort_keys=False))
+    (root / "dataset.yaml").write_text(
+        yaml.safe_dump({**meta, "sensor_sets": [SENSOR_SET]}, sort_keys=False)
+    )
 
     def sheet(name, keep):
         table = pd.read_csv(full / name, sep="\t", dtype=str)
@@ -35,8 +54,15 @@ def simulate_small(root: Path) -> Path:
     sheet("ground_truth.tsv", ours)
     calibrates = sheet("calibrates.tsv", lambda t: t["imu"].isin(IMUS))
     allowed = set(map(tuple, calibrates[["test", "imu"]].to_numpy()))
-    recordings = sheet("recordings.tsv", lambda t: ours(t) & np.array(
-        [test == "T0" or (test, imu) in allowed for test, imu in zip(t["test"], t["imu"])]))
+    recordings = sheet(
+        "recordings.tsv",
+        lambda t: (
+            ours(t)
+            & np.array(
+                [test == "T0" or (test, imu) in allowed for test, imu in zip(t["test"], t["imu"])]
+            )
+        ),
+    )
     for path in recordings["path"]:
         (root / path).parent.mkdir(parents=True, exist_ok=True)
         shutil.copy(full / path, root / path)

@@ -23,4 +23,3 @@ def right_axis_of(R: np.ndarray) -> str:
     y0 = R[1]
     k = int(np.argmax(np.abs(y0)))
     return ("+" if y0[k] > 0 else "-") + "xyz"[k]
-

@@ -13,9 +13,9 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 import pandas as pd
@@ -29,6 +29,7 @@ from aceval.dataset import RecordingError, load_dataset, recording_values
 from aceval.safety import MARKER
 
 from .smalldataset import simulate_small
+
 
 @pytest.fixture(scope="module")
 def pristine(tmp_path_factory) -> Path:
@@ -76,13 +77,19 @@ def random_rotation(lab: Path) -> None:
     for path in paths_of(lab, "IMU2", "T1"):
         table = pd.read_csv(path)
         t = table["t"].to_numpy()
-        omega = 1.5 * np.column_stack([np.sin(2 * np.pi * f * t + p) for f, p in zip(rng.uniform(0.3, 1.2, 3),
-                                                                                       rng.uniform(0, 6, 3))])
+        omega = 1.5 * np.column_stack(
+            [
+                np.sin(2 * np.pi * f * t + p)
+                for f, p in zip(rng.uniform(0.3, 1.2, 3), rng.uniform(0, 6, 3))
+            ]
+        )
         steps = Rotation.from_rotvec(omega / 100.0)
         orientation, up = Rotation.identity(), []
         for step in steps:
             orientation = orientation * step
-            up.append(orientation.inv().apply([0.0, 0.0, -1.0]))  # specific force (g) of a still body
+            up.append(
+                orientation.inv().apply([0.0, 0.0, -1.0])
+            )  # specific force (g) of a still body
         table[["acc_x", "acc_y", "acc_z"]] = np.array(up)
         table[["gyr_x", "gyr_y", "gyr_z"]] = np.degrees(omega)
         table.to_csv(path, index=False, float_format="%.6g")
@@ -92,13 +99,17 @@ def clip_shank(lab: Path) -> None:
     """IMU5 clipped at 0.8 g, and no range declared in dataset.yaml."""
     edit(lab / "dataset.yaml", "acc_range_g:\n  upper_body: 4.0\n  lower_body: 8.0\n", "")
     for path in paths_of(lab, "IMU5"):
-        rewrite(path, lambda t: t.assign(**{c: t[c].clip(-0.8, 0.8) for c in ("acc_x", "acc_y", "acc_z")}))
+        rewrite(
+            path,
+            lambda t: t.assign(**{c: t[c].clip(-0.8, 0.8) for c in ("acc_x", "acc_y", "acc_z")}),
+        )
 
 
 def transpose_truth(lab: Path) -> None:
     sheet = pd.read_csv(lab / "ground_truth.tsv", sep="\t", dtype=str)
     sheet[[f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]] = sheet[
-        [f"r{j}{i}" for i in (1, 2, 3) for j in (1, 2, 3)]].to_numpy()
+        [f"r{j}{i}" for i in (1, 2, 3) for j in (1, 2, 3)]
+    ].to_numpy()
     sheet.to_csv(lab / "ground_truth.tsv", sep="\t", index=False)
 
 
@@ -135,7 +146,16 @@ def calibrate_validated(lab, tmp, _):
 def apply(out: str | Callable, *extra):
     def argv(lab, tmp, calibrations):
         target = out(lab, tmp) if callable(out) else tmp / out
-        return ["apply", str(lab), "--calibrations", str(calibrations), "--out", str(target), *extra]
+        return [
+            "apply",
+            str(lab),
+            "--calibrations",
+            str(calibrations),
+            "--out",
+            str(target),
+            *extra,
+        ]
+
     return argv
 
 
@@ -152,146 +172,562 @@ class Case:
 
 
 def yaml_case(name, old, new, *says):
-    return Case(name, lambda lab: edit(lab / "dataset.yaml", old, new), validate, 1, ("dataset.yaml", *says), "error")
+    return Case(
+        name,
+        lambda lab: edit(lab / "dataset.yaml", old, new),
+        validate,
+        1,
+        ("dataset.yaml", *says),
+        "error",
+    )
 
 
 def sheet_case(name, sheet, old, new, where, *says, outcome="error", code=1, count=-1):
-    return Case(name, lambda lab: edit(lab / sheet, old, new, count), validate, code, (where, *says), outcome)
+    return Case(
+        name,
+        lambda lab: edit(lab / sheet, old, new, count),
+        validate,
+        code,
+        (where, *says),
+        outcome,
+    )
 
 
 T1 = "data/S1/frontal/T1_R1_IMU2.csv"
 CASES = [
     # data loss (the first findings of the sweep)
-    Case("absolute path in recordings.tsv", lambda lab: edit(lab / "recordings.tsv", f"\t{T1}", f"\t{lab / T1}"),
-         apply("copy"), 1, ("recordings.tsv line", "is absolute"), "error", no_output=("copy",)),
-    Case("path climbing into a sibling dataset", lambda lab: edit(lab / "recordings.tsv", f"\t{T1}", f"\t../other/{T1}"),
-         apply("copy"), 1, ("recordings.tsv line", "climbs out"), "error", no_output=("copy",)),
-    Case("apply --out the folder holding the dataset --force", None, apply(lambda lab, tmp: tmp, "--force"),
-         2, ("contains the input",), "refused"),
-    Case("apply --out the dataset", None, apply(lambda lab, tmp: lab), 2, ("is the input",), "refused"),
-    Case("apply --out inside the dataset", None, apply(lambda lab, tmp: lab / "copy"), 2, ("lies inside",), "refused"),
-    Case("apply --force onto a folder aceval did not write", lambda lab: (lab.parent / "mine").mkdir() or
-         (lab.parent / "mine" / "thesis.docx").write_text("months of work"), apply("mine", "--force"), 2,
-         ("not written by aceval",), "refused"),
-    Case("calibrate --out the recordings sheet", None,
-         lambda lab, tmp, _: ["calibrate", str(lab), "--out", str(lab / "recordings.tsv")], 2, ("lies inside",), "refused"),
-    Case("calibrate --out the dataset folder", None,
-         lambda lab, tmp, _: ["calibrate", str(lab), "--out", str(lab)], 2, ("is the input",), "refused"),
-    Case("calibrate --recordings-out inside the dataset", None,
-         lambda lab, tmp, _: ["calibrate", str(lab), "--out", str(tmp / "c.csv"), "--recordings-out", str(lab / "r.csv")],
-         2, ("lies inside",), "refused", no_output=("c.csv",)),
-    Case("validate --out inside the dataset", None,
-         lambda lab, tmp, _: ["validate", str(lab), "--out", str(lab / "validation.txt")], 2, ("lies inside",), "refused"),
-    Case("simulate --force onto a folder aceval did not write", lambda lab: None,
-         lambda lab, tmp, _: ["simulate", "box", "--out", str(lab), "--force"], 2, ("not written by aceval",), "refused"),
-    Case("import --out inside its source", None,
-         lambda lab, tmp, _: ["import", "hugadb", str(lab), "--out", str(lab / "imported")], 2, ("lies inside",), "refused"),
+    Case(
+        "absolute path in recordings.tsv",
+        lambda lab: edit(lab / "recordings.tsv", f"\t{T1}", f"\t{lab / T1}"),
+        apply("copy"),
+        1,
+        ("recordings.tsv line", "is absolute"),
+        "error",
+        no_output=("copy",),
+    ),
+    Case(
+        "path climbing into a sibling dataset",
+        lambda lab: edit(lab / "recordings.tsv", f"\t{T1}", f"\t../other/{T1}"),
+        apply("copy"),
+        1,
+        ("recordings.tsv line", "climbs out"),
+        "error",
+        no_output=("copy",),
+    ),
+    Case(
+        "apply --out the folder holding the dataset --force",
+        None,
+        apply(lambda lab, tmp: tmp, "--force"),
+        2,
+        ("contains the input",),
+        "refused",
+    ),
+    Case(
+        "apply --out the dataset",
+        None,
+        apply(lambda lab, tmp: lab),
+        2,
+        ("is the input",),
+        "refused",
+    ),
+    Case(
+        "apply --out inside the dataset",
+        None,
+        apply(lambda lab, tmp: lab / "copy"),
+        2,
+        ("lies inside",),
+        "refused",
+    ),
+    Case(
+        "apply --force onto a folder aceval did not write",
+        lambda lab: (
+            (lab.parent / "mine").mkdir()
+            or (lab.parent / "mine" / "thesis.docx").write_text("months of work")
+        ),
+        apply("mine", "--force"),
+        2,
+        ("not written by aceval",),
+        "refused",
+    ),
+    Case(
+        "calibrate --out the recordings sheet",
+        None,
+        lambda lab, tmp, _: ["calibrate", str(lab), "--out", str(lab / "recordings.tsv")],
+        2,
+        ("lies inside",),
+        "refused",
+    ),
+    Case(
+        "calibrate --out the dataset folder",
+        None,
+        lambda lab, tmp, _: ["calibrate", str(lab), "--out", str(lab)],
+        2,
+        ("is the input",),
+        "refused",
+    ),
+    Case(
+        "calibrate --recordings-out inside the dataset",
+        None,
+        lambda lab, tmp, _: [
+            "calibrate",
+            str(lab),
+            "--out",
+            str(tmp / "c.csv"),
+            "--recordings-out",
+            str(lab / "r.csv"),
+        ],
+        2,
+        ("lies inside",),
+        "refused",
+        no_output=("c.csv",),
+    ),
+    Case(
+        "validate --out inside the dataset",
+        None,
+        lambda lab, tmp, _: ["validate", str(lab), "--out", str(lab / "validation.txt")],
+        2,
+        ("lies inside",),
+        "refused",
+    ),
+    Case(
+        "simulate --force onto a folder aceval did not write",
+        lambda lab: None,
+        lambda lab, tmp, _: ["simulate", "box", "--out", str(lab), "--force"],
+        2,
+        ("not written by aceval",),
+        "refused",
+    ),
+    Case(
+        "import --out inside its source",
+        None,
+        lambda lab, tmp, _: ["import", "hugadb", str(lab), "--out", str(lab / "imported")],
+        2,
+        ("lies inside",),
+        "refused",
+    ),
     # silent wrong results, now flagged
-    Case("right_axis declared with the wrong sign", lambda lab: set_right_axis(lab, "IMU4", "-y"), calibrate, 0,
-         ("calibrations",), "flag", flags={("IMU4", None): {"backward"}}),
-    Case("right_axis +z for a sensor whose y points right", lambda lab: set_right_axis(lab, "IMU4", "+z"), calibrate,
-         0, ("calibrations",), "flag", flags={("IMU4", None): {"backward", "right_axis_mismatch"}}),
-    Case("acc_x and acc_y swapped (mirrored frame)", swap_acc_xy, calibrate, 0, ("calibrations",), "flag",
-         flags={("IMU2", None): {"gyro_acc_inconsistent"}}),
-    Case("random 3-D motion instead of bowing", random_rotation, calibrate, 0, ("calibrations",), "flag",
-         flags={("IMU2", "T1"): {"not_planar", "normal_gyro_disagree", "low_rho", "axes_disagree", "axis_near_vertical"}}),
-    Case("clipped at 0.8 g with no range declared (validation)", clip_shank, validate, 0,
-         ("T4_R1_IMU5.csv", "sit at +-0.8 g", "clipped below the declared range"), "warning"),
-    Case("clipped at 0.8 g with no range declared (calibration)", clip_shank, calibrate, 0,
-         ("left out", "T4_R1_IMU5.csv", "clipped"), "flag"),
-    Case("a typo in an acc_range_g region", lambda lab: edit(lab / "dataset.yaml", "lower_body: 8.0", "lower_bdy: 8.0"),
-         validate, 1, ("dataset.yaml", "acc_range_g names region 'lower_bdy'"), "error"),
-    sheet_case("rep 01 beside rep 1", "recordings.tsv", "T1\t2\tIMU2", "T1\t01\tIMU2", "recordings.tsv line",
-               "duplicate recording S1 frontal T1 1 IMU2"),
-    Case("two rows pointing at one file", lambda lab: edit(lab / "recordings.tsv", "T1_R2_IMU2.csv", "T1_R1_IMU2.csv"),
-         validate, 0, ("recordings.tsv line", "also the file of line"), "warning"),
-    Case("duplicate ground-truth rows", lambda lab: (lab / "ground_truth.tsv").write_text(
-        (lab / "ground_truth.tsv").read_text() + (lab / "ground_truth.tsv").read_text().splitlines()[1] + "\n"),
-        validate, 1, ("ground_truth.tsv line", "more than one row"), "error"),
-    Case("transposed ground truth", transpose_truth, calibrate, 0, ("WARNING", "transposed"), "warning"),
-    Case("a ;-separated file met after validation", semicolons, calibrate_validated, 0,
-         ("left out", "T1_R1_IMU2.csv", "comma-separated"), "flag"),
+    Case(
+        "right_axis declared with the wrong sign",
+        lambda lab: set_right_axis(lab, "IMU4", "-y"),
+        calibrate,
+        0,
+        ("calibrations",),
+        "flag",
+        flags={("IMU4", None): {"backward"}},
+    ),
+    Case(
+        "right_axis +z for a sensor whose y points right",
+        lambda lab: set_right_axis(lab, "IMU4", "+z"),
+        calibrate,
+        0,
+        ("calibrations",),
+        "flag",
+        flags={("IMU4", None): {"backward", "right_axis_mismatch"}},
+    ),
+    Case(
+        "acc_x and acc_y swapped (mirrored frame)",
+        swap_acc_xy,
+        calibrate,
+        0,
+        ("calibrations",),
+        "flag",
+        flags={("IMU2", None): {"gyro_acc_inconsistent"}},
+    ),
+    Case(
+        "random 3-D motion instead of bowing",
+        random_rotation,
+        calibrate,
+        0,
+        ("calibrations",),
+        "flag",
+        flags={
+            ("IMU2", "T1"): {
+                "not_planar",
+                "normal_gyro_disagree",
+                "low_rho",
+                "axes_disagree",
+                "axis_near_vertical",
+            }
+        },
+    ),
+    Case(
+        "clipped at 0.8 g with no range declared (validation)",
+        clip_shank,
+        validate,
+        0,
+        ("T4_R1_IMU5.csv", "sit at +-0.8 g", "clipped below the declared range"),
+        "warning",
+    ),
+    Case(
+        "clipped at 0.8 g with no range declared (calibration)",
+        clip_shank,
+        calibrate,
+        0,
+        ("left out", "T4_R1_IMU5.csv", "clipped"),
+        "flag",
+    ),
+    Case(
+        "a typo in an acc_range_g region",
+        lambda lab: edit(lab / "dataset.yaml", "lower_body: 8.0", "lower_bdy: 8.0"),
+        validate,
+        1,
+        ("dataset.yaml", "acc_range_g names region 'lower_bdy'"),
+        "error",
+    ),
+    sheet_case(
+        "rep 01 beside rep 1",
+        "recordings.tsv",
+        "T1\t2\tIMU2",
+        "T1\t01\tIMU2",
+        "recordings.tsv line",
+        "duplicate recording S1 frontal T1 1 IMU2",
+    ),
+    Case(
+        "two rows pointing at one file",
+        lambda lab: edit(lab / "recordings.tsv", "T1_R2_IMU2.csv", "T1_R1_IMU2.csv"),
+        validate,
+        0,
+        ("recordings.tsv line", "also the file of line"),
+        "warning",
+    ),
+    Case(
+        "duplicate ground-truth rows",
+        lambda lab: (lab / "ground_truth.tsv").write_text(
+            (lab / "ground_truth.tsv").read_text()
+            + (lab / "ground_truth.tsv").read_text().splitlines()[1]
+            + "\n"
+        ),
+        validate,
+        1,
+        ("ground_truth.tsv line", "more than one row"),
+        "error",
+    ),
+    Case(
+        "transposed ground truth",
+        transpose_truth,
+        calibrate,
+        0,
+        ("WARNING", "transposed"),
+        "warning",
+    ),
+    Case(
+        "a ;-separated file met after validation",
+        semicolons,
+        calibrate_validated,
+        0,
+        ("left out", "T1_R1_IMU2.csv", "comma-separated"),
+        "flag",
+    ),
     # crashes, now clear errors
-    Case("right_axis empty", lambda lab: set_right_axis(lab, "IMU2", ""), validate, 1,
-         ("imus.tsv line", "right_axis '' is not one of"), "error"),
-    Case("right_axis xy", lambda lab: set_right_axis(lab, "IMU2", "xy"), validate, 1,
-         ("imus.tsv line", "right_axis 'xy' is not one of"), "error"),
-    Case("dataset.yaml is a list", lambda lab: (lab / "dataset.yaml").write_text("- name: x\n- fs: 100\n"), validate, 1,
-         ("dataset.yaml", "must be a mapping"), "error"),
-    Case("dataset.yaml lines without colons", lambda lab: (lab / "dataset.yaml").write_text("name x\nrate 100\n"),
-         validate, 1, ("dataset.yaml", "must be a mapping"), "error"),
-    yaml_case("units: g", "units:\n  acc: g\n  gyr: deg/s\n", "units: g\n", "units: 'g' is not of type 'object'"),
-    yaml_case("acc_range_g: 8", "acc_range_g:\n  upper_body: 4.0\n  lower_body: 8.0\n", "acc_range_g: 8\n",
-              "acc_range_g: 8 is not of type 'object'"),
-    yaml_case("gyr_range_dps: 400 dps", "gyr_range_dps: 400.0", "gyr_range_dps: 400 dps",
-              "gyr_range_dps: '400 dps' is not of type 'number'"),
-    yaml_case("sampling_rate_hz: .inf", "sampling_rate_hz: 100.0", "sampling_rate_hz: .inf", "sampling_rate_hz"),
+    Case(
+        "right_axis empty",
+        lambda lab: set_right_axis(lab, "IMU2", ""),
+        validate,
+        1,
+        ("imus.tsv line", "right_axis '' is not one of"),
+        "error",
+    ),
+    Case(
+        "right_axis xy",
+        lambda lab: set_right_axis(lab, "IMU2", "xy"),
+        validate,
+        1,
+        ("imus.tsv line", "right_axis 'xy' is not one of"),
+        "error",
+    ),
+    Case(
+        "dataset.yaml is a list",
+        lambda lab: (lab / "dataset.yaml").write_text("- name: x\n- fs: 100\n"),
+        validate,
+        1,
+        ("dataset.yaml", "must be a mapping"),
+        "error",
+    ),
+    Case(
+        "dataset.yaml lines without colons",
+        lambda lab: (lab / "dataset.yaml").write_text("name x\nrate 100\n"),
+        validate,
+        1,
+        ("dataset.yaml", "must be a mapping"),
+        "error",
+    ),
+    yaml_case(
+        "units: g",
+        "units:\n  acc: g\n  gyr: deg/s\n",
+        "units: g\n",
+        "units: 'g' is not of type 'object'",
+    ),
+    yaml_case(
+        "acc_range_g: 8",
+        "acc_range_g:\n  upper_body: 4.0\n  lower_body: 8.0\n",
+        "acc_range_g: 8\n",
+        "acc_range_g: 8 is not of type 'object'",
+    ),
+    yaml_case(
+        "gyr_range_dps: 400 dps",
+        "gyr_range_dps: 400.0",
+        "gyr_range_dps: 400 dps",
+        "gyr_range_dps: '400 dps' is not of type 'number'",
+    ),
+    yaml_case(
+        "sampling_rate_hz: .inf",
+        "sampling_rate_hz: 100.0",
+        "sampling_rate_hz: .inf",
+        "sampling_rate_hz",
+    ),
     yaml_case("units.acc mg", "acc: g", "acc: mg", "units.acc: 'mg' is not one of"),
-    Case("nothing to calibrate", lambda lab: (lab / "calibrates.tsv").write_text("test\timu\n"), calibrate, 1,
-         ("nothing to calibrate", "no file written"), "error", no_output=("out.csv",)),
-    Case("apply with an empty calibrations file", empty_calibrations,
-         lambda lab, tmp, _: ["apply", str(lab), "--calibrations", str(tmp / "empty.csv"), "--out", str(tmp / "copy")],
-         1, ("empty.csv", "holds no calibrations"), "error", no_output=("copy",)),
+    Case(
+        "nothing to calibrate",
+        lambda lab: (lab / "calibrates.tsv").write_text("test\timu\n"),
+        calibrate,
+        1,
+        ("nothing to calibrate", "no file written"),
+        "error",
+        no_output=("out.csv",),
+    ),
+    Case(
+        "apply with an empty calibrations file",
+        empty_calibrations,
+        lambda lab, tmp, _: [
+            "apply",
+            str(lab),
+            "--calibrations",
+            str(tmp / "empty.csv"),
+            "--out",
+            str(tmp / "copy"),
+        ],
+        1,
+        ("empty.csv", "holds no calibrations"),
+        "error",
+        no_output=("copy",),
+    ),
     # already handled before the sweep: file and sheet problems
-    Case("missing file", lambda lab: (lab / T1).unlink(), validate, 1, (T1, "file is missing"), "error"),
-    Case("binary garbage", lambda lab: (lab / T1).write_bytes(b"\x00\xff\xfe garbage"), validate, 1,
-         (T1, "cannot be read as CSV"), "error"),
-    Case("missing column", lambda lab: (lab / T1).write_text("t,acc_x,acc_y\n0,1,2\n"), validate, 1,
-         (T1, "missing column(s) acc_z"), "error"),
-    Case("renamed column", lambda lab: edit(lab / T1, "gyr_z", "gyro_z"), validate, 1, (T1, "missing column(s) gyr_z"),
-         "error"),
-    Case("NaN sample", lambda lab: edit(lab / T1, "\n0.05,", "\nnan,"), validate, 1, (T1, "NaN, inf or non-numeric"),
-         "error"),
-    Case("duplicate time", lambda lab: edit(lab / T1, "\n0.05,", "\n0.04,"), validate, 1, (T1, "duplicate time at line 7"),
-         "error"),
-    Case("decreasing time", lambda lab: edit(lab / T1, "\n0.05,", "\n0.01,"), validate, 1,
-         (T1, "decreasing time at line 7"), "error"),
-    Case("wrong sampling rate", lambda lab: edit(lab / "dataset.yaml", "sampling_rate_hz: 100.0", "sampling_rate_hz: 50"),
-        validate, 1, ("T0_R1_IMU2.csv", "sampling rate in t is 100 Hz, dataset.yaml declares 50 Hz"), "error"),
-    Case("wrong acceleration units", lambda lab: edit(lab / "dataset.yaml", "acc: g", "acc: m/s^2"), validate, 1,
-         ("T0_R1_IMU2.csv", "acceleration at rest is 0.1", "are units.acc (m/s^2) right?"), "error"),
-    sheet_case("unknown IMU in recordings", "recordings.tsv", "T1\t2\tIMU2", "T1\t2\tIMU9", "recordings.tsv line",
-               "imu 'IMU9' is not defined in imus.tsv"),
-    sheet_case("unknown subject", "recordings.tsv", "S1\tfrontal\tT1\t2", "S2\tfrontal\tT1\t2", "recordings.tsv line",
-               "subject 'S2' is not defined in subjects.tsv"),
-    sheet_case("unknown test", "recordings.tsv", "T1\t2\tIMU2", "T7\t2\tIMU2", "recordings.tsv line",
-               "test 'T7' is not defined in tests.tsv"),
-    sheet_case("duplicate recording row", "recordings.tsv", "T1\t2\tIMU2", "T1\t1\tIMU2", "recordings.tsv line",
-               "duplicate recording S1 frontal T1 1 IMU2"),
-    sheet_case("rep zero", "recordings.tsv", "T1\t2\tIMU2", "T1\t0\tIMU2", "recordings.tsv line", "rep '0'"),
-    Case("no static recording", lambda lab: edit(lab / "recordings.tsv",
-         "S1\tfrontal\tT0\t1\tIMU2\tdata/S1/frontal/T0_R1_IMU2.csv\n", ""), validate, 1,
-         ("calibrates.tsv", "IMU IMU2", "no static test"), "error"),
-    sheet_case("bad right_axis word", "imus.tsv", "\t-y", "\tright", "imus.tsv line", "right_axis 'right' is not one of"),
-    sheet_case("bad test kind", "tests.tsv", "T1\tmotion", "T1\tmoving", "tests.tsv line 3", "kind 'moving'"),
-    Case("bad first_phase", lambda lab: pd.read_csv(lab / "tests.tsv", sep="\t", dtype=str, keep_default_na=False)
-        .assign(first_phase="forward").to_csv(lab / "tests.tsv", sep="\t", index=False), validate, 1,
-        ("tests.tsv line", "first_phase 'forward'"), "error"),
-    sheet_case("unknown IMU in calibrates", "calibrates.tsv", "T1\tIMU2", "T1\tIMU8", "calibrates.tsv line",
-               "IMU 'IMU8' is not defined", count=1),
-    Case("missing sheet", lambda lab: (lab / "imus.tsv").unlink(), validate, 1, ("imus.tsv", "sheet is missing"), "error"),
-    Case("missing sheet column", lambda lab: edit(lab / "recordings.tsv", "\tpath", "\tfile"), validate, 1,
-         ("recordings.tsv", "missing column(s) path"), "error"),
-    Case("test defined twice", lambda lab: (lab / "tests.tsv").write_text((lab / "tests.tsv").read_text()
-                                                                         + (lab / "tests.tsv").read_text().splitlines()[2] + "\n"),
-        validate, 1, ("tests.tsv line", "test 'T1' is defined twice"), "error"),
-    Case("subject defined twice", lambda lab: (lab / "subjects.tsv").write_text(
-        (lab / "subjects.tsv").read_text() + (lab / "subjects.tsv").read_text().splitlines()[1] + "\n"), validate, 1,
-        ("subjects.tsv line 3", "subject 'S1' is defined twice"), "error"),
-    Case("ground truth not a rotation", lambda lab: pd.read_csv(lab / "ground_truth.tsv", sep="\t", dtype=str)
-         .assign(r11="2.0").to_csv(lab / "ground_truth.tsv", sep="\t", index=False),
-         validate, 1, ("ground_truth.tsv line 2", "not a rotation matrix"), "error"),
-    Case("unknown dataset.yaml key", lambda lab: (lab / "dataset.yaml").write_text(
-        (lab / "dataset.yaml").read_text() + "acc_range: 8\n"), validate, 0, ("dataset.yaml", "unknown key 'acc_range'"),
-        "warning"),
+    Case(
+        "missing file",
+        lambda lab: (lab / T1).unlink(),
+        validate,
+        1,
+        (T1, "file is missing"),
+        "error",
+    ),
+    Case(
+        "binary garbage",
+        lambda lab: (lab / T1).write_bytes(b"\x00\xff\xfe garbage"),
+        validate,
+        1,
+        (T1, "cannot be read as CSV"),
+        "error",
+    ),
+    Case(
+        "missing column",
+        lambda lab: (lab / T1).write_text("t,acc_x,acc_y\n0,1,2\n"),
+        validate,
+        1,
+        (T1, "missing column(s) acc_z"),
+        "error",
+    ),
+    Case(
+        "renamed column",
+        lambda lab: edit(lab / T1, "gyr_z", "gyro_z"),
+        validate,
+        1,
+        (T1, "missing column(s) gyr_z"),
+        "error",
+    ),
+    Case(
+        "NaN sample",
+        lambda lab: edit(lab / T1, "\n0.05,", "\nnan,"),
+        validate,
+        1,
+        (T1, "NaN, inf or non-numeric"),
+        "error",
+    ),
+    Case(
+        "duplicate time",
+        lambda lab: edit(lab / T1, "\n0.05,", "\n0.04,"),
+        validate,
+        1,
+        (T1, "duplicate time at line 7"),
+        "error",
+    ),
+    Case(
+        "decreasing time",
+        lambda lab: edit(lab / T1, "\n0.05,", "\n0.01,"),
+        validate,
+        1,
+        (T1, "decreasing time at line 7"),
+        "error",
+    ),
+    Case(
+        "wrong sampling rate",
+        lambda lab: edit(lab / "dataset.yaml", "sampling_rate_hz: 100.0", "sampling_rate_hz: 50"),
+        validate,
+        1,
+        ("T0_R1_IMU2.csv", "sampling rate in t is 100 Hz, dataset.yaml declares 50 Hz"),
+        "error",
+    ),
+    Case(
+        "wrong acceleration units",
+        lambda lab: edit(lab / "dataset.yaml", "acc: g", "acc: m/s^2"),
+        validate,
+        1,
+        ("T0_R1_IMU2.csv", "acceleration at rest is 0.1", "are units.acc (m/s^2) right?"),
+        "error",
+    ),
+    sheet_case(
+        "unknown IMU in recordings",
+        "recordings.tsv",
+        "T1\t2\tIMU2",
+        "T1\t2\tIMU9",
+        "recordings.tsv line",
+        "imu 'IMU9' is not defined in imus.tsv",
+    ),
+    sheet_case(
+        "unknown subject",
+        "recordings.tsv",
+        "S1\tfrontal\tT1\t2",
+        "S2\tfrontal\tT1\t2",
+        "recordings.tsv line",
+        "subject 'S2' is not defined in subjects.tsv",
+    ),
+    sheet_case(
+        "unknown test",
+        "recordings.tsv",
+        "T1\t2\tIMU2",
+        "T7\t2\tIMU2",
+        "recordings.tsv line",
+        "test 'T7' is not defined in tests.tsv",
+    ),
+    sheet_case(
+        "duplicate recording row",
+        "recordings.tsv",
+        "T1\t2\tIMU2",
+        "T1\t1\tIMU2",
+        "recordings.tsv line",
+        "duplicate recording S1 frontal T1 1 IMU2",
+    ),
+    sheet_case(
+        "rep zero", "recordings.tsv", "T1\t2\tIMU2", "T1\t0\tIMU2", "recordings.tsv line", "rep '0'"
+    ),
+    Case(
+        "no static recording",
+        lambda lab: edit(
+            lab / "recordings.tsv", "S1\tfrontal\tT0\t1\tIMU2\tdata/S1/frontal/T0_R1_IMU2.csv\n", ""
+        ),
+        validate,
+        1,
+        ("calibrates.tsv", "IMU IMU2", "no static test"),
+        "error",
+    ),
+    sheet_case(
+        "bad right_axis word",
+        "imus.tsv",
+        "\t-y",
+        "\tright",
+        "imus.tsv line",
+        "right_axis 'right' is not one of",
+    ),
+    sheet_case(
+        "bad test kind",
+        "tests.tsv",
+        "T1\tmotion",
+        "T1\tmoving",
+        "tests.tsv line 3",
+        "kind 'moving'",
+    ),
+    Case(
+        "bad first_phase",
+        lambda lab: (
+            pd.read_csv(lab / "tests.tsv", sep="\t", dtype=str, keep_default_na=False)
+            .assign(first_phase="forward")
+            .to_csv(lab / "tests.tsv", sep="\t", index=False)
+        ),
+        validate,
+        1,
+        ("tests.tsv line", "first_phase 'forward'"),
+        "error",
+    ),
+    sheet_case(
+        "unknown IMU in calibrates",
+        "calibrates.tsv",
+        "T1\tIMU2",
+        "T1\tIMU8",
+        "calibrates.tsv line",
+        "IMU 'IMU8' is not defined",
+        count=1,
+    ),
+    Case(
+        "missing sheet",
+        lambda lab: (lab / "imus.tsv").unlink(),
+        validate,
+        1,
+        ("imus.tsv", "sheet is missing"),
+        "error",
+    ),
+    Case(
+        "missing sheet column",
+        lambda lab: edit(lab / "recordings.tsv", "\tpath", "\tfile"),
+        validate,
+        1,
+        ("recordings.tsv", "missing column(s) path"),
+        "error",
+    ),
+    Case(
+        "test defined twice",
+        lambda lab: (lab / "tests.tsv").write_text(
+            (lab / "tests.tsv").read_text() + (lab / "tests.tsv").read_text().splitlines()[2] + "\n"
+        ),
+        validate,
+        1,
+        ("tests.tsv line", "test 'T1' is defined twice"),
+        "error",
+    ),
+    Case(
+        "subject defined twice",
+        lambda lab: (lab / "subjects.tsv").write_text(
+            (lab / "subjects.tsv").read_text()
+            + (lab / "subjects.tsv").read_text().splitlines()[1]
+            + "\n"
+        ),
+        validate,
+        1,
+        ("subjects.tsv line 3", "subject 'S1' is defined twice"),
+        "error",
+    ),
+    Case(
+        "ground truth not a rotation",
+        lambda lab: (
+            pd.read_csv(lab / "ground_truth.tsv", sep="\t", dtype=str)
+            .assign(r11="2.0")
+            .to_csv(lab / "ground_truth.tsv", sep="\t", index=False)
+        ),
+        validate,
+        1,
+        ("ground_truth.tsv line 2", "not a rotation matrix"),
+        "error",
+    ),
+    Case(
+        "unknown dataset.yaml key",
+        lambda lab: (lab / "dataset.yaml").write_text(
+            (lab / "dataset.yaml").read_text() + "acc_range: 8\n"
+        ),
+        validate,
+        0,
+        ("dataset.yaml", "unknown key 'acc_range'"),
+        "warning",
+    ),
 ]
 
 
 def checksums(folder: Path) -> dict[str, str]:
-    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(folder.rglob("*")) if p.is_file()}
+    return {
+        str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in sorted(folder.rglob("*"))
+        if p.is_file()
+    }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", CASES, ids=[c.name for c in CASES])
 def test_bad_input(case, pristine, good_calibrations, tmp_path, capsys):
     lab = tmp_path / "lab"
@@ -318,12 +754,18 @@ def test_bad_input(case, pristine, good_calibrations, tmp_path, capsys):
             assert checksums(tmp_path / name) == before, f"{name} changed"
     for name in case.no_output:
         assert not (tmp_path / name).exists(), f"{name} was written"
-    assert not [p for p in tmp_path.rglob(".*") if p.name != MARKER], "hidden temporary files were left"
+    assert not [p for p in tmp_path.rglob(".*") if p.name != MARKER], (
+        "hidden temporary files were left"
+    )
     if case.flags:
         calibrations = pd.read_csv(tmp_path / "out.csv")
         for (imu, test), allowed in case.flags.items():
-            rows = calibrations[(calibrations["imu"] == imu) & ((calibrations["test"] == test) if test else True)]
-            assert len(rows) and rows["flag"].isin(allowed).all(), rows[["test", "method", "flag"]].to_string()
+            rows = calibrations[
+                (calibrations["imu"] == imu) & ((calibrations["test"] == test) if test else True)
+            ]
+            assert len(rows) and rows["flag"].isin(allowed).all(), rows[
+                ["test", "method", "flag"]
+            ].to_string()
         untouched = calibrations[~calibrations["imu"].isin([imu for imu, _ in case.flags])]
         assert (untouched["flag"].fillna("") == "").all(), "an IMU without a defect was flagged"
 
@@ -333,6 +775,7 @@ def test_the_matrix_covers_every_outcome():
     assert set(counts) == {"error", "refused", "warning", "flag"}, counts
 
 
+@pytest.mark.slow
 def test_force_replaces_a_folder_aceval_wrote(pristine, good_calibrations, tmp_path):
     out = tmp_path / "copy"
     argv = ["apply", str(pristine), "--calibrations", str(good_calibrations), "--out", str(out)]
@@ -341,15 +784,22 @@ def test_force_replaces_a_folder_aceval_wrote(pristine, good_calibrations, tmp_p
     assert main(argv + ["--force"]) == 0 and (out / "applied_calibrations.tsv").is_file()
 
 
+@pytest.mark.slow
 def test_sigterm_leaves_no_partial_output(tmp_path):
     """Snakemake stops a job with SIGTERM: the staging folder and temporary files go with it."""
     out = tmp_path / "sim"
-    process = subprocess.Popen([sys.executable, "-m", "aceval", "simulate", "kong", "--out", str(out), "--subjects", "1"],
-                               stderr=subprocess.PIPE)
+    process = subprocess.Popen(
+        [sys.executable, "-m", "aceval", "simulate", "kong", "--out", str(out), "--subjects", "1"],
+        stderr=subprocess.PIPE,
+    )
     deadline = time.time() + 30
-    while time.time() < deadline and not any(p.name.startswith(".sim.") for p in tmp_path.iterdir()):
+    while time.time() < deadline and not any(
+        p.name.startswith(".sim.") for p in tmp_path.iterdir()
+    ):
         time.sleep(0.05)  # wait until the staging folder exists
-    assert any(p.name.startswith(".sim.") for p in tmp_path.iterdir()), "simulate never started writing"
+    assert any(p.name.startswith(".sim.") for p in tmp_path.iterdir()), (
+        "simulate never started writing"
+    )
     time.sleep(0.5)
     process.send_signal(signal.SIGTERM)
     assert process.wait(timeout=30) == 128 + signal.SIGTERM
@@ -362,10 +812,18 @@ HEADER = b"t,acc_x,acc_y,acc_z,gyr_x,gyr_y,gyr_z\n"
 VALID = HEADER + b"".join(b"%.2f,0,0,-1,%d,0,0\n" % (k / 100, k) for k in range(20))
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(st.one_of(st.binary(max_size=400), st.integers(0, len(VALID)).map(lambda n: VALID[:n]),
-                 st.tuples(st.integers(0, len(VALID) - 1), st.binary(min_size=1, max_size=8))
-                 .map(lambda cut: VALID[:cut[0]] + cut[1] + VALID[cut[0] + 1:])))
+@settings(
+    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    st.one_of(
+        st.binary(max_size=400),
+        st.integers(0, len(VALID)).map(lambda n: VALID[:n]),
+        st.tuples(st.integers(0, len(VALID) - 1), st.binary(min_size=1, max_size=8)).map(
+            lambda cut: VALID[: cut[0]] + cut[1] + VALID[cut[0] + 1 :]
+        ),
+    )
+)
 def test_reader_gives_a_table_or_a_clear_error(tmp_path, content):
     path = tmp_path / "recording.csv"
     path.write_bytes(content)
@@ -377,6 +835,7 @@ def test_reader_gives_a_table_or_a_clear_error(tmp_path, content):
     assert values.ndim == 2 and values.shape[1] == 7
 
 
+@pytest.mark.slow
 def test_read_recording_names_the_file_and_cause(pristine, tmp_path):
     lab = tmp_path / "lab"
     shutil.copytree(pristine, lab)

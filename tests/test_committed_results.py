@@ -9,16 +9,22 @@ import yaml
 
 from .test_workflow import REPO, snakemake
 
+pytestmark = pytest.mark.slow  # regenerates every committed result from clean
+
 DATA = REPO.parent / "shared" / "data"
 
-COMMITTED = ["*/SUMMARY.md", "*/validation.txt", "*/tables/*.csv", "*/tables/*.md"]
+COMMITTED = ["*/SUMMARY.md", "*/validation.txt", "*/tables/*.csv", "*/tables/*.md", "*/figures/*.png"]
 
 
 def files(root: Path, config: str) -> dict[str, bytes]:
     """The committed kinds of file of the datasets that ``config`` runs."""
     datasets = yaml.safe_load((REPO / "config" / config).read_text())["run"]
-    return {str(p.relative_to(root)): p.read_bytes() for dataset in datasets
-            for pattern in COMMITTED for p in (root / dataset).glob(pattern.removeprefix("*/"))}
+    return {
+        str(p.relative_to(root)): p.read_bytes()
+        for dataset in datasets
+        for pattern in COMMITTED
+        for p in (root / dataset).glob(pattern.removeprefix("*/"))
+    }
 
 
 def compare(tmp_path: Path, config: str) -> None:
@@ -35,9 +41,17 @@ def test_default_workflow_regenerates_the_committed_results(tmp_path):
     compare(tmp_path, "config.yaml")
 
 
-@pytest.mark.skipif(not DATA.is_dir(), reason=f"real recordings not found at {DATA} (see ../shared/data/README.md)")
+@pytest.mark.skipif(
+    not DATA.is_dir(), reason=f"real recordings not found at {DATA} (see ../shared/data/README.md)"
+)
 def test_real_workflow_regenerates_the_committed_results(tmp_path):
-    run = snakemake(tmp_path, "--configfile", str(REPO / "config" / "real.yaml"), "--config", f"data_root={DATA}",
-                    config=False)
+    run = snakemake(
+        tmp_path,
+        "--configfile",
+        str(REPO / "config" / "real.yaml"),
+        "--config",
+        f"data_root={DATA}",
+        config=False,
+    )
     assert run.returncode == 0, run.stderr[-3000:]
     compare(tmp_path, "real.yaml")

@@ -1,4 +1,3 @@
-
 import numpy as np
 import pytest
 
@@ -47,7 +46,9 @@ def test_warnings_for_saturation_and_short_recordings(mini):
     write_csv(mini / "s1_t1_r2.csv", acc, np.zeros((50, 3)))
     errors, warnings = errors_of(mini)
     assert errors == []
-    assert any("s1_t1_r2.csv" in w and "3 samples at the accelerometer range +-8 g" in w for w in warnings)
+    assert any(
+        "s1_t1_r2.csv" in w and "3 samples at the accelerometer range +-8 g" in w for w in warnings
+    )
     assert any("s1_t1_r2.csv" in w and "very short recording: 0.49 s" in w for w in warnings)
 
 
@@ -60,7 +61,8 @@ def test_load_dataset_raises_with_report(mini):
 def test_ground_truth_must_be_rotations(mini):
     (mini / "ground_truth.tsv").write_text(
         "subject\tsensor_set\timu\tr11\tr12\tr13\tr21\tr22\tr23\tr31\tr32\tr33\n"
-        "S1\tfrontal\tIMU4\t1\t0\t0\t0\t1\t0\t0\t0\t-1\n")
+        "S1\tfrontal\tIMU4\t1\t0\t0\t0\t1\t0\t0\t0\t-1\n"
+    )
     errors, _ = errors_of(mini)
     assert any("ground_truth.tsv line 2" in e and "not a rotation matrix" in e for e in errors)
 

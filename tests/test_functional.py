@@ -9,7 +9,14 @@ from scipy.spatial.transform import Rotation
 from aceval.calibration.ricci import first_phase_sign, functional_axis
 from aceval.dataset import load_dataset, validate
 from aceval.functional import (
-    AXIS_METHODS, MOMENT_COLUMNS, fit_axes, pool, recording_moments, sagittal_fits, subset_axes, triad_pair,
+    AXIS_METHODS,
+    MOMENT_COLUMNS,
+    fit_axes,
+    pool,
+    recording_moments,
+    sagittal_fits,
+    subset_axes,
+    triad_pair,
 )
 from aceval.pipeline import calibrate, summarise_recordings
 from aceval.rotations import error_angle_deg
@@ -35,7 +42,9 @@ def test_pooled_moments_equal_the_axis_of_the_joined_samples():
 
 def test_rho_of_a_rotated_recording_is_unchanged_and_its_axis_rotates():
     rng = np.random.default_rng(1)
-    samples = np.outer(np.sin(np.linspace(0, 9, 500)), [0.2, 0.9, 0.1]) + rng.normal(0, 0.05, (500, 3))
+    samples = np.outer(np.sin(np.linspace(0, 9, 500)), [0.2, 0.9, 0.1]) + rng.normal(
+        0, 0.05, (500, 3)
+    )
     Q = Rotation.from_rotvec([0.3, -1.2, 0.5]).as_matrix()
     plain, rotated = functional_axis(samples), functional_axis(samples @ Q.T)
     assert rotated.rho == pytest.approx(plain.rho, abs=1e-12)
@@ -56,8 +65,10 @@ def test_first_phase_sign_follows_the_first_movement_direction():
 
 def test_every_method_fed_the_true_axes_has_zero_error():
     z0, y = TRUE.T @ [0, 0, 1], TRUE.T @ [0, 1, 0]  # the body axes seen in the sensor frame
-    for fits in (sagittal_fits(z0, 0.99, y, 0.6),
-                 fit_axes(np.eye(3), np.eye(3) @ TRUE, np.array([0.9, 0.5, 0.7]), (0, 1), random_starts=3)):
+    for fits in (
+        sagittal_fits(z0, 0.99, y, 0.6),
+        fit_axes(np.eye(3), np.eye(3) @ TRUE, np.array([0.9, 0.5, 0.7]), (0, 1), random_starts=3),
+    ):
         for method in AXIS_METHODS:
             assert error_angle_deg(fits[method]["R"], TRUE) == pytest.approx(0.0, abs=1e-5), method
     lm = fits["ricci_lm"]
@@ -77,7 +88,9 @@ def test_a_rotated_sensor_gives_a_correspondingly_rotated_calibration():
 
 def test_triad_keeps_z0_and_weights_pull_the_lm_towards_the_reliable_axis():
     z0 = TRUE.T @ [0, 0, 1]
-    y = Rotation.from_rotvec(np.radians(4) * TRUE.T @ [1, 0, 0]).as_matrix() @ (TRUE.T @ [0, 1, 0])  # 4 deg off
+    y = Rotation.from_rotvec(np.radians(4) * TRUE.T @ [1, 0, 0]).as_matrix() @ (
+        TRUE.T @ [0, 1, 0]
+    )  # 4 deg off
     fits = sagittal_fits(z0, 0.99, y, 0.6)
     np.testing.assert_allclose(fits["triad"]["R"] @ z0, [0, 0, 1], atol=1e-12)
     z_error = np.degrees(np.arccos(np.clip(fits["ricci_lm"]["R"] @ z0 @ [0, 0, 1], -1, 1)))
@@ -111,7 +124,9 @@ def test_functional_design_signs_axes_and_recovers_the_mountings(ricci_child):
     assert len(calibrations) == 5 * len(AXIS_METHODS)
     assert calibrations["error_deg"].max() < 3.0, calibrations[["imu", "method", "error_deg"]]
     used = axes[axes["reference"].fillna("") != ""]
-    assert len(used) == 3 + 4 * 2 + 3 * 2  # thorax S TR TFE; upper arms S AA FE FEB; forearms S PS FFEB
+    assert (
+        len(used) == 3 + 4 * 2 + 3 * 2
+    )  # thorax S TR TFE; upper arms S AA FE FEB; forearms S PS FFEB
     assert (used["residual_after_deg"] < 10).all()  # a wrong sign would leave ~180 deg
     lm = calibrations[calibrations["method"] == "ricci_lm"]
     assert lm["converged"].all() and (lm["random_starts_optimum"] == lm["random_starts"]).all()

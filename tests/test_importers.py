@@ -1,7 +1,6 @@
 """Importers on the real files of ../shared/data (skipped when absent), their errors on broken
 files, the Vicon ground truth on analytic cases, and `aceval calibrate` / `aceval apply`."""
 
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -16,17 +15,27 @@ from aceval.importers import FormatError
 from aceval.importers.common import straight_strides, walking_bouts
 from aceval.importers.hugadb import import_hugadb, read_hugadb
 from aceval.importers.vicon import body_axes, optical_angular_velocity, sensor_to_segment
-from aceval.importers.xsens import import_xsens, read_mt_export
+from aceval.importers.xsens import read_mt_export
 
 REPO = Path(__file__).resolve().parents[1]
 DATA = REPO.parent / "shared" / "data"
 HUGADB, NEURA = DATA / "hugadb", DATA / "neura_gaittoolbox"
-needs_data = pytest.mark.skipif(not DATA.is_dir(), reason=f"real recordings not found at {DATA} "
-                                 "(public data the project does not ship; see ../shared/data/README.md)")
+_data_present = pytest.mark.skipif(
+    not DATA.is_dir(),
+    reason=f"real recordings not found at {DATA} "
+    "(public data the project does not ship; see ../shared/data/README.md)",
+)
+
+
+def needs_data(test):
+    """Real recordings from ../shared/data: skipped when absent, slow (imports them)."""
+    return pytest.mark.slow(_data_present(test))
 
 
 def run(*args):
-    return subprocess.run([sys.executable, "-m", "aceval", *map(str, args)], capture_output=True, text=True)
+    return subprocess.run(
+        [sys.executable, "-m", "aceval", *map(str, args)], capture_output=True, text=True
+    )
 
 
 @pytest.fixture(scope="module")
@@ -46,7 +55,10 @@ def test_hugadb_import_is_a_valid_dataset_with_faults_reported(hugadb):
     # participant 03's corrupted gyroscopes (the README's known fault) are detected and left out
     p03 = report[report["subject"] == "v1_walking_03_00"]
     assert set(p03.loc[p03["status"] == "excluded", "imu"]) >= {"RS", "RF"}
-    assert not ((dataset.recordings["subject"] == "v1_walking_03_00") & dataset.recordings["imu"].isin(["RS", "RF"])).any()
+    assert not (
+        (dataset.recordings["subject"] == "v1_walking_03_00")
+        & dataset.recordings["imu"].isin(["RS", "RF"])
+    ).any()
     # clipping at +-2 g is reported for the feet of every imported walking session
     flagged = report[(report["status"] == "flagged") & report["cause"].str.contains("clipped")]
     assert {"RF", "LF"} & set(flagged["imu"])
@@ -67,8 +79,13 @@ def test_hugadb_right_axis_matches_the_shank_swing(hugadb):
     angular velocities about right_axis (-y) are positive."""
     out, _ = hugadb
     dataset = load_dataset(out)
+    recordings = dataset.recordings
     for imu in ("RS", "LS"):
-        path = dataset.recordings.query("subject == 'v1_walking_01_00' and test == 'T6' and imu == @imu")["path"].iloc[0]
+        path = recordings[
+            (recordings["subject"] == "v1_walking_01_00")
+            & (recordings["test"] == "T6")
+            & (recordings["imu"] == imu)
+        ]["path"].iloc[0]
         about_right = -dataset.read_recording(path).gyr[:, 1]
         assert np.percentile(about_right, 99) > -np.percentile(about_right, 1)
 
@@ -76,29 +93,48 @@ def test_hugadb_right_axis_matches_the_shank_swing(hugadb):
 @needs_data
 def test_neura_import_with_ground_truth(tmp_path):
     out = tmp_path / "neura"
-    result = run("import", "xsens", NEURA / "rawimu", "--sensors", REPO / "config/real/neura_sensors.tsv",
-                 "--subject", "S02", "--vicon", NEURA / "rawvicon/S02-Trial-Walk-1.mat", "--out", out)
+    result = run(
+        "import",
+        "xsens",
+        NEURA / "rawimu",
+        "--sensors",
+        REPO / "config/real/neura_sensors.tsv",
+        "--subject",
+        "S02",
+        "--vicon",
+        NEURA / "rawvicon/S02-Trial-Walk-1.mat",
+        "--out",
+        out,
+    )
     assert result.returncode == 0, result.stderr
     dataset = load_dataset(out, check_files=True)
     assert dataset.ground_truth is not None and len(dataset.ground_truth) == 9
     report = pd.read_csv(out / "import_report.tsv", sep="\t", dtype=str)
-    assert report.loc[report["imu"] == "00B40C49", "cause"].item() == "byte-identical duplicate of 00B40C44"
+    assert (
+        report.loc[report["imu"] == "00B40C49", "cause"].item()
+        == "byte-identical duplicate of 00B40C44"
+    )
     method = pd.read_csv(out / "ground_truth_method.tsv", sep="\t")
     assert (method["heading_vs_walk_deg"] < 10).all()
-    assert (method["split_half_deg"] < 10).all()  # the truth is stable between the halves of the walk
+    assert (
+        method["split_half_deg"] < 10
+    ).all()  # the truth is stable between the halves of the walk
     # the sheet's right_axis is the sensor axis nearest the true body y
-    for (subject, sensor_set, imu), row in dataset.ground_truth.iterrows():
+    for (_, sensor_set, imu), row in dataset.ground_truth.iterrows():
         y = row[[f"r2{j}" for j in (1, 2, 3)]].to_numpy(float)
         axis = int(np.argmax(np.abs(y)))
         assert dataset.right_axis(sensor_set, imu) == ("+" if y[axis] > 0 else "-") + "xyz"[axis]
 
 
 @needs_data
-@pytest.mark.parametrize("damage, message", [
-    (lambda text: text[: len(text) // 2], "truncated or garbled"),
-    (lambda text: text.replace("\n", "\nabc\t", 8), "40 fields, expected 39"),
-    (lambda text: text.replace("\t", "\tx", 1), "non-numeric"),
-])
+@pytest.mark.parametrize(
+    "damage, message",
+    [
+        (lambda text: text[: len(text) // 2], "truncated or garbled"),
+        (lambda text: text.replace("\n", "\nabc\t", 8), "40 fields, expected 39"),
+        (lambda text: text.replace("\t", "\tx", 1), "non-numeric"),
+    ],
+)
 def test_broken_hugadb_file_gives_a_clear_error(tmp_path, damage, message):
     source = HUGADB / "HuGaDB_v1_walking_06_00.txt"
     broken = tmp_path / "src" / source.name
@@ -164,6 +200,7 @@ def test_body_axes_from_a_tilted_medial_lateral_axis():
     assert np.allclose(B[0], [1, 0, 0])  # x = y x z: forward
 
 
+@pytest.mark.slow
 def test_calibrate_command_options_and_apply(tmp_path):
     """`aceval calibrate --method --tests --subsets` on a small simulation, then `aceval apply`:
     a body-frame copy calibrated again gives the identity."""
@@ -174,19 +211,39 @@ def test_calibrate_command_options_and_apply(tmp_path):
     table = pd.read_csv(every)
     for option, kept in (("kong", {"kong"}), ("triad", {"triad"}), ("ricci", {"ricci_lm"})):
         out = tmp_path / f"{option}.csv"
-        result = run("calibrate", data, "--out", out, "--method", option, "--subsets", "full", "--tests", "EDGE")
+        result = run(
+            "calibrate",
+            data,
+            "--out",
+            out,
+            "--method",
+            option,
+            "--subsets",
+            "full",
+            "--tests",
+            "EDGE",
+        )
         assert result.returncode == 0, result.stderr
         assert "calibrations" in result.stderr and "median_error_deg" in result.stderr
         chosen = pd.read_csv(out)
         assert set(chosen["method"]) == kept and set(chosen["test"]) == {"EDGE"}
         assert (chosen["repetitions"] == "R1+R2+R3").all()
-        expected = table[table["method"].isin(kept) & (table["test"] == "EDGE") & (table["repetitions"] == "R1+R2+R3")]
-        assert np.allclose(chosen.filter(regex=r"^r\d\d$").to_numpy(), expected.filter(regex=r"^r\d\d$").to_numpy())
+        expected = table[
+            table["method"].isin(kept)
+            & (table["test"] == "EDGE")
+            & (table["repetitions"] == "R1+R2+R3")
+        ]
+        assert np.allclose(
+            chosen.filter(regex=r"^r\d\d$").to_numpy(), expected.filter(regex=r"^r\d\d$").to_numpy()
+        )
     body = tmp_path / "body"
     result = run("apply", data, "--calibrations", every, "--out", body)
     assert result.returncode == 0, result.stderr
     again = tmp_path / "again.csv"
-    assert run("calibrate", body, "--out", again, "--method", "kong", "--subsets", "full").returncode == 0
+    assert (
+        run("calibrate", body, "--out", again, "--method", "kong", "--subsets", "full").returncode
+        == 0
+    )
     applied = pd.read_csv(body / "applied_calibrations.tsv", sep="\t")
     recalibrated = pd.read_csv(again).merge(applied[["subject", "sensor_set", "imu", "test"]])
     R = recalibrated.filter(regex=r"^r\d\d$").to_numpy(float).reshape(-1, 3, 3)

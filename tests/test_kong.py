@@ -42,7 +42,9 @@ quaternions = st.tuples(*[st.floats(-1, 1) for _ in range(4)]).filter(
 @given(q=quaternions)
 def test_known_mounting_comes_back(q):
     R_mount = Rotation.from_quat(q).as_matrix()
-    result = kong_calibrate(static_samples(R_mount), to_sensor(R_mount, pitch_motion()), right_axis_of(R_mount))
+    result = kong_calibrate(
+        static_samples(R_mount), to_sensor(R_mount, pitch_motion()), right_axis_of(R_mount)
+    )
     assert error_angle_deg(result.R, R_mount) < 0.01
     assert result.n_samples == 400
     assert result.normal_vertical_angle_deg == pytest.approx(90.0, abs=1e-6)
@@ -52,7 +54,9 @@ def test_known_mounting_comes_back(q):
 def test_R_maps_sensor_to_body():
     R_mount = Rotation.from_euler("zyx", [30, -20, 110], degrees=True).as_matrix()
     motion_body = pitch_motion()
-    result = kong_calibrate(static_samples(R_mount), to_sensor(R_mount, motion_body), right_axis_of(R_mount))
+    result = kong_calibrate(
+        static_samples(R_mount), to_sensor(R_mount, motion_body), right_axis_of(R_mount)
+    )
     # d_body = R d_sensor (Kong Eq. 6): the calibrated data are the body-frame data
     np.testing.assert_allclose(to_sensor(R_mount, motion_body) @ result.R.T, motion_body, atol=1e-9)
     # and at rest the body-frame specific force points up (-z)
@@ -128,7 +132,11 @@ def test_subset_form_equals_recomputing_from_samples():
     subsets = [c for k in range(1, 6) for c in itertools.combinations(range(5), k)]
     assert len(subsets) == 31
     fast = kong_from_scatters(
-        np.stack([scatter(r) for r in reps]), [len(r) for r in reps], vertical_axis(static), right, subsets
+        np.stack([scatter(r) for r in reps]),
+        [len(r) for r in reps],
+        vertical_axis(static),
+        right,
+        subsets,
     )
     for i, subset in enumerate(subsets):
         slow = kong_calibrate(static, np.vstack([reps[k] for k in subset]), right)
@@ -139,10 +147,14 @@ def test_subset_form_equals_recomputing_from_samples():
 
 def test_subset_form_vectorised_over_imus():
     R_mounts = Rotation.random(4, random_state=5).as_matrix()
-    scatters = np.stack([[scatter(to_sensor(R, pitch_motion(seed=k))) for k in range(3)] for R in R_mounts])
+    scatters = np.stack(
+        [[scatter(to_sensor(R, pitch_motion(seed=k))) for k in range(3)] for R in R_mounts]
+    )
     z0 = np.stack([vertical_axis(static_samples(R)) for R in R_mounts])
     rights = np.array([right_axis_of(R) for R in R_mounts])
-    result = kong_from_scatters(scatters, np.full((4, 3), 400), z0, rights, [[0], [1, 2], [0, 1, 2]])
+    result = kong_from_scatters(
+        scatters, np.full((4, 3), 400), z0, rights, [[0], [1, 2], [0, 1, 2]]
+    )
     assert result.R.shape == (4, 3, 3, 3)
     np.testing.assert_array_less(error_angle_deg(result.R, R_mounts[:, None]), 1e-6)
 

@@ -12,15 +12,28 @@ from aceval.dataset import R_COLUMNS
 from aceval.pipeline import all_subsets, subset_label
 
 
-def calibration_table(rotation_of, reps=(1, 2, 3, 4, 5), tests=("T1",), sets=("frontal",), imus=("IMU1",)):
+def calibration_table(
+    rotation_of, reps=(1, 2, 3, 4, 5), tests=("T1",), sets=("frontal",), imus=("IMU1",)
+):
     """A calibration table with every subset of ``reps``; ``rotation_of(test, subset)`` gives R."""
     rows = []
     for sensor_set, imu, test in itertools.product(sets, imus, tests):
         for subset in all_subsets(list(reps)):
             R = rotation_of(test, subset)
-            rows.append({"subject": "S1", "sensor_set": sensor_set, "imu": imu, "segment": "head", "side": "center",
-                         "test": test, "repetitions": subset_label(subset), "n_reps": len(subset),
-                         **dict(zip(R_COLUMNS, np.asarray(R).ravel())), "flag": ""})
+            rows.append(
+                {
+                    "subject": "S1",
+                    "sensor_set": sensor_set,
+                    "imu": imu,
+                    "segment": "head",
+                    "side": "center",
+                    "test": test,
+                    "repetitions": subset_label(subset),
+                    "n_reps": len(subset),
+                    **dict(zip(R_COLUMNS, np.asarray(R).ravel())),
+                    "flag": "",
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -87,8 +100,11 @@ def test_a_known_yaw_per_repetition_comes_back_as_the_angle():
     table = calibration_table(lambda test, subset: yaw(sum(subset)) @ base)
     incremental = objectives.incremental_angles(table)
     # calibration_a is the bigger subset (R_e = R(A u {a}) R(A)^-1, Eq. 11), so the angle is a
-    expected = [sum(objectives.parse_subset(a.split(":")[1])) - sum(objectives.parse_subset(b.split(":")[1]))
-                for a, b in zip(incremental["calibration_a"], incremental["calibration_b"])]
+    expected = [
+        sum(objectives.parse_subset(a.split(":")[1]))
+        - sum(objectives.parse_subset(b.split(":")[1]))
+        for a, b in zip(incremental["calibration_a"], incremental["calibration_b"])
+    ]
     np.testing.assert_allclose(incremental["error_angle_deg"], expected, atol=1e-6)
     to_last = objectives.to_last_angles(table).set_index("calibration_b")["error_angle_deg"]
     assert to_last["T1:R1"] == pytest.approx(14.0)
@@ -127,7 +143,9 @@ def test_test_retest_pairs_are_the_distinct_k_subsets():
 
 
 def test_frontal_lateral_plan_pairs_the_same_imu_across_sets_and_skips_single_sets():
-    table = calibration_table(lambda test, subset: np.eye(3), sets=("frontal", "lateral"), imus=("IMU1", "IMU2"))
+    table = calibration_table(
+        lambda test, subset: np.eye(3), sets=("frontal", "lateral"), imus=("IMU1", "IMU2")
+    )
     table = table[~((table["sensor_set"] == "lateral") & (table["imu"] == "IMU2"))]
     plan = objectives.frontal_lateral_plan(objectives.full_sets(table), ["frontal", "lateral"])
     assert list(plan["imu"]) == ["IMU1"]
@@ -135,9 +153,13 @@ def test_frontal_lateral_plan_pairs_the_same_imu_across_sets_and_skips_single_se
 
 def test_segment_pair_plan_needs_a_common_calibrating_test():
     head = calibration_table(lambda t, s: np.eye(3), tests=("T1", "T2"), imus=("IMU1",))
-    chest = calibration_table(lambda t, s: yaw(3), tests=("T2", "T3"), imus=("IMU2",)).assign(segment="chest")
-    plan = objectives.segment_pair_plan(objectives.full_sets(pd.concat([head, chest])),
-                                        {"head-chest": {"segments": ["head", "chest"], "t_ap": ["T1"]}})
+    chest = calibration_table(lambda t, s: yaw(3), tests=("T2", "T3"), imus=("IMU2",)).assign(
+        segment="chest"
+    )
+    plan = objectives.segment_pair_plan(
+        objectives.full_sets(pd.concat([head, chest])),
+        {"head-chest": {"segments": ["head", "chest"], "t_ap": ["T1"]}},
+    )
     assert list(plan["t_ex"]) == ["T2"]
     assert (plan["imu_a"] == "IMU1").all() and (plan["imu_b"] == "IMU2").all()
 

@@ -13,8 +13,18 @@ def axes_table(rho: dict) -> pd.DataFrame:
     rows = []
     for (test, segment, side), values in rho.items():
         for k, value in enumerate(values):
-            rows.append({"subject": f"C{k}", "sensor_set": "main", "imu": f"{segment}{side}", "segment": segment,
-                         "side": side, "test": test, "kind": "static" if test == "S" else "motion", "rho": value})
+            rows.append(
+                {
+                    "subject": f"C{k}",
+                    "sensor_set": "main",
+                    "imu": f"{segment}{side}",
+                    "segment": segment,
+                    "side": side,
+                    "test": test,
+                    "kind": "static" if test == "S" else "motion",
+                    "rho": value,
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -26,20 +36,32 @@ def test_rho_table_mean_sd_n_and_the_published_cell():
     axes = axes_table({("FEB", "upper_arm", "right"): FEB, ("S", "thorax", "center"): [0.98, 0.99]})
     table = reliability.rho_table(axes, {"S": "TS/US/FS"}).set_index(["test", "segment"])
     cell = table.loc[("FEB", "upper_arm_r")]
-    assert cell["mean"] == pytest.approx(np.mean(FEB)) and cell["sd"] == pytest.approx(np.std(FEB, ddof=1))
+    assert cell["mean"] == pytest.approx(np.mean(FEB)) and cell["sd"] == pytest.approx(
+        np.std(FEB, ddof=1)
+    )
     assert cell["n"] == 5 and cell["published_mean"] == 0.63
     assert table.loc[("TS/US/FS", "thorax"), "published_mean"] == 0.98
-    assert table.loc[("TFE", "thorax"), "n"] != table.loc[("TFE", "thorax"), "n"]  # published only: NaN
+    assert (
+        table.loc[("TFE", "thorax"), "n"] != table.loc[("TFE", "thorax"), "n"]
+    )  # published only: NaN
 
 
 def test_supported_ttest_is_scipy_paired_ttest_per_side():
-    axes = axes_table({("FEB", "upper_arm", "right"): FEB, ("FE", "upper_arm", "right"): FE,
-                       ("FFEB", "forearm", "left"): FEB[:4], ("FE", "forearm", "left"): FE[:4]})
+    axes = axes_table(
+        {
+            ("FEB", "upper_arm", "right"): FEB,
+            ("FE", "upper_arm", "right"): FE,
+            ("FFEB", "forearm", "left"): FEB[:4],
+            ("FE", "forearm", "left"): FE[:4],
+        }
+    )
     table = reliability.supported_ttest(axes).set_index("segment")
     expected = stats.ttest_rel(FEB, FE)
     row = table.loc["upper_arm_r"]
     assert (row["supported"], row["unsupported"], row["n"]) == ("FEB", "FE", 5)
-    assert row["t"] == pytest.approx(expected.statistic) and row["p"] == pytest.approx(expected.pvalue)
+    assert row["t"] == pytest.approx(expected.statistic) and row["p"] == pytest.approx(
+        expected.pvalue
+    )
     assert row["mean_difference"] == pytest.approx(np.mean(np.subtract(FEB, FE)))
     assert table.loc["forearm_l", "n"] == 4
     assert table.loc["forearm_l", "p_holm"] >= table.loc["forearm_l", "p"]
@@ -47,27 +69,50 @@ def test_supported_ttest_is_scipy_paired_ttest_per_side():
 
 
 def test_lm_and_residual_tables():
-    calibrations = pd.DataFrame({"method": "ricci_lm", "segment": ["thorax", "thorax", "forearm"],
-                                 "n_iterations": [4, 6, 7], "converged": [True, True, False],
-                                 "random_starts": 5, "random_starts_optimum": [5, 4, 5],
-                                 "random_start_iterations_mean": [5.0, 6.0, 7.0], "random_start_iterations_max": [7, 9, 8]})
+    calibrations = pd.DataFrame(
+        {
+            "method": "ricci_lm",
+            "segment": ["thorax", "thorax", "forearm"],
+            "n_iterations": [4, 6, 7],
+            "converged": [True, True, False],
+            "random_starts": 5,
+            "random_starts_optimum": [5, 4, 5],
+            "random_start_iterations_mean": [5.0, 6.0, 7.0],
+            "random_start_iterations_max": [7, 9, 8],
+        }
+    )
     lm = reliability.lm_table(calibrations).set_index("segment")
     assert lm.loc["thorax", "mean"] == 5 and lm.loc["thorax", "published_mean"] == 6.34
     assert lm.loc["thorax", "random_starts_optimum_share"] == pytest.approx(0.9)
     assert lm.loc["forearm", "converged_share"] == 0
-    axes = pd.DataFrame({"segment": "thorax", "side": "center", "test": ["TR", "TR", "S"],
-                         "residual_before_deg": [80.0, 90.0, 10.0], "residual_after_deg": [5.0, 3.0, 1.0]})
+    axes = pd.DataFrame(
+        {
+            "segment": "thorax",
+            "side": "center",
+            "test": ["TR", "TR", "S"],
+            "residual_before_deg": [80.0, 90.0, 10.0],
+            "residual_after_deg": [5.0, 3.0, 1.0],
+        }
+    )
     residuals = reliability.residual_table(axes).set_index(["segment", "test"])
-    assert residuals.loc[("thorax", "TR"), "mean"] == 4 and residuals.loc[("thorax", "TR"), "before_mean"] == 85
+    assert (
+        residuals.loc[("thorax", "TR"), "mean"] == 4
+        and residuals.loc[("thorax", "TR"), "before_mean"] == 85
+    )
     assert residuals.loc[("thorax", "TR"), "published_mean"] == 5.39
     assert residuals.loc[("thorax", "all"), "n"] == 3
 
 
 def test_a_perfectly_ranked_index_correlates_one_with_the_test_retest_angle():
-    units = pd.DataFrame({"test": ["T1"] * 4 + ["T6"] * 4, "segment": "chest",
-                          "rho": [0.9, 0.8, 0.7, 0.6, 0.5, 0.45, 0.4, 0.35],
-                          "planarity": [0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08],
-                          "test_retest_deg": [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8]})
+    units = pd.DataFrame(
+        {
+            "test": ["T1"] * 4 + ["T6"] * 4,
+            "segment": "chest",
+            "rho": [0.9, 0.8, 0.7, 0.6, 0.5, 0.45, 0.4, 0.35],
+            "planarity": [0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08],
+            "test_retest_deg": [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8],
+        }
+    )
     table = reliability.reliability_vs_retest(units).set_index(["index", "test"])
     assert table.loc[("rho_gyro", "all"), "spearman_r"] == pytest.approx(-1.0)
     assert table.loc[("planarity", "T1"), "spearman_r"] == pytest.approx(1.0)
@@ -79,23 +124,50 @@ def test_a_perfectly_ranked_index_correlates_one_with_the_test_retest_angle():
 def test_methods_table_statistics_and_best_test():
     rng = np.random.default_rng(0)
     rows = []
-    for method, test, error in [("kong", "T3", 1.0), ("kong", "T6", 3.0), ("triad", "T3", 2.0), ("triad", "T6", 0.5)]:
+    for method, test, error in [
+        ("kong", "T3", 1.0),
+        ("kong", "T6", 3.0),
+        ("triad", "T3", 2.0),
+        ("triad", "T6", 0.5),
+    ]:
         for k, e in enumerate(error + rng.uniform(0, 0.1, 20)):
-            rows.append({"subject": f"S{k}", "sensor_set": "frontal", "imu": "IMU2", "segment": "chest", "test": test,
-                         "method": method, "n_reps": 5, "flag": "", "error_deg": e, "error_vertical_share": 0.5})
-    rows.append({**rows[0], "n_reps": 3, "error_deg": 99.0})  # a subset: not the full-set calibration
-    rows.append({**rows[0], "subject": "S99", "flag": "not_planar", "error_deg": 99.0})  # flagged: left out
+            rows.append(
+                {
+                    "subject": f"S{k}",
+                    "sensor_set": "frontal",
+                    "imu": "IMU2",
+                    "segment": "chest",
+                    "test": test,
+                    "method": method,
+                    "n_reps": 5,
+                    "flag": "",
+                    "error_deg": e,
+                    "error_vertical_share": 0.5,
+                }
+            )
+    rows.append(
+        {**rows[0], "n_reps": 3, "error_deg": 99.0}
+    )  # a subset: not the full-set calibration
+    rows.append(
+        {**rows[0], "subject": "S99", "flag": "not_planar", "error_deg": 99.0}
+    )  # flagged: left out
     calibrations = pd.DataFrame(rows)
     table = comparison.methods_table(calibrations).set_index(["test", "method"])
-    kong_t3 = calibrations.query("method == 'kong' and test == 'T3' and n_reps == 5 and flag == ''")["error_deg"]
+    kong_t3 = calibrations.query(
+        "method == 'kong' and test == 'T3' and n_reps == 5 and flag == ''"
+    )["error_deg"]
     assert table.loc[("T3", "kong"), "n"] == 20
     assert table.loc[("T3", "kong"), "median"] == pytest.approx(kong_t3.median())
     assert table.loc[("T3", "kong"), "p95"] == pytest.approx(np.percentile(kong_t3, 95))
     best = comparison.best_tests(calibrations).set_index("method")
     assert best.loc["kong", "best_test"] == "T3" and best.loc["triad", "best_test"] == "T6"
     assert best.loc["kong", "kong_recommends"] == "T3"
-    lines = summary.methods_section({"methods": comparison.methods_table(calibrations),
-                                     "methods_best": comparison.best_tests(calibrations)})
+    lines = summary.methods_section(
+        {
+            "methods": comparison.methods_table(calibrations),
+            "methods_best": comparison.best_tests(calibrations),
+        }
+    )
     assert any("Kong recommends T3" in line and "agrees" in line for line in lines)
 
 
@@ -109,8 +181,16 @@ def test_named_tables_render_and_refuse_unknown_names():
 
 
 def test_ricci_claims_from_known_tables():
-    ttest = pd.DataFrame({"segment": ["upper_arm_r"], "supported": ["FEB"], "unsupported": ["FE"], "n": [40],
-                          "mean_difference": [0.05], "p_holm": [0.001]})
+    ttest = pd.DataFrame(
+        {
+            "segment": ["upper_arm_r"],
+            "supported": ["FEB"],
+            "unsupported": ["FE"],
+            "n": [40],
+            "mean_difference": [0.05],
+            "p_holm": [0.001],
+        }
+    )
     found = {c.claim: c.verdict for c in summary.ricci_claims({"ricci_ttest": ttest})}
     assert found[next(k for k in found if k.startswith("Supported"))] == summary.HOLDS
     ttest["p_holm"] = 0.2

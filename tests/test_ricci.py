@@ -22,9 +22,14 @@ def test_jacobian_matches_finite_differences():
     rng = np.random.default_rng(0)
     v_est = rng.normal(size=(3, 3))
     q = rng.normal(size=4)  # not unit: the LM differentiates the quadratic form of Eq. 8
-    residual = lambda q: (-(v_est @ quaternion_matrix(q).T)).ravel()
+
+    def residual(q):
+        return (-(v_est @ quaternion_matrix(q).T)).ravel()
+
     h = 1e-6
-    numeric = np.column_stack([(residual(q + h * e) - residual(q - h * e)) / (2 * h) for e in np.eye(4)])
+    numeric = np.column_stack(
+        [(residual(q + h * e) - residual(q - h * e)) / (2 * h) for e in np.eye(4)]
+    )
     np.testing.assert_allclose(_residual_jacobian(q, v_est), numeric, atol=1e-7)
 
 
@@ -68,11 +73,16 @@ def test_lm_recovers_exact_rotation_from_identity_and_random_starts():
     for seed in range(50):
         truth = Rotation.random(random_state=seed)
         v_est = truth.inv().apply(v_ref)  # the body axes seen in the sensor frame
-        for q0 in [(1, 0, 0, 0), Rotation.random(random_state=1000 + seed).as_quat(scalar_first=True)]:
+        for q0 in [
+            (1, 0, 0, 0),
+            Rotation.random(random_state=1000 + seed).as_quat(scalar_first=True),
+        ]:
             result = lm_fit(v_ref, v_est, [0.98, 0.79, 0.78], q0_wxyz=q0)
             assert result.converged
             assert angle_between(result.rotation, truth) < 1e-6
-            assert angle_between(result.rotation, wahba_fit(v_ref, v_est, [0.98, 0.79, 0.78])) < 1e-6
+            assert (
+                angle_between(result.rotation, wahba_fit(v_ref, v_est, [0.98, 0.79, 0.78])) < 1e-6
+            )
             np.testing.assert_array_less(result.residual_angle_after_deg, 1e-4)
 
 
@@ -85,7 +95,11 @@ def test_lm_matches_align_vectors_on_noisy_axes():
         truth = Rotation.random(random_state=seed)
         v_est = truth.inv().apply(np.eye(3)) + 0.03 * rng.normal(size=(3, 3))
         weights = rng.uniform(0.5, 1.0, 3)
-        q0 = (1, 0, 0, 0) if seed % 2 else Rotation.random(random_state=99 + seed).as_quat(scalar_first=True)
+        q0 = (
+            (1, 0, 0, 0)
+            if seed % 2
+            else Rotation.random(random_state=99 + seed).as_quat(scalar_first=True)
+        )
         closed_form = wahba_fit(np.eye(3), v_est, weights)
         tight = lm_fit(np.eye(3), v_est, weights, q0_wxyz=q0, rel_tol=1e-12, max_iter=500)
         assert angle_between(tight.rotation, closed_form) < 1e-6

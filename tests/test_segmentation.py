@@ -25,7 +25,9 @@ def rest_move_signal(rng, periods):
 
 
 def test_trimming_finds_known_movement_windows(rng):
-    gyr, truth = rest_move_signal(rng, [("rest", 2), ("move", 3), ("rest", 2), ("move", 3), ("rest", 2)])
+    gyr, truth = rest_move_signal(
+        rng, [("rest", 2), ("move", 3), ("rest", 2), ("move", 3), ("rest", 2)]
+    )
     ranges = movement_ranges(gyr, FS)
     assert len(ranges) == len(truth)
     tolerance = int(0.3 * FS)  # half the moving-SD window plus the onset of the sine
@@ -35,9 +37,13 @@ def test_trimming_finds_known_movement_windows(rng):
 
 
 def test_closing_fills_short_pause_but_not_long_rest(rng):
-    gyr, _ = rest_move_signal(rng, [("rest", 1), ("move", 2), ("rest", 0.5), ("move", 2), ("rest", 1)])
+    gyr, _ = rest_move_signal(
+        rng, [("rest", 1), ("move", 2), ("rest", 0.5), ("move", 2), ("rest", 1)]
+    )
     assert len(movement_ranges(gyr, FS)) == 1  # a 0.5 s pause is closed by the 1 s element
-    gyr, _ = rest_move_signal(rng, [("rest", 1), ("move", 2), ("rest", 2.5), ("move", 2), ("rest", 1)])
+    gyr, _ = rest_move_signal(
+        rng, [("rest", 1), ("move", 2), ("rest", 2.5), ("move", 2), ("rest", 1)]
+    )
     assert len(movement_ranges(gyr, FS)) == 2
     # with a longer closing element the 2.5 s rest is filled too: the parameter is honoured
     assert len(movement_ranges(gyr, FS, TrimParams(closing_s=4.0))) == 1

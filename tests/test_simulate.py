@@ -61,7 +61,9 @@ def test_rigid_segment_sensors_see_same_body_frame_angular_velocity():
         omegas = []
         for sensor_set in ("frontal", "lateral"):
             placement = placements[sensor_set][segment]
-            mount = Rotation.random(random_state=len(omegas)).as_matrix() @ placement.nominal_mount()
+            mount = (
+                Rotation.random(random_state=len(omegas)).as_matrix() @ placement.nominal_mount()
+            )
             p_w = origin[segment] + R[segment] @ np.array(placement.position)
             gyr, acc = measure(R[segment] @ mount, p_w, FS)
             omegas.append(gyr @ mount.T)
@@ -84,8 +86,12 @@ def test_lever_arm_changes_acceleration_not_rotation():
 @pytest.fixture(scope="module")
 def kong_clean(tmp_path_factory):
     out = tmp_path_factory.mktemp("sim") / "kong_clean"
-    return simulate_kong(out, seed=5, n_subjects=1,
-                         options=SimOptions(noise=False, offplane=0.0, wobble=0.0, repetitions=2))
+    return simulate_kong(
+        out,
+        seed=5,
+        n_subjects=1,
+        options=SimOptions(noise=False, offplane=0.0, wobble=0.0, repetitions=2),
+    )
 
 
 @pytest.fixture(scope="module")
@@ -100,6 +106,7 @@ def calibration_errors(root):
     return calibrations.query("method == 'kong'")["error_deg"].to_numpy()
 
 
+@pytest.mark.slow
 def test_round_trip_recovers_mountings_noise_free(kong_clean):
     """Pure sagittal motion, ideal sensors: every IMU's mounting comes back from every test that
     may calibrate it. Measured on the 5 default subjects: max 0.11 deg, median 0.02 deg; what is
@@ -109,6 +116,7 @@ def test_round_trip_recovers_mountings_noise_free(kong_clean):
     assert errors.max() < 0.15
 
 
+@pytest.mark.slow
 def test_error_grows_with_offplane_motion_and_wobble(kong_clean, kong_physiological):
     clean, physiological = calibration_errors(kong_clean), calibration_errors(kong_physiological)
     assert np.median(physiological) > 10 * np.median(clean)
@@ -143,6 +151,7 @@ def digest(root):
     return h.hexdigest()
 
 
+@pytest.mark.slow
 def test_same_seed_gives_byte_identical_files(tmp_path):
     a = simulate_box(tmp_path / "a", seed=3)
     b = simulate_box(tmp_path / "b", seed=3)
@@ -153,23 +162,40 @@ def test_same_seed_gives_byte_identical_files(tmp_path):
     assert digest(r1) == digest(r2)
 
 
+@pytest.mark.slow
 def test_ricci_dataset_protocol(tmp_path):
     root = simulate_ricci(tmp_path / "ricci", seed=1, n_subjects=2)
     dataset, report = validate(root)
     assert report.ok, report.format()
     assert set(dataset.tests.index) == {"S", "TR", "TFE", "AA", "FE", "FEB", "PS", "FFEB"}
-    assert dataset.recordings.groupby(["subject", "test"]).size().eq(3 * 5).all()  # 3 trials x 5 units
+    assert (
+        dataset.recordings.groupby(["subject", "test"]).size().eq(3 * 5).all()
+    )  # 3 trials x 5 units
     # supine: the specific force in each segment frame is the axis functional_axes.tsv declares
     import pandas as pd
 
     from aceval.rotations import axis_vector
 
-    declared = pd.read_csv(root / "functional_axes.tsv", sep="\t").query("test == 'S'").set_index("segment")["axis"]
+    declared = (
+        pd.read_csv(root / "functional_axes.tsv", sep="\t")
+        .query("test == 'S'")
+        .set_index("segment")["axis"]
+    )
     for imu, row in dataset.imus.loc["main"].iterrows():
-        key = row["segment"] if row["segment"] in declared.index else f"{row['segment']}_{row['side'][0]}"
-        path = dataset.recordings.query("test == 'S' and rep == 1 and imu == @imu and subject == 'C01'").path.iloc[0]
-        up = dataset.ground_truth_matrix("C01", "main", imu) @ np.median(dataset.read_recording(path).acc, axis=0)
-        cos = up @ axis_vector(declared[key]) / np.linalg.norm(up)  # sensor bias tilts it by a few degrees
+        key = (
+            row["segment"]
+            if row["segment"] in declared.index
+            else f"{row['segment']}_{row['side'][0]}"
+        )
+        path = dataset.recordings.query(
+            "test == 'S' and rep == 1 and imu == @imu and subject == 'C01'"
+        ).path.iloc[0]
+        up = dataset.ground_truth_matrix("C01", "main", imu) @ np.median(
+            dataset.read_recording(path).acc, axis=0
+        )
+        cos = (
+            up @ axis_vector(declared[key]) / np.linalg.norm(up)
+        )  # sensor bias tilts it by a few degrees
         assert np.degrees(np.arccos(cos)) < 10, (imu, declared[key], up)
 
 

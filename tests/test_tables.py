@@ -17,7 +17,9 @@ def test_paired_ttest_matches_a_hand_computation():
     assert out["n"] == 3 and out["mean_difference"] == pytest.approx(2.0)
     assert out["t"] == pytest.approx(2 * np.sqrt(3))
     assert out["p"] == pytest.approx(0.0742, abs=1e-4)
-    assert (out["ci95_low"], out["ci95_high"]) == pytest.approx((2 - 4.3027 / np.sqrt(3), 2 + 4.3027 / np.sqrt(3)), abs=1e-3)
+    assert (out["ci95_low"], out["ci95_high"]) == pytest.approx(
+        (2 - 4.3027 / np.sqrt(3), 2 + 4.3027 / np.sqrt(3)), abs=1e-3
+    )
     assert out["cohens_dz"] == pytest.approx(2.0)
     assert out["mean_a"] == pytest.approx(4.0) and out["sd_b"] == pytest.approx(1.0)
 
@@ -37,8 +39,13 @@ def test_holm_by_hand():
 
 
 def test_pairing_drops_units_present_in_one_set_only():
-    table = pd.DataFrame({"unit": [1, 2, 3, 1, 2], "sensor_set": ["f", "f", "f", "l", "l"],
-                          "value": [1.0, 2.0, 9.0, 0.5, 1.0]})
+    table = pd.DataFrame(
+        {
+            "unit": [1, 2, 3, 1, 2],
+            "sensor_set": ["f", "f", "f", "l", "l"],
+            "value": [1.0, 2.0, 9.0, 0.5, 1.0],
+        }
+    )
     out = paired_by_set(table, "value", ["unit"], ["f", "l"])
     assert out["n"] == 2 and out["mean_difference"] == pytest.approx(0.75)
 
@@ -47,10 +54,22 @@ def angle_rows(values_by_set: dict, comparison="test_retest", segment="head", te
     rows = []
     for sensor_set, values in values_by_set.items():
         for k, value in enumerate(values):
-            rows.append({"comparison": comparison, "subject": "S1", "sensor_set": sensor_set, "imu": "IMU1",
-                         "segment": segment, "side": "center", "test": test, "k": 3,
-                         "calibration_a": f"{test}:{k}", "calibration_b": f"{test}:x", "error_angle_deg": value,
-                         "vertical_share": 1.0})
+            rows.append(
+                {
+                    "comparison": comparison,
+                    "subject": "S1",
+                    "sensor_set": sensor_set,
+                    "imu": "IMU1",
+                    "segment": segment,
+                    "side": "center",
+                    "test": test,
+                    "k": 3,
+                    "calibration_a": f"{test}:{k}",
+                    "calibration_b": f"{test}:x",
+                    "error_angle_deg": value,
+                    "vertical_share": 1.0,
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -66,11 +85,17 @@ def test_table9_mean_sd_n_published_value_and_flag():
     # rows of the paper this dataset has no data for are kept, with n = 0
     assert (table[table["t_ex"] == "T6"]["n"] == 0).all()
     markdown = tables.to_markdown(table, 9, "demo", simulated=True)
-    assert "SIMULATED" in markdown and "1.250 ± 1.037 †" in markdown and "not in this dataset" in markdown
+    assert (
+        "SIMULATED" in markdown
+        and "1.250 ± 1.037 †" in markdown
+        and "not in this dataset" in markdown
+    )
 
 
 def test_table8_names_the_set_with_the_smaller_angle():
-    angles = angle_rows({"frontal": [1.0, 2.0, 3.5], "lateral": [0.4, 0.6, 0.9]}, comparison="incremental")
+    angles = angle_rows(
+        {"frontal": [1.0, 2.0, 3.5], "lateral": [0.4, 0.6, 0.9]}, comparison="incremental"
+    )
     table = tables.build(8, None, angles, ["frontal", "lateral"])
     head = table[table["segment"] == "head"].iloc[0]
     assert head["smaller"] == "lateral" and head["published_smaller"] == "frontal"
@@ -84,7 +109,9 @@ def test_tables_refuse_numbers_the_paper_does_not_have():
 
 
 def test_claims_with_known_tables():
-    table9 = pd.DataFrame({"t_ex": ["T1", "T5"], "segment": ["head", "foot"], "mean": [0.5, 1.8], "n": [4, 4]})
+    table9 = pd.DataFrame(
+        {"t_ex": ["T1", "T5"], "segment": ["head", "foot"], "mean": [0.5, 1.8], "n": [4, 4]}
+    )
     verdicts = {c.claim: c.verdict for c in summary.obj4_claims(table9, None)}
     assert verdicts["Any-3-of-5 test-retest error angle < 2.1 deg on average"] == summary.HOLDS
     assert verdicts["< 1 deg excluding T5 and the feet"] == summary.HOLDS

@@ -11,25 +11,46 @@ import pandas as pd
 import pytest
 import yaml
 
+pytestmark = pytest.mark.slow  # runs the workflow
+
 REPO = Path(__file__).resolve().parents[1]
 
 
 def snakemake(workdir: Path, *args: str, config: bool = True) -> subprocess.CompletedProcess:
-    command = [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile"), "--directory", str(workdir),
-               "--cores", "2"]
+    command = [
+        sys.executable,
+        "-m",
+        "snakemake",
+        "-s",
+        str(REPO / "Snakefile"),
+        "--directory",
+        str(workdir),
+        "--cores",
+        "2",
+    ]
     if config:
         command += ["--configfile", str(workdir / "config.yaml"), "--replace-workflow-config"]
     # the rules call `python -m aceval`: make that the interpreter running the tests
-    env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"}
+    env = {
+        **os.environ,
+        "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}",
+    }
     return subprocess.run(command + list(args), capture_output=True, text=True, env=env)
 
 
 def write_config(workdir: Path, datasets: dict, test_retest_k: int = 2) -> None:
     workdir.mkdir(parents=True, exist_ok=True)
-    config = {"datasets": datasets,
-              "calibration": {"trim": {"threshold": 0.1, "closing_s": 1.0, "window_s": 0.5, "min_peak_deg_s": 20}},
-              "objectives": {"correlation": "concatenated", "test_retest_k": test_retest_k,
-                             "segment_pairs": {"thighs-shanks": {"segments": ["thigh", "shank"], "t_ap": ["T5"]}}}}
+    config = {
+        "datasets": datasets,
+        "calibration": {
+            "trim": {"threshold": 0.1, "closing_s": 1.0, "window_s": 0.5, "min_peak_deg_s": 20}
+        },
+        "objectives": {
+            "correlation": "concatenated",
+            "test_retest_k": test_retest_k,
+            "segment_pairs": {"thighs-shanks": {"segments": ["thigh", "shank"], "t_ap": ["T5"]}},
+        },
+    }
     (workdir / "config.yaml").write_text(yaml.safe_dump(config))
 
 
@@ -45,8 +66,25 @@ def digest(folder: Path) -> str:
 def tiny(tmp_path_factory) -> Path:
     """2 simulated subjects, 3 repetitions of each test."""
     out = tmp_path_factory.mktemp("data") / "tiny"
-    subprocess.run([sys.executable, "-m", "aceval", "simulate", "kong", "--out", str(out), "--seed", "1",
-                    "--subjects", "2", "--repetitions", "3"], check=True, capture_output=True)
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "aceval",
+            "simulate",
+            "kong",
+            "--out",
+            str(out),
+            "--seed",
+            "1",
+            "--subjects",
+            "2",
+            "--repetitions",
+            "3",
+        ],
+        check=True,
+        capture_output=True,
+    )
     return out
 
 
@@ -71,12 +109,22 @@ def test_workflow_end_to_end_then_nothing_to_do(tiny, tmp_path):
     """A lab dataset whose subject S2 has no T5 and a simulated rigid box: every table, figure and
     summary is written; T5 analyses count S1 only; a second run has nothing to do; raw data are
     untouched."""
-    lab = lab_copy(tiny, tmp_path / "lab", drop=lambda r: (r["subject"] == "S2") & (r["test"] == "T5"))
+    lab = lab_copy(
+        tiny, tmp_path / "lab", drop=lambda r: (r["subject"] == "S2") & (r["test"] == "T5")
+    )
     before = digest(tiny)
     work = tmp_path / "work"
-    write_config(work, {"lab": {"path": str(lab), "analyses": ["kong"]},
-                        "box": {"simulate": {"protocol": "box", "seed": 0, "repetitions": 3}, "analyses": ["box"],
-                                "paper_names": {"EDGE": "around_one_edge", "RANDOM": "random_rotation"}}})
+    write_config(
+        work,
+        {
+            "lab": {"path": str(lab), "analyses": ["kong"]},
+            "box": {
+                "simulate": {"protocol": "box", "seed": 0, "repetitions": 3},
+                "analyses": ["box"],
+                "paper_names": {"EDGE": "around_one_edge", "RANDOM": "random_rotation"},
+            },
+        },
+    )
     run = snakemake(work)
     assert run.returncode == 0, run.stderr[-3000:]
     results = work / "results"
@@ -87,7 +135,9 @@ def test_workflow_end_to_end_then_nothing_to_do(tiny, tmp_path):
     for n in (4, 5):
         assert (results / "box" / "tables" / f"table{n}.csv").exists()
     assert "SIMULATED" in (results / "box" / "SUMMARY.md").read_text()
-    assert "SIMULATED" in (results / "lab" / "tables" / "table9.md").read_text()  # dataset.yaml says so
+    assert (
+        "SIMULATED" in (results / "lab" / "tables" / "table9.md").read_text()
+    )  # dataset.yaml says so
 
     table9 = pd.read_csv(results / "lab" / "tables" / "table9.csv").set_index(["t_ex", "segment"])
     # thighs: 2 IMUs x 2 sets x C(3, 2) pairs of 2-subsets per subject; T5 has S1 only
@@ -98,8 +148,11 @@ def test_workflow_end_to_end_then_nothing_to_do(tiny, tmp_path):
 
     # a lab calibrating the same folder with one command gets exactly the workflow's calibrations
     standalone = tmp_path / "standalone.csv"
-    subprocess.run([sys.executable, "-m", "aceval", "calibrate", str(lab), "--out", str(standalone)],
-                   check=True, capture_output=True)
+    subprocess.run(
+        [sys.executable, "-m", "aceval", "calibrate", str(lab), "--out", str(standalone)],
+        check=True,
+        capture_output=True,
+    )
     per_subject = sorted((results / "lab" / "calibrations").glob("S?.csv"))
     workflow = pd.concat([pd.read_csv(p) for p in per_subject], ignore_index=True)
     pd.testing.assert_frame_equal(pd.read_csv(standalone), workflow)
@@ -138,7 +191,10 @@ def test_any_folder_name_reaches_the_shell_quoted_and_validation_follows_the_fil
 
     lab = simulate_small(tmp_path / "lab dir 'ü\" $(touch PWNED)")
     work = tmp_path / "work"
-    write_config(work, {"lab": {"path": str(lab), "analyses": ["kong"], "note": "it's a note; $(touch PWNED2)"}})
+    write_config(
+        work,
+        {"lab": {"path": str(lab), "analyses": ["kong"], "note": "it's a note; $(touch PWNED2)"}},
+    )
     run = snakemake(work)
     assert run.returncode == 0, run.stderr[-3000:]
     assert (work / "results" / "lab" / "tables" / "table9.md").exists()
@@ -149,5 +205,8 @@ def test_any_folder_name_reaches_the_shell_quoted_and_validation_follows_the_fil
     changed.write_text(changed.read_text().replace(",", ";"))
     again = snakemake(work)
     assert again.returncode != 0
-    assert "T1_R2_IMU2.csv" in again.stderr + again.stdout and "comma-separated" in again.stderr + again.stdout
+    assert (
+        "T1_R2_IMU2.csv" in again.stderr + again.stdout
+        and "comma-separated" in again.stderr + again.stdout
+    )
     assert not (work / "results" / "lab" / "validation.txt").exists()

@@ -1,3 +1,5 @@
+"""``python -m aceval``: the command line (:mod:`aceval.cli`)."""
+
 import sys
 
 from .cli import main

@@ -61,7 +61,11 @@ MAX_RIGHT_AXIS_ANGLE_DEG = 60.0
 #: 73 deg in 3 of 8370 single leg-swing subsets, real walking up to 52 deg; random 3-D motion 70-88)
 MAX_NORMAL_GYRO_ANGLE_DEG = 60.0
 
-AGREEMENT_COLUMNS = [f"ga_c{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)] + ["ga_ww", "ga_rr", "ga_turn_deg"]
+AGREEMENT_COLUMNS = [f"ga_c{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)] + [
+    "ga_ww",
+    "ga_rr",
+    "ga_turn_deg",
+]
 _TRIPLES = [(i, j, k) for i in range(3) for j in range(i, 3) for k in range(j, 3)]
 THIRD_MOMENT_COLUMNS = ["w3_" + "".join("xyz"[a] for a in t) for t in _TRIPLES]
 #: (value index, i, j, k) for every entry of the symmetric 3x3x3 tensor
@@ -71,7 +75,8 @@ _TENSOR_ENTRIES = [(v, *p) for v, t in enumerate(_TRIPLES) for p in set(itertool
 def agreement_moments(acc: np.ndarray, gyr: np.ndarray, fs_hz: float) -> dict:
     """Sums over the slow-motion windows of one recording (columns ``AGREEMENT_COLUMNS``): the
     cross-moment C = sum (Delta x a) r^T (3x3), sum |Delta x a|^2, sum |r|^2 and the summed
-    direction change (deg). ``acc`` m/s^2, ``gyr`` rad/s, both (N, 3)."""
+    direction change (deg). ``acc`` m/s^2, ``gyr`` rad/s, both (N, 3).
+    """
     k = max(1, int(round(WINDOW_S * fs_hz)))
     zero = dict.fromkeys(AGREEMENT_COLUMNS, 0.0)
     if len(acc) <= k:
@@ -85,19 +90,31 @@ def agreement_moments(acc: np.ndarray, gyr: np.ndarray, fs_hz: float) -> dict:
     speed = maximum_filter1d(np.linalg.norm(gyr, axis=1), k + 1, origin=-(k // 2))[start]
     a, b = direction[start], direction[start + k]
     turn = np.degrees(np.arccos(np.clip(np.sum(a * b, axis=1), -1.0, 1.0)))
-    seen = np.cross(b - a, a)  # the direction change as a rotation vector (its part perpendicular to a)
+    seen = np.cross(
+        b - a, a
+    )  # the direction change as a rotation vector (its part perpendicular to a)
     middle = a + b
     middle /= np.maximum(np.linalg.norm(middle, axis=1, keepdims=True), 1e-12)
-    rotation_perpendicular = np.linalg.norm(rotation - middle * np.sum(rotation * middle, axis=1, keepdims=True), axis=1)
+    rotation_perpendicular = np.linalg.norm(
+        rotation - middle * np.sum(rotation * middle, axis=1, keepdims=True), axis=1
+    )
     size_ratio = np.linalg.norm(seen, axis=1) / np.maximum(rotation_perpendicular, 1e-12)
-    slow = ((deviation < SLOW_MAX_DEV_G * GRAVITY) & (speed < SLOW_MAX_RATE_RAD_S) & (turn >= MIN_TURN_DEG)
-            & (size_ratio > SIZE_RATIO_BAND[0]) & (size_ratio < SIZE_RATIO_BAND[1]))
+    slow = (
+        (deviation < SLOW_MAX_DEV_G * GRAVITY)
+        & (speed < SLOW_MAX_RATE_RAD_S)
+        & (turn >= MIN_TURN_DEG)
+        & (size_ratio > SIZE_RATIO_BAND[0])
+        & (size_ratio < SIZE_RATIO_BAND[1])
+    )
     if not slow.any():
         return zero
     seen, r = seen[slow], rotation[slow]
     out = dict(zip(AGREEMENT_COLUMNS[:9], (seen.T @ r).ravel()))
-    return out | {"ga_ww": float(np.sum(seen * seen)), "ga_rr": float(np.sum(r * r)),
-                  "ga_turn_deg": float(turn[slow].sum())}
+    return out | {
+        "ga_ww": float(np.sum(seen * seen)),
+        "ga_rr": float(np.sum(r * r)),
+        "ga_turn_deg": float(turn[slow].sum()),
+    }
 
 
 def gyro_acc_agreement(summed: np.ndarray) -> tuple[float, float]:
@@ -110,30 +127,44 @@ def gyro_acc_agreement(summed: np.ndarray) -> tuple[float, float]:
 
 def agreement_problem(kappa: float, evidence_deg: float) -> str:
     """'' when the gyroscope and accelerometer agree (or there is too little slow motion to tell),
-    else the cause."""
+    else the cause.
+    """
     if not evidence_deg >= MIN_EVIDENCE_DEG or not np.isfinite(kappa) or kappa >= MIN_AGREEMENT:
         return ""
-    return (f"the accelerometer's turns do not follow the gyroscope's rotation (agreement {kappa:.2f} < "
-            f"{MIN_AGREEMENT} over {evidence_deg:.0f} deg of slow motion): swapped or mirrored axes, or "
-            f"columns of two different sensors?")
+    return (
+        f"the accelerometer's turns do not follow the gyroscope's rotation (agreement {kappa:.2f} < "
+        f"{MIN_AGREEMENT} over {evidence_deg:.0f} deg of slow motion): swapped or mirrored axes, or "
+        f"columns of two different sensors?"
+    )
 
 
 def third_moments(gyr: np.ndarray) -> dict:
     """The unique entries of the third-moment tensor sum w_i w_j w_k of angular velocities (rad/s)."""
-    return {name: float(np.sum(gyr[:, i] * gyr[:, j] * gyr[:, k])) for name, (i, j, k) in zip(THIRD_MOMENT_COLUMNS, _TRIPLES)}
+    return {
+        name: float(np.sum(gyr[:, i] * gyr[:, j] * gyr[:, k]))
+        for name, (i, j, k) in zip(THIRD_MOMENT_COLUMNS, _TRIPLES)
+    }
 
 
 def swing_skew(moments: np.ndarray, axes: np.ndarray) -> np.ndarray:
-    """sum (u . w)^3 for each unit vector u in ``axes`` (..., 3), from summed third moments
-    (..., 10): positive when the fastest rotations about u are positive."""
+    """Sum (u . w)^3 for each unit vector u in ``axes`` (..., 3), from summed third moments
+    (..., 10): positive when the fastest rotations about u are positive.
+    """
     tensor = np.zeros(moments.shape[:-1] + (3, 3, 3))
     for value_index, i, j, k in _TENSOR_ENTRIES:
         tensor[..., i, j, k] = moments[..., value_index]
     return np.einsum("...ijk,...i,...j,...k->...", tensor, axes, axes, axes)
 
 
-def direction_checks(expected: str, segment: str, phase_axes: np.ndarray, third: np.ndarray | None,
-                     membership: np.ndarray, R: np.ndarray, right: np.ndarray) -> dict[str, np.ndarray]:
+def direction_checks(
+    expected: str,
+    segment: str,
+    phase_axes: np.ndarray,
+    third: np.ndarray | None,
+    membership: np.ndarray,
+    R: np.ndarray,
+    right: np.ndarray,
+) -> dict[str, np.ndarray]:
     """Is forward forward? For calibrations ``R`` (n, 3, 3) of one IMU, each from a subset
     (``membership`` (n, n_rep) of 0/1) of the recordings of one test.
 
@@ -157,7 +188,9 @@ def direction_checks(expected: str, segment: str, phase_axes: np.ndarray, third:
         agree = voting * (np.sign(dots) == (-1.0 if expected == "-y" else 1.0))
         votes = np.einsum("kr,rk->k", membership, voting)
         with np.errstate(invalid="ignore", divide="ignore"):
-            agreement = np.where(votes > 0, np.einsum("kr,rk->k", membership, agree) / votes, np.nan)
+            agreement = np.where(
+                votes > 0, np.einsum("kr,rk->k", membership, agree) / votes, np.nan
+            )
         flag[agreement < 0.5] = "backward"
     elif expected == "gait" and segment == "shank" and third is not None:
         skew = swing_skew(membership @ np.asarray(third, float), body_y)
@@ -171,11 +204,22 @@ def direction_checks(expected: str, segment: str, phase_axes: np.ndarray, third:
 def sensor_problem(summed_agreement: np.ndarray, fastest_deg_s: float, gyr_units: str) -> dict:
     """The sensor-level verdict of one IMU from its summed ``AGREEMENT_COLUMNS`` (walking left
     out) and its largest 99.5th-percentile angular speed (deg/s): ``flag`` ('gyro_implausible',
-    'gyro_acc_inconsistent' or ''), ``message``, ``gyro_acc_agreement``, ``gyro_acc_evidence_deg``."""
+    'gyro_acc_inconsistent' or ''), ``message``, ``gyro_acc_agreement``, ``gyro_acc_evidence_deg``.
+    """
     kappa, evidence = gyro_acc_agreement(summed_agreement)
     message = agreement_problem(kappa, evidence)
     flag = "gyro_acc_inconsistent" if message else ""
     if fastest_deg_s > MAX_PLAUSIBLE_RATE_DEG_S:
-        flag, message = "gyro_implausible", (f"angular speed {fastest_deg_s:.0f} deg/s at the 99.5th percentile > "
-                                             f"{MAX_PLAUSIBLE_RATE_DEG_S:.0f}: are units.gyr ({gyr_units}) right?")
-    return {"flag": flag, "message": message, "gyro_acc_agreement": kappa, "gyro_acc_evidence_deg": evidence}
+        flag, message = (
+            "gyro_implausible",
+            (
+                f"angular speed {fastest_deg_s:.0f} deg/s at the 99.5th percentile > "
+                f"{MAX_PLAUSIBLE_RATE_DEG_S:.0f}: are units.gyr ({gyr_units}) right?"
+            ),
+        )
+    return {
+        "flag": flag,
+        "message": message,
+        "gyro_acc_agreement": kappa,
+        "gyro_acc_evidence_deg": evidence,
+    }

@@ -1,16 +1,24 @@
 """Command line: ``aceval simulate|import|validate|calibrate|apply|correlate|angles|table|figure|summary``
-(also ``python -m aceval``). The workflow's rules are thin calls of these commands."""
+(also ``python -m aceval``). The workflow's rules are thin calls of these commands.
+"""
 
 from __future__ import annotations
 
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if (
+    TYPE_CHECKING
+):  # imported where used: pandas costs start-up time for the commands that never need it
+    import pandas as pd
 
 
 def _staged(out: Path, force: bool, command: str, write) -> int:
     """Write a folder output through :func:`aceval.safety.staged_folder` (nothing is left behind
-    on failure; ``--force`` replaces only a folder aceval wrote)."""
+    on failure; ``--force`` replaces only a folder aceval wrote).
+    """
     from .safety import UnsafeOutputError, fail, staged_folder
 
     try:
@@ -25,14 +33,20 @@ def _simulate(args) -> int:
     from .simulate import GENERATORS, SimOptions
 
     options = SimOptions(
-        noise=not args.no_noise, offplane=0.0 if args.no_offplane else 1.0,
-        wobble=0.0 if args.no_wobble else 1.0, repetitions=args.repetitions,
+        noise=not args.no_noise,
+        offplane=0.0 if args.no_offplane else 1.0,
+        wobble=0.0 if args.no_wobble else 1.0,
+        repetitions=args.repetitions,
     )
     kwargs = {"options": options}
     if args.subjects is not None:
         kwargs["n_subjects"] = args.subjects
-    return _staged(Path(args.out), args.force, "simulate",
-                   lambda folder: GENERATORS[args.protocol](folder, args.seed, **kwargs))
+    return _staged(
+        Path(args.out),
+        args.force,
+        "simulate",
+        lambda folder: GENERATORS[args.protocol](folder, args.seed, **kwargs),
+    )
 
 
 def _import(args) -> int:
@@ -40,9 +54,17 @@ def _import(args) -> int:
     from .importers.run import run_import
 
     try:
-        return _staged(Path(args.out), args.force, "import",
-                       lambda folder: print(run_import(folder, args.format, args.src, args.sensors, args.subject,
-                                                       args.vicon, args.name).summary(), file=sys.stderr))
+        return _staged(
+            Path(args.out),
+            args.force,
+            "import",
+            lambda folder: print(
+                run_import(
+                    folder, args.format, args.src, args.sensors, args.subject, args.vicon, args.name
+                ).summary(),
+                file=sys.stderr,
+            ),
+        )
     except (FormatError, OSError) as exc:
         print(f"aceval import {args.format}: {exc}", file=sys.stderr)
         return 1
@@ -72,41 +94,51 @@ def _write_text(path, text: str) -> None:
     _atomic(path, lambda tmp: Path(tmp).write_text(text))
 
 
-def _read_csvs(paths) -> "pd.DataFrame":
+def _read_csvs(paths) -> pd.DataFrame:
     import pandas as pd
 
     parts = []
     for path in paths:
         try:
             parts.append(pd.read_csv(path))
-        except pd.errors.EmptyDataError:  # an empty table (e.g. a subject with nothing to calibrate)
+        except (
+            pd.errors.EmptyDataError
+        ):  # an empty table (e.g. a subject with nothing to calibrate)
             continue
     non_empty = [p for p in parts if len(p)] or parts[:1]  # keep the columns of an empty table
     return pd.concat(non_empty, ignore_index=True) if non_empty else pd.DataFrame()
 
 
 #: ``--method`` choices of ``aceval calibrate`` -> the ``method`` values of the calibrations table
-METHODS = {"kong": ["kong"], "ricci": ["ricci_lm"], "align_vectors": ["align_vectors"], "triad": ["triad"],
-           "all": ["kong", "ricci_lm", "align_vectors", "triad"]}
+METHODS = {
+    "kong": ["kong"],
+    "ricci": ["ricci_lm"],
+    "align_vectors": ["align_vectors"],
+    "triad": ["triad"],
+    "all": ["kong", "ricci_lm", "align_vectors", "triad"],
+}
 
 
 def _progress(done: int, total: int, what: str) -> None:
     """A one-line progress bar on stderr (only on a terminal: logs stay clean)."""
     if sys.stderr.isatty():
         filled = int(30 * done / total)
-        print(f"\r[{'#' * filled}{'.' * (30 - filled)}] {done}/{total} {what}", end="" if done < total else "\n",
-              file=sys.stderr, flush=True)
+        print(
+            f"\r[{'#' * filled}{'.' * (30 - filled)}] {done}/{total} {what}",
+            end="" if done < total else "\n",
+            file=sys.stderr,
+            flush=True,
+        )
 
 
 def _calibrate(args) -> int:
+    import numpy as np
+    import pandas as pd
+
     from .dataset import DatasetError, load_dataset
     from .pipeline import AXES_COLUMNS, CALIBRATION_COLUMNS, calibrate, summarise_recordings
     from .segmentation import TrimParams
     from .summary import calibration_screen
-
-    import numpy as np
-
-    import pandas as pd
 
     try:  # the workflow has validated the files already (validation.txt); a user's call checks them
         dataset = load_dataset(args.dataset, check_files=not args.validated)
@@ -114,14 +146,24 @@ def _calibrate(args) -> int:
         print(f"aceval calibrate: {args.dataset} is not a valid dataset:\n{exc}", file=sys.stderr)
         return 1
     if args.subject is not None and args.subject not in dataset.subjects.index:
-        print(f"aceval calibrate: subject {args.subject!r} is not in {args.dataset}/subjects.tsv", file=sys.stderr)
+        print(
+            f"aceval calibrate: subject {args.subject!r} is not in {args.dataset}/subjects.tsv",
+            file=sys.stderr,
+        )
         return 2
     unknown = sorted(set(args.tests or []) - set(dataset.tests.index))
     if unknown:
-        print(f"aceval calibrate: test(s) {', '.join(unknown)} not in {args.dataset}/tests.tsv", file=sys.stderr)
+        print(
+            f"aceval calibrate: test(s) {', '.join(unknown)} not in {args.dataset}/tests.tsv",
+            file=sys.stderr,
+        )
         return 2
-    trim = TrimParams(threshold=args.trim_threshold, closing_s=args.closing_s, window_s=args.window_s,
-                      min_peak_rad_s=np.radians(args.min_peak_deg_s))
+    trim = TrimParams(
+        threshold=args.trim_threshold,
+        closing_s=args.closing_s,
+        window_s=args.window_s,
+        min_peak_rad_s=np.radians(args.min_peak_deg_s),
+    )
     subjects = [args.subject] if args.subject is not None else list(dataset.subjects.index)
     parts = []
     for done, subject in enumerate(subjects, start=1):
@@ -132,15 +174,28 @@ def _calibrate(args) -> int:
     unusable = summaries[summaries["flag"] != ""] if len(summaries) else summaries
     for message in unusable.get("message", []):
         print(f"aceval calibrate: left out {message}", file=sys.stderr)
-    calibrations, axes = calibrate(dataset, summaries, args.subsets) if len(summaries) else (
-        pd.DataFrame(columns=CALIBRATION_COLUMNS), pd.DataFrame(columns=AXES_COLUMNS))
+    calibrations, axes = (
+        calibrate(dataset, summaries, args.subsets)
+        if len(summaries)
+        else (pd.DataFrame(columns=CALIBRATION_COLUMNS), pd.DataFrame(columns=AXES_COLUMNS))
+    )
     if len(calibrations):
-        calibrations = calibrations[calibrations["method"].isin(METHODS[args.method])].reset_index(drop=True)
+        calibrations = calibrations[calibrations["method"].isin(METHODS[args.method])].reset_index(
+            drop=True
+        )
     if calibrations.empty and not args.allow_empty:
-        why = (f"{len(unusable)} recording(s) were left out (listed above) and none remained" if len(unusable)
-               else "no subject has a static test and a motion test that calibrates one of its IMUs "
-                    "(calibrates.tsv)" if len(summaries) else "no recording of a test that calibrates an IMU")
-        print(f"aceval calibrate: nothing to calibrate in {args.dataset}: {why}; no file written", file=sys.stderr)
+        why = (
+            f"{len(unusable)} recording(s) were left out (listed above) and none remained"
+            if len(unusable)
+            else "no subject has a static test and a motion test that calibrates one of its IMUs "
+            "(calibrates.tsv)"
+            if len(summaries)
+            else "no recording of a test that calibrates an IMU"
+        )
+        print(
+            f"aceval calibrate: nothing to calibrate in {args.dataset}: {why}; no file written",
+            file=sys.stderr,
+        )
         return 1
     _write_csv(args.out, calibrations)
     if args.recordings_out:
@@ -161,18 +216,37 @@ def _apply(args) -> int:
         print(f"aceval apply: {args.dataset} is not a valid dataset:\n{exc}", file=sys.stderr)
         return 1
     calibrations = _read_csvs([args.calibrations])
-    missing = {"subject", "sensor_set", "imu", "test", "method", "n_reps", "flag"} - set(calibrations.columns)
+    missing = {"subject", "sensor_set", "imu", "test", "method", "n_reps", "flag"} - set(
+        calibrations.columns
+    )
     if calibrations.empty or missing:
-        print(f"aceval apply: {args.calibrations} holds no calibrations"
-              + (f" (missing column(s) {', '.join(sorted(missing))}: is it a file of `aceval calibrate`?)" if missing
-                 and not calibrations.empty else ""), file=sys.stderr)
+        print(
+            f"aceval apply: {args.calibrations} holds no calibrations"
+            + (
+                f" (missing column(s) {', '.join(sorted(missing))}: is it a file of `aceval calibrate`?)"
+                if missing and not calibrations.empty
+                else ""
+            ),
+            file=sys.stderr,
+        )
         return 1
     if chosen_calibrations(dataset, calibrations, args.method, args.test).empty:
-        print(f"aceval apply: {args.calibrations} has no valid {args.method} calibration"
-              + (f" from test {args.test}" if args.test else "") + ": nothing to apply", file=sys.stderr)
+        print(
+            f"aceval apply: {args.calibrations} has no valid {args.method} calibration"
+            + (f" from test {args.test}" if args.test else "")
+            + ": nothing to apply",
+            file=sys.stderr,
+        )
         return 1
-    return _staged(Path(args.out), args.force, "apply", lambda folder: print(
-        apply_calibrations(dataset, calibrations, folder, args.method, args.test, _progress), file=sys.stderr))
+    return _staged(
+        Path(args.out),
+        args.force,
+        "apply",
+        lambda folder: print(
+            apply_calibrations(dataset, calibrations, folder, args.method, args.test, _progress),
+            file=sys.stderr,
+        ),
+    )
 
 
 def _correlate(args) -> int:
@@ -182,7 +256,9 @@ def _correlate(args) -> int:
     from .pipeline import correlations
 
     dataset = load_dataset(args.dataset)
-    table = correlations(dataset, _read_csvs([args.calibrations]), args.mode, json.loads(args.pairs))
+    table = correlations(
+        dataset, _read_csvs([args.calibrations]), args.mode, json.loads(args.pairs)
+    )
     _write_csv(args.out, table)
     return 0
 
@@ -208,19 +284,39 @@ def _table(args) -> int:
     meta = _dataset_meta(args.dataset)
     names = json.loads(args.paper_names)
     if not args.number.isdigit():
-        table = named_tables.build(args.number, _optional_csvs(args.axes), _optional_csvs(args.calibrations),
-                                   _optional_csvs([args.angles] if args.angles else []), names)
+        table = named_tables.build(
+            args.number,
+            _optional_csvs(args.axes),
+            _optional_csvs(args.calibrations),
+            _optional_csvs([args.angles] if args.angles else []),
+            names,
+        )
         _write_csv(args.csv, table)
-        _write_text(args.md, named_tables.to_markdown(table, args.number, meta.get("name", ""), bool(meta.get("simulated"))))
+        _write_text(
+            args.md,
+            named_tables.to_markdown(
+                table, args.number, meta.get("name", ""), bool(meta.get("simulated"))
+            ),
+        )
         return 0
     number = int(args.number)
-    table = tables.build(number, _read_csvs(args.correlations) if args.correlations else None,
-                         _read_csvs([args.angles]) if args.angles else None,
-                         list(meta["sensor_sets"])[:2], names)
+    table = tables.build(
+        number,
+        _read_csvs(args.correlations) if args.correlations else None,
+        _read_csvs([args.angles]) if args.angles else None,
+        list(meta["sensor_sets"])[:2],
+        names,
+    )
     if not (table["n"] > 0).any():
-        print(f"aceval table: Kong Table {number}: no data in {meta.get('name')} for this table", file=sys.stderr)
+        print(
+            f"aceval table: Kong Table {number}: no data in {meta.get('name')} for this table",
+            file=sys.stderr,
+        )
     _write_csv(args.csv, table)
-    _write_text(args.md, tables.to_markdown(table, number, meta.get("name", ""), bool(meta.get("simulated"))))
+    _write_text(
+        args.md,
+        tables.to_markdown(table, number, meta.get("name", ""), bool(meta.get("simulated"))),
+    )
     return 0
 
 
@@ -237,12 +333,25 @@ def _figure(args) -> int:
     title = str(meta.get("name", "")) + (" (SIMULATED)" if meta.get("simulated") else "")
     names = json.loads(args.paper_names)
     if not args.number.isdigit():
-        data = dict(axes=_optional_csvs(args.axes), calibrations=_optional_csvs(args.calibrations),
-                    angles=_optional_csvs([args.angles] if args.angles else []), paper_names=names)
+        data = dict(
+            axes=_optional_csvs(args.axes),
+            calibrations=_optional_csvs(args.calibrations),
+            angles=_optional_csvs([args.angles] if args.angles else []),
+            paper_names=names,
+        )
         _atomic(args.out, lambda tmp: figures.plot_named(args.number, data, tmp, title))
         return 0
-    _atomic(args.out, lambda tmp: figures.plot(int(args.number), _read_csvs(args.correlations) if args.correlations else None,
-                                               _read_csvs([args.angles]) if args.angles else None, tmp, title, names))
+    _atomic(
+        args.out,
+        lambda tmp: figures.plot(
+            int(args.number),
+            _read_csvs(args.correlations) if args.correlations else None,
+            _read_csvs([args.angles]) if args.angles else None,
+            tmp,
+            title,
+            names,
+        ),
+    )
     return 0
 
 
@@ -261,94 +370,162 @@ def _summary(args) -> int:
             tables[path.stem] = _read_csvs([path])
         elif path.name == "angles.csv":
             angles = _read_csvs([path])
-        elif (path.parent.name == "calibrations" and path.suffix == ".csv"
-              and not path.stem.endswith(("_recordings", "_axes"))):
+        elif (
+            path.parent.name == "calibrations"
+            and path.suffix == ".csv"
+            and not path.stem.endswith(("_recordings", "_axes"))
+        ):
             calibration_files.append(path)
     calibrations = _read_csvs(calibration_files) if calibration_files else None
     notes = [f"- {line}" for line in args.note if line]
     if calibrations is not None and (warning := truth_warning(calibrations)):
         notes.append(f"- {warning}")
-    text = summary.to_markdown(summary.claims(tables, angles, calibrations), meta.get("name", ""),
-                               meta.get("description", ""), bool(meta.get("simulated")), notes,
-                               summary.methods_section(tables))
+    text = summary.to_markdown(
+        summary.claims(tables, angles, calibrations),
+        meta.get("name", ""),
+        meta.get("description", ""),
+        bool(meta.get("simulated")),
+        notes,
+        summary.methods_section(tables),
+    )
     _write_text(args.out, text)
     return 0
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run ``aceval <command>``; returns the exit code (0 ok, 1 bad input, 2 refused)."""
     parser = argparse.ArgumentParser(prog="aceval", description=__doc__)
     commands = parser.add_subparsers(dest="command", required=True)
 
-    simulate = commands.add_parser("simulate", help="write a SIMULATED dataset in the contract, with ground truth")
+    simulate = commands.add_parser(
+        "simulate", help="write a SIMULATED dataset in the contract, with ground truth"
+    )
     simulate.add_argument("protocol", choices=["kong", "ricci", "box"])
     simulate.add_argument("--out", required=True, help="output folder (created)")
     simulate.add_argument("--seed", type=int, default=0)
     simulate.add_argument("--subjects", type=int, help="number of subjects (default: the paper's)")
-    simulate.add_argument("--repetitions", type=int, default=5, help="repetitions of each motion test (5; Kong, box)")
-    simulate.add_argument("--no-noise", action="store_true", help="ideal sensors: no noise, bias or saturation")
+    simulate.add_argument(
+        "--repetitions", type=int, default=5, help="repetitions of each motion test (5; Kong, box)"
+    )
+    simulate.add_argument(
+        "--no-noise", action="store_true", help="ideal sensors: no noise, bias or saturation"
+    )
     simulate.add_argument("--no-offplane", action="store_true", help="pure sagittal-plane motion")
     simulate.add_argument("--no-wobble", action="store_true", help="no soft-tissue wobble")
     simulate.add_argument("--force", action="store_true", help="replace a non-empty output folder")
     simulate.set_defaults(run=_simulate)
 
-    importer = commands.add_parser("import", help="convert recordings in a foreign format into a dataset folder "
-                                   "(with import_report.tsv: what was imported, flagged or left out, and why)")
+    importer = commands.add_parser(
+        "import",
+        help="convert recordings in a foreign format into a dataset folder "
+        "(with import_report.tsv: what was imported, flagged or left out, and why)",
+    )
     importer.add_argument("format", choices=["hugadb", "xsens"])
-    importer.add_argument("src", help="hugadb: the folder of HuGaDB_*.txt; xsens: the folder of MT Manager exports")
+    importer.add_argument(
+        "src", help="hugadb: the folder of HuGaDB_*.txt; xsens: the folder of MT Manager exports"
+    )
     importer.add_argument("--out", required=True, help="output dataset folder (created)")
-    importer.add_argument("--sensors", help="xsens: sensor sheet (sensor_id imu sensor_set segment side region right_axis)")
+    importer.add_argument(
+        "--sensors",
+        help="xsens: sensor sheet (sensor_id imu sensor_set segment side region right_axis)",
+    )
     importer.add_argument("--subject", default="S01", help="xsens: subject name (S01)")
-    importer.add_argument("--vicon", help="xsens: Vicon .mat of the same trial: writes ground_truth.tsv (see docs)")
+    importer.add_argument(
+        "--vicon", help="xsens: Vicon .mat of the same trial: writes ground_truth.tsv (see docs)"
+    )
     importer.add_argument("--name", help="dataset name (default: the format)")
     importer.add_argument("--force", action="store_true", help="replace a non-empty output folder")
     importer.set_defaults(run=_import)
 
     validate = commands.add_parser("validate", help="check a dataset folder against the contract")
     validate.add_argument("dataset")
-    validate.add_argument("--out", help="write the report here when the dataset is valid (nothing when not)")
+    validate.add_argument(
+        "--out", help="write the report here when the dataset is valid (nothing when not)"
+    )
     validate.set_defaults(run=_validate)
 
     calibrate = commands.add_parser(
-        "calibrate", help="calibrate a dataset: Kong (every subset of repetitions) and the axis methods "
-                          "(Ricci LM, align_vectors, TRIAD); Ricci's functional design when functional_axes.tsv exists")
+        "calibrate",
+        help="calibrate a dataset: Kong (every subset of repetitions) and the axis methods "
+        "(Ricci LM, align_vectors, TRIAD); Ricci's functional design when functional_axes.tsv exists",
+    )
     calibrate.add_argument("dataset")
     calibrate.add_argument("--subject", help="only this subject (default: all)")
     calibrate.add_argument("--out", required=True, help="calibrations CSV")
-    calibrate.add_argument("--recordings-out", help="per-recording summary CSV (what was kept or left out, and why)")
-    calibrate.add_argument("--axes-out", help="functional axes CSV: axis and rho per subject, IMU and test")
-    calibrate.add_argument("--method", choices=list(METHODS), default="all",
-                           help="kong (every subset of repetitions), ricci (rho-weighted LM), align_vectors, triad "
-                                "(the axis methods: all repetitions), or all (default)")
-    calibrate.add_argument("--tests", nargs="+", help="only these motion tests (default: all; static tests always)")
-    calibrate.add_argument("--subsets", choices=["all", "full"], default="all",
-                           help="Kong: every subset of repetitions (all, default) or all of them together (full)")
-    calibrate.add_argument("--allow-empty", action="store_true",
-                           help="write a table with no rows (and exit 0) when nothing can be calibrated (the workflow)")
-    calibrate.add_argument("--validated", action="store_true",
-                           help="skip the recording-file checks (the workflow has run `aceval validate`)")
-    calibrate.add_argument("--trim-threshold", type=float, default=0.1, help="Kong Fig. 5 threshold (0.1)")
-    calibrate.add_argument("--closing-s", type=float, default=1.0, help="morphological closing length, s (1.0)")
+    calibrate.add_argument(
+        "--recordings-out", help="per-recording summary CSV (what was kept or left out, and why)"
+    )
+    calibrate.add_argument(
+        "--axes-out", help="functional axes CSV: axis and rho per subject, IMU and test"
+    )
+    calibrate.add_argument(
+        "--method",
+        choices=list(METHODS),
+        default="all",
+        help="kong (every subset of repetitions), ricci (rho-weighted LM), align_vectors, triad "
+        "(the axis methods: all repetitions), or all (default)",
+    )
+    calibrate.add_argument(
+        "--tests", nargs="+", help="only these motion tests (default: all; static tests always)"
+    )
+    calibrate.add_argument(
+        "--subsets",
+        choices=["all", "full"],
+        default="all",
+        help="Kong: every subset of repetitions (all, default) or all of them together (full)",
+    )
+    calibrate.add_argument(
+        "--allow-empty",
+        action="store_true",
+        help="write a table with no rows (and exit 0) when nothing can be calibrated (the workflow)",
+    )
+    calibrate.add_argument(
+        "--validated",
+        action="store_true",
+        help="skip the recording-file checks (the workflow has run `aceval validate`)",
+    )
+    calibrate.add_argument(
+        "--trim-threshold", type=float, default=0.1, help="Kong Fig. 5 threshold (0.1)"
+    )
+    calibrate.add_argument(
+        "--closing-s", type=float, default=1.0, help="morphological closing length, s (1.0)"
+    )
     calibrate.add_argument("--window-s", type=float, default=0.5, help="moving-SD window, s (0.5)")
-    calibrate.add_argument("--min-peak-deg-s", type=float, default=20.0,
-                           help="a 'motion' whose peak |gyro| is below this (deg/s) is refused (20)")
+    calibrate.add_argument(
+        "--min-peak-deg-s",
+        type=float,
+        default=20.0,
+        help="a 'motion' whose peak |gyro| is below this (deg/s) is refused (20)",
+    )
     calibrate.set_defaults(run=_calibrate)
 
-    apply = commands.add_parser("apply", help="write body-frame copies of a dataset's recordings into a new folder")
+    apply = commands.add_parser(
+        "apply", help="write body-frame copies of a dataset's recordings into a new folder"
+    )
     apply.add_argument("dataset")
     apply.add_argument("--calibrations", required=True, help="CSV of `aceval calibrate`")
     apply.add_argument("--out", required=True, help="new folder (never the dataset itself)")
     apply.add_argument("--method", default="kong", help="method whose calibrations to apply (kong)")
-    apply.add_argument("--test", help="calibration test (default: per IMU, the first test of calibrates.tsv "
-                                      "with a valid all-repetitions calibration)")
+    apply.add_argument(
+        "--test",
+        help="calibration test (default: per IMU, the first test of calibrates.tsv "
+        "with a valid all-repetitions calibration)",
+    )
     apply.add_argument("--force", action="store_true", help="replace a non-empty output folder")
     apply.set_defaults(run=_apply)
 
-    correlate = commands.add_parser("correlate", help="Kong Obj 1-2 correlations of calibrated signals (one subject)")
+    correlate = commands.add_parser(
+        "correlate", help="Kong Obj 1-2 correlations of calibrated signals (one subject)"
+    )
     correlate.add_argument("dataset")
     correlate.add_argument("--calibrations", required=True)
     correlate.add_argument("--out", required=True)
     correlate.add_argument("--mode", choices=["concatenated", "per_axis"], default="concatenated")
-    correlate.add_argument("--pairs", default="{}", help='Obj 2 segment pairs as JSON: {"name": {"segments": [a, b], "t_ap": [...]}}')
+    correlate.add_argument(
+        "--pairs",
+        default="{}",
+        help='Obj 2 segment pairs as JSON: {"name": {"segments": [a, b], "t_ap": [...]}}',
+    )
     correlate.set_defaults(run=_correlate)
 
     angles = commands.add_parser("angles", help="Kong Obj 3-5 error angles from calibration tables")
@@ -357,19 +534,52 @@ def main(argv: list[str] | None = None) -> int:
     angles.add_argument("--test-retest-k", type=int, default=3)
     angles.set_defaults(run=_angles)
 
-    for name, helper in (("table", "Kong Table N (3-11) or a named table (ricci_table1, methods, ...), "
-                                   "CSV and Markdown, published values beside"),
-                         ("figure", "Kong Figure N (6, 8, 9, 10) or a named figure (ricci_figure4, methods, ...) as PNG")):
+    for name, helper in (
+        (
+            "table",
+            "Kong Table N (3-11) or a named table (ricci_table1, methods, ...), "
+            "CSV and Markdown, published values beside",
+        ),
+        (
+            "figure",
+            "Kong Figure N (6, 8, 9, 10) or a named figure (ricci_figure4, methods, ...) as PNG",
+        ),
+    ):
         command = commands.add_parser(name, help=helper)
-        command.add_argument("number", help="Kong number, or a name: " + ", ".join(
-            ["ricci_table1", "ricci_ttest", "ricci_lm", "ricci_residuals", "reliability", "reliability_retest",
-             "methods", "methods_best"] if name == "table" else ["ricci_figure4", "ricci_figure5", "reliability", "methods"]))
-        command.add_argument("--dataset", required=True, help="dataset folder (for its name and sensor sets)")
+        command.add_argument(
+            "number",
+            help="Kong number, or a name: "
+            + ", ".join(
+                [
+                    "ricci_table1",
+                    "ricci_ttest",
+                    "ricci_lm",
+                    "ricci_residuals",
+                    "reliability",
+                    "reliability_retest",
+                    "methods",
+                    "methods_best",
+                ]
+                if name == "table"
+                else ["ricci_figure4", "ricci_figure5", "reliability", "methods"]
+            ),
+        )
+        command.add_argument(
+            "--dataset", required=True, help="dataset folder (for its name and sensor sets)"
+        )
         command.add_argument("--correlations", nargs="*", default=[])
-        command.add_argument("--axes", nargs="*", default=[], help="axes CSVs of `aceval calibrate --axes-out`")
-        command.add_argument("--calibrations", nargs="*", default=[], help="calibration CSVs of `aceval calibrate`")
+        command.add_argument(
+            "--axes", nargs="*", default=[], help="axes CSVs of `aceval calibrate --axes-out`"
+        )
+        command.add_argument(
+            "--calibrations", nargs="*", default=[], help="calibration CSVs of `aceval calibrate`"
+        )
         command.add_argument("--angles")
-        command.add_argument("--paper-names", default="{}", help="JSON map of this dataset's test names to the paper's")
+        command.add_argument(
+            "--paper-names",
+            default="{}",
+            help="JSON map of this dataset's test names to the paper's",
+        )
         if name == "table":
             command.add_argument("--csv", required=True)
             command.add_argument("--md", required=True)
@@ -378,11 +588,19 @@ def main(argv: list[str] | None = None) -> int:
             command.add_argument("--out", required=True)
             command.set_defaults(run=_figure)
 
-    summarise = commands.add_parser("summary", help="SUMMARY.md: each Kong claim, holds / does not hold / not testable")
+    summarise = commands.add_parser(
+        "summary", help="SUMMARY.md: each Kong claim, holds / does not hold / not testable"
+    )
     summarise.add_argument("--dataset", required=True)
-    summarise.add_argument("inputs", nargs="*", help="tables/tableN.csv, angles.csv and calibrations/<subject>.csv "
-                           "files of the dataset (others, e.g. validation.txt, are ignored)")
-    summarise.add_argument("--note", action="append", default=[], help="a line to add under the counts")
+    summarise.add_argument(
+        "inputs",
+        nargs="*",
+        help="tables/tableN.csv, angles.csv and calibrations/<subject>.csv "
+        "files of the dataset (others, e.g. validation.txt, are ignored)",
+    )
+    summarise.add_argument(
+        "--note", action="append", default=[], help="a line to add under the counts"
+    )
     summarise.add_argument("--out", required=True)
     summarise.set_defaults(run=_summary)
 
@@ -399,17 +617,34 @@ def main(argv: list[str] | None = None) -> int:
 
 
 #: options that name what a command writes, and what it reads (``check_outputs`` keeps them apart)
-OUTPUT_OPTIONS = {"out": "--out", "csv": "--csv", "md": "--md", "recordings_out": "--recordings-out",
-                  "axes_out": "--axes-out"}
-INPUT_OPTIONS = {"dataset": "dataset", "src": "source", "sensors": "--sensors", "vicon": "--vicon",
-                 "calibrations": "--calibrations", "correlations": "--correlations", "axes": "--axes",
-                 "angles": "--angles", "inputs": "input"}
+OUTPUT_OPTIONS = {
+    "out": "--out",
+    "csv": "--csv",
+    "md": "--md",
+    "recordings_out": "--recordings-out",
+    "axes_out": "--axes-out",
+}
+INPUT_OPTIONS = {
+    "dataset": "dataset",
+    "src": "source",
+    "sensors": "--sensors",
+    "vicon": "--vicon",
+    "calibrations": "--calibrations",
+    "correlations": "--correlations",
+    "axes": "--axes",
+    "angles": "--angles",
+    "inputs": "input",
+}
 #: commands whose --out is a folder written as a whole
 FOLDER_COMMANDS = {"simulate", "import", "apply"}
 
 
 def _outputs_and_inputs(args) -> tuple[dict, dict, tuple]:
-    outputs = {flag: getattr(args, name) for name, flag in OUTPUT_OPTIONS.items() if getattr(args, name, None)}
+    outputs = {
+        flag: getattr(args, name)
+        for name, flag in OUTPUT_OPTIONS.items()
+        if getattr(args, name, None)
+    }
     inputs = {}
     for name, label in INPUT_OPTIONS.items():
         value = getattr(args, name, None)

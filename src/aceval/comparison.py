@@ -33,30 +33,44 @@ def _p95(values: pd.Series) -> float:
 
 def methods_table(calibrations: pd.DataFrame) -> pd.DataFrame:
     """Error to the true mounting (deg) per method x test x segment x sensor set: mean, SD,
-    median, 95th percentile, n, and the median share of the error about the vertical axis."""
+    median, 95th percentile, n, and the median share of the error about the vertical axis.
+    """
     data = full_set_errors(calibrations)
-    table = data.groupby(["segment", "test", "sensor_set", "method"]).agg(
-        mean=("error_deg", "mean"), sd=("error_deg", "std"), median=("error_deg", "median"),
-        p95=("error_deg", _p95), n=("error_deg", "count"),
-        vertical_share=("error_vertical_share", "median")).reset_index()
+    table = (
+        data.groupby(["segment", "test", "sensor_set", "method"])
+        .agg(
+            mean=("error_deg", "mean"),
+            sd=("error_deg", "std"),
+            median=("error_deg", "median"),
+            p95=("error_deg", _p95),
+            n=("error_deg", "count"),
+            vertical_share=("error_vertical_share", "median"),
+        )
+        .reset_index()
+    )
     table["method_rank"] = table["method"].map({m: i for i, m in enumerate(METHOD_ORDER)})
-    return table.sort_values(["segment", "test", "sensor_set", "method_rank"]).drop(columns="method_rank")
+    return table.sort_values(["segment", "test", "sensor_set", "method_rank"]).drop(
+        columns="method_rank"
+    )
 
 
 def method_medians(calibrations: pd.DataFrame) -> pd.DataFrame:
     """Per method: the median error over all calibrations and the median of the per-segment medians."""
     data = full_set_errors(calibrations)
     per_segment = data.groupby(["method", "segment"])["error_deg"].median()
-    return pd.DataFrame({
-        "median_deg": data.groupby("method")["error_deg"].median(),
-        "median_of_segment_medians_deg": per_segment.groupby("method").median(),
-        "n": data.groupby("method")["error_deg"].count(),
-    }).reset_index()
+    return pd.DataFrame(
+        {
+            "median_deg": data.groupby("method")["error_deg"].median(),
+            "median_of_segment_medians_deg": per_segment.groupby("method").median(),
+            "n": data.groupby("method")["error_deg"].count(),
+        }
+    ).reset_index()
 
 
 def best_tests(calibrations: pd.DataFrame) -> pd.DataFrame:
     """Per segment and method, the test whose calibrations have the smallest median error (both
-    sensor sets pooled), with Kong's recommended test and its median error beside it."""
+    sensor sets pooled), with Kong's recommended test and its median error beside it.
+    """
     data = full_set_errors(calibrations)
     medians = data.groupby(["segment", "method", "test"])["error_deg"].median().reset_index()
     rows = []
@@ -64,16 +78,30 @@ def best_tests(calibrations: pd.DataFrame) -> pd.DataFrame:
         best = group.loc[group["error_deg"].idxmin()]
         recommended = KONG_RECOMMENDATION.get(segment, "")
         at_recommended = group.loc[group["test"] == recommended, "error_deg"]
-        rows.append({"segment": segment, "method": method, "best_test": best["test"],
-                     "best_median_deg": best["error_deg"], "kong_recommends": recommended,
-                     "recommended_median_deg": float(at_recommended.iloc[0]) if len(at_recommended) else np.nan})
+        rows.append(
+            {
+                "segment": segment,
+                "method": method,
+                "best_test": best["test"],
+                "best_median_deg": best["error_deg"],
+                "kong_recommends": recommended,
+                "recommended_median_deg": float(at_recommended.iloc[0])
+                if len(at_recommended)
+                else np.nan,
+            }
+        )
     table = pd.DataFrame(rows)
     if table.empty:
         return table
-    rank = table["segment"].map(lambda s: SEGMENT_ORDER.index(s) if s in SEGMENT_ORDER else len(SEGMENT_ORDER))
+    rank = table["segment"].map(
+        lambda s: SEGMENT_ORDER.index(s) if s in SEGMENT_ORDER else len(SEGMENT_ORDER)
+    )
     table["method_rank"] = table["method"].map({m: i for i, m in enumerate(METHOD_ORDER)})
-    return (table.assign(segment_rank=rank).sort_values(["segment_rank", "segment", "method_rank"])
-            .drop(columns=["segment_rank", "method_rank"]))
+    return (
+        table.assign(segment_rank=rank)
+        .sort_values(["segment_rank", "segment", "method_rank"])
+        .drop(columns=["segment_rank", "method_rank"])
+    )
 
 
 #: a ground truth disagreeing by more than this with most IMUs' calibrations is suspect
@@ -83,13 +111,16 @@ SUSPECT_TRUTH_DEG = 90.0
 def truth_warning(calibrations: pd.DataFrame) -> str:
     """A warning when, for most IMUs with a ground truth, the median error of their valid
     calibrations exceeds 90 deg: a transposed matrix (sensor <- body instead of body <- sensor) or
-    rows given to the wrong IMUs is likelier than a method that far off. '' otherwise."""
+    rows given to the wrong IMUs is likelier than a method that far off. '' otherwise.
+    """
     if "error_deg" not in calibrations:
         return ""
     data = calibrations[(unflagged(calibrations)) & np.isfinite(calibrations["error_deg"])]
     per_imu = data.groupby(["subject", "sensor_set", "imu"])["error_deg"].median()
     if per_imu.empty or (per_imu > SUSPECT_TRUTH_DEG).mean() <= 0.5:
         return ""
-    return (f"WARNING: for {int((per_imu > SUSPECT_TRUTH_DEG).sum())} of {len(per_imu)} IMUs every method is more than "
-            f"{SUSPECT_TRUTH_DEG:g} deg from ground_truth.tsv: is the truth transposed (R must map sensor to body, "
-            f"d_body = R d_sensor) or given to the wrong IMUs?")
+    return (
+        f"WARNING: for {int((per_imu > SUSPECT_TRUTH_DEG).sum())} of {len(per_imu)} IMUs every method "
+        f"is more than {SUSPECT_TRUTH_DEG:g} deg from ground_truth.tsv: is the truth transposed (R must "
+        f"map sensor to body, d_body = R d_sensor) or given to the wrong IMUs?"
+    )

@@ -1,4 +1,4 @@
-"""The on-disk dataset contract (DESIGN.md section 1): read into tidy tables, validate with a report.
+"""The on-disk dataset contract (docs/design.md, section 1): read into tidy tables, validate with a report.
 
 A dataset is a folder with ``dataset.yaml`` and tab-separated sheets (imus, tests, calibrates,
 subjects, recordings, optional ground_truth) plus one CSV per recording. Inside aceval everything
@@ -32,8 +32,10 @@ SHEETS = {
     "subjects.tsv": ["subject"],
     "recordings.tsv": ["subject", "sensor_set", "test", "rep", "imu", "path"],
 }
-OPTIONAL_SHEETS = {"ground_truth.tsv": ["subject", "sensor_set", "imu", *R_COLUMNS],
-                   "functional_axes.tsv": ["test", "segment", "axis"]}
+OPTIONAL_SHEETS = {
+    "ground_truth.tsv": ["subject", "sensor_set", "imu", *R_COLUMNS],
+    "functional_axes.tsv": ["test", "segment", "axis"],
+}
 #: median |acc| (g) of a static recording: outside the wide band the declared units are wrong (an
 #: error: g and m/s^2 differ 9.81-fold); outside the narrow one the subject was not at rest (a
 #: warning: e.g. a fallback static test taken from walking)
@@ -64,6 +66,8 @@ class DatasetError(ValueError):
 
 @dataclass
 class Finding:
+    """One problem found by the validation: level, where (sheet or file, line) and cause."""
+
     level: str  # "error" | "warning"
     where: str  # sheet or file, with line
     cause: str
@@ -74,30 +78,39 @@ class Finding:
 
 @dataclass
 class ValidationReport:
+    """Every finding of one validation; ``ok`` when there is no error."""
+
     dataset: str
     findings: list[Finding] = field(default_factory=list)
 
     def error(self, where, cause):
+        """Record an error at ``where``."""
         self.findings.append(Finding("error", where, cause))
 
     def warning(self, where, cause):
+        """Record a warning at ``where``."""
         self.findings.append(Finding("warning", where, cause))
 
     @property
     def errors(self) -> list[Finding]:
+        """The error findings."""
         return [f for f in self.findings if f.level == "error"]
 
     @property
     def warnings(self) -> list[Finding]:
+        """The warning findings."""
         return [f for f in self.findings if f.level == "warning"]
 
     @property
     def ok(self) -> bool:
+        """True when there is no error."""
         return not self.errors
 
     def format(self) -> str:
-        head = (f"dataset {self.dataset}: {len(self.errors)} error(s), "
-                f"{len(self.warnings)} warning(s)")
+        """The report as text: a count line, then errors, then warnings."""
+        head = (
+            f"dataset {self.dataset}: {len(self.errors)} error(s), {len(self.warnings)} warning(s)"
+        )
         return "\n".join([head, *map(str, self.errors), *map(str, self.warnings)])
 
 
@@ -113,6 +126,8 @@ class Recording:
 
 @dataclass
 class Dataset:
+    """A validated dataset: dataset.yaml, the sheets as tables, and the recordings' reader."""
+
     root: Path
     meta: dict
     imus: pd.DataFrame  # one row per (sensor_set, imu)
@@ -121,30 +136,38 @@ class Dataset:
     subjects: pd.DataFrame
     recordings: pd.DataFrame
     ground_truth: pd.DataFrame | None
-    functional_axes: pd.DataFrame | None = None  # optional sheet: Ricci-style functional calibration
+    functional_axes: pd.DataFrame | None = (
+        None  # optional sheet: Ricci-style functional calibration
+    )
 
     @property
     def name(self) -> str:
+        """The dataset's name (dataset.yaml ``name``, else the folder's)."""
         return str(self.meta.get("name", self.root.name))
 
     @property
     def fs_hz(self) -> float:
+        """Samples per second (dataset.yaml ``sampling_rate_hz``)."""
         return float(self.meta["sampling_rate_hz"])
 
     @property
     def acc_scale(self) -> float:
+        """Factor from the files' acceleration unit to m/s^2."""
         return ACC_UNITS[self.meta["units"]["acc"]]
 
     @property
     def gyr_scale(self) -> float:
+        """Factor from the files' angular-velocity unit to rad/s."""
         return GYR_UNITS[self.meta["units"]["gyr"]]
 
     def right_axis(self, sensor_set: str, imu: str) -> str:
+        """The declared right axis ('+y', ...) of an IMU."""
         return str(self.imus.loc[(sensor_set, imu), "right_axis"])
 
     def reference_axes(self, sensor_set: str, imu: str) -> pd.DataFrame:
         """Rows of functional_axes.tsv for this IMU's segment: ``test`` and the signed segment-frame
-        ``axis``. A row for ``<segment>_<r|l>`` (side-specific) replaces one for ``<segment>``."""
+        ``axis``. A row for ``<segment>_<r|l>`` (side-specific) replaces one for ``<segment>``.
+        """
         if self.functional_axes is None:
             return pd.DataFrame(columns=["test", "axis"])
         segment, side = self.imus.loc[(sensor_set, imu), ["segment", "side"]]
@@ -159,36 +182,47 @@ class Dataset:
 
     @cached_property
     def test_kinds(self) -> dict[str, str]:
+        """tests.tsv ``first_phase`` of ``test`` ('-y', '+y', 'gait' or '': no direction check)."""
         return self.tests["kind"].to_dict()
 
     @cached_property
     def imu_regions(self) -> dict[tuple[str, str], str]:
+        """``{test: 'static' | 'motion'}``."""
         return self.imus["region"].to_dict()
 
     def acc_limit(self, sensor_set: str, imu: str) -> float | None:
         """|acc| (m/s^2, any axis) at or above which a sample counts as clipped at the range
-        declared in dataset.yaml ``acc_range_g`` for the IMU's region; None when none is declared."""
+        declared in dataset.yaml ``acc_range_g`` for the IMU's region; None when none is declared.
+        """
         acc_range = (self.meta.get("acc_range_g") or {}).get(self.imu_regions[(sensor_set, imu)])
         return SATURATION_FRACTION * float(acc_range) * GRAVITY if acc_range else None
 
     def static_tests(self) -> list[str]:
+        """``{(sensor_set, imu): region}``."""
         return list(self.tests.index[self.tests["kind"] == "static"])
 
     def read_recording(self, path: str | Path) -> Recording:
         """Read one recording file (relative to the dataset) and convert it to SI. RecordingError
         (naming the file and the cause) when it cannot be read, has fewer than 2 samples or holds
-        NaN, inf or non-numeric values."""
+        NaN, inf or non-numeric values.
+        """
         full = self.root / path
         values = recording_values(full)
         if len(values) < 2:
             raise RecordingError(full, f"{len(values)} samples: a recording needs at least 2")
         bad = ~np.isfinite(values).all(axis=1)
         if bad.any():
-            raise RecordingError(full, f"{int(bad.sum())} rows with NaN, inf or non-numeric values "
-                                       f"(first at line {int(np.flatnonzero(bad)[0]) + 2})")
-        return Recording(values[:, 0], values[:, 1:4] * self.acc_scale, values[:, 4:7] * self.gyr_scale, full)
+            raise RecordingError(
+                full,
+                f"{int(bad.sum())} rows with NaN, inf or non-numeric values "
+                f"(first at line {int(np.flatnonzero(bad)[0]) + 2})",
+            )
+        return Recording(
+            values[:, 0], values[:, 1:4] * self.acc_scale, values[:, 4:7] * self.gyr_scale, full
+        )
 
     def ground_truth_matrix(self, subject: str, sensor_set: str, imu: str) -> np.ndarray | None:
+        """The static tests (quiet standing: they give z0)."""
         if self.ground_truth is None:
             return None
         try:
@@ -200,7 +234,8 @@ class Dataset:
 
 class RecordingError(ValueError):
     """A recording file cannot be read as the contract says. ``cause`` is the reason without the
-    file name; the message names the file."""
+    file name; the message names the file.
+    """
 
     def __init__(self, path, cause: str):
         super().__init__(f"{path}: {cause}")
@@ -210,18 +245,23 @@ class RecordingError(ValueError):
 def recording_values(path: Path) -> np.ndarray:
     """The (N, 7) values of a recording file (``RECORDING_COLUMNS``, in the file's units; a cell
     that is not a number becomes NaN). RecordingError when it is missing, unreadable or lacks a
-    column."""
+    column.
+    """
     try:
         table = pd.read_csv(path, sep=",", engine="c")
     except FileNotFoundError:
         raise RecordingError(path, "file is missing") from None
     except Exception as exc:  # pandas raises many types for a damaged or binary file
-        raise RecordingError(path, f"cannot be read as CSV: {str(exc).splitlines()[0] if str(exc) else exc!r}") from None
+        raise RecordingError(
+            path, f"cannot be read as CSV: {str(exc).splitlines()[0] if str(exc) else exc!r}"
+        ) from None
     missing = [c for c in RECORDING_COLUMNS if c not in table.columns]
     if missing:
         header = ",".join(map(str, table.columns))[:60]
         hint = " (is the file comma-separated?)" if len(table.columns) == 1 else ""
-        raise RecordingError(path, f"missing column(s) {', '.join(missing)}; the header is {header!r}{hint}")
+        raise RecordingError(
+            path, f"missing column(s) {', '.join(missing)}; the header is {header!r}{hint}"
+        )
     return _numeric_values(table)
 
 
@@ -247,7 +287,9 @@ def _read_sheet(root: Path, name: str, required: list[str], report: ValidationRe
     sheet.columns = [c.strip() for c in sheet.columns]
     missing = [c for c in required if c not in sheet.columns]
     if missing:
-        report.error(name, f"missing column(s) {', '.join(missing)} (has {', '.join(sheet.columns)})")
+        report.error(
+            name, f"missing column(s) {', '.join(missing)} (has {', '.join(sheet.columns)})"
+        )
         return None
     return sheet.apply(lambda col: col.str.strip())
 
@@ -257,8 +299,16 @@ def _line(index: int) -> str:
 
 
 #: keys of dataset.yaml that aceval reads (others are kept but get a warning: a typo disables a check)
-META_KEYS = ("name", "description", "simulated", "sampling_rate_hz", "units", "sensor_sets", "acc_range_g",
-             "gyr_range_dps")
+META_KEYS = (
+    "name",
+    "description",
+    "simulated",
+    "sampling_rate_hz",
+    "units",
+    "sensor_sets",
+    "acc_range_g",
+    "gyr_range_dps",
+)
 
 
 def _meta_schema() -> dict:
@@ -267,7 +317,8 @@ def _meta_schema() -> dict:
 
 def _check_meta(root: Path, report: ValidationReport) -> dict | None:
     """dataset.yaml against ``schemas/dataset.schema.yaml``: each violation is an error naming
-    the key and the cause."""
+    the key and the cause.
+    """
     import jsonschema
 
     path = root / "dataset.yaml"
@@ -280,8 +331,11 @@ def _check_meta(root: Path, report: ValidationReport) -> dict | None:
         report.error("dataset.yaml", f"not valid YAML: {exc}")
         return None
     if not isinstance(meta, dict):
-        report.error("dataset.yaml", f"must be a mapping of keys to values (name: ..., sampling_rate_hz: ...), "
-                                     f"got {type(meta).__name__} {str(meta)[:60]!r}")
+        report.error(
+            "dataset.yaml",
+            f"must be a mapping of keys to values (name: ..., sampling_rate_hz: ...), "
+            f"got {type(meta).__name__} {str(meta)[:60]!r}",
+        )
         return None
     validator = jsonschema.Draft202012Validator(_meta_schema())
     errors = sorted(validator.iter_errors(meta), key=lambda e: list(map(str, e.absolute_path)))
@@ -293,32 +347,47 @@ def _check_meta(root: Path, report: ValidationReport) -> dict | None:
         if isinstance(value, float) and not np.isfinite(value):
             report.error("dataset.yaml", f"{key}: {value} is not a finite number")
     for key in sorted(set(meta) - set(META_KEYS)):
-        report.warning("dataset.yaml", f"unknown key {key!r} is ignored (aceval reads {', '.join(META_KEYS)})")
+        report.warning(
+            "dataset.yaml", f"unknown key {key!r} is ignored (aceval reads {', '.join(META_KEYS)})"
+        )
     return None if errors else meta
 
 
-def _expand_imus(imus: pd.DataFrame, sensor_sets: list[str], report: ValidationReport) -> pd.DataFrame:
+def _expand_imus(
+    imus: pd.DataFrame, sensor_sets: list[str], report: ValidationReport
+) -> pd.DataFrame:
     """One row per (sensor_set, imu). Rows with an empty or absent sensor_set apply to every set."""
     if "sensor_set" not in imus.columns:
         imus = imus.assign(sensor_set="")
     rows = []
     for index, row in imus.iterrows():
         if row["right_axis"].lower() not in RIGHT_AXIS_SPELLINGS:
-            report.error(f"imus.tsv {_line(index)}", f"IMU {row['imu']}: right_axis {row['right_axis']!r} "
-                         f"is not one of {', '.join(AXIS_VECTORS)}")
+            report.error(
+                f"imus.tsv {_line(index)}",
+                f"IMU {row['imu']}: right_axis {row['right_axis']!r} "
+                f"is not one of {', '.join(AXIS_VECTORS)}",
+            )
         if row["sensor_set"] and row["sensor_set"] not in sensor_sets:
-            report.error(f"imus.tsv {_line(index)}", f"sensor_set {row['sensor_set']!r} is not in "
-                         f"dataset.yaml sensor_sets {sensor_sets}")
-        for sensor_set in ([row["sensor_set"]] if row["sensor_set"] else sensor_sets):
+            report.error(
+                f"imus.tsv {_line(index)}",
+                f"sensor_set {row['sensor_set']!r} is not in "
+                f"dataset.yaml sensor_sets {sensor_sets}",
+            )
+        for sensor_set in [row["sensor_set"]] if row["sensor_set"] else sensor_sets:
             rows.append({**row.to_dict(), "sensor_set": sensor_set, "_line": _line(index)})
     expanded = pd.DataFrame(rows)
     duplicated = expanded.duplicated(["sensor_set", "imu"], keep="first")
     for _, row in expanded[duplicated].iterrows():
-        report.error(f"imus.tsv {row['_line']}", f"IMU {row['imu']} is defined twice for set {row['sensor_set']}")
+        report.error(
+            f"imus.tsv {row['_line']}",
+            f"IMU {row['imu']} is defined twice for set {row['sensor_set']}",
+        )
     return expanded[~duplicated].drop(columns="_line").set_index(["sensor_set", "imu"])
 
 
-def read_sheets(root: str | Path, report: ValidationReport | None = None) -> tuple[Dataset | None, ValidationReport]:
+def read_sheets(
+    root: str | Path, report: ValidationReport | None = None
+) -> tuple[Dataset | None, ValidationReport]:
     """Read and cross-check dataset.yaml and the sheets (not the recording files)."""
     root = Path(root)
     report = report or ValidationReport(str(root))
@@ -327,8 +396,10 @@ def read_sheets(root: str | Path, report: ValidationReport | None = None) -> tup
         return None, report
     meta = _check_meta(root, report)
     sheets = {name: _read_sheet(root, name, cols, report) for name, cols in SHEETS.items()}
-    optional = {name: _read_sheet(root, name, cols, report) if (root / name).exists() else None
-                for name, cols in OPTIONAL_SHEETS.items()}
+    optional = {
+        name: _read_sheet(root, name, cols, report) if (root / name).exists() else None
+        for name, cols in OPTIONAL_SHEETS.items()
+    }
     ground_truth, functional_axes = optional["ground_truth.tsv"], optional["functional_axes.tsv"]
     if meta is None or any(sheet is None for sheet in sheets.values()):
         return None, report
@@ -337,21 +408,35 @@ def read_sheets(root: str | Path, report: ValidationReport | None = None) -> tup
     imus = _expand_imus(sheets["imus.tsv"], meta["sensor_sets"], report)
     regions = set(imus["region"])
     for region in sorted(set(meta.get("acc_range_g") or {}) - regions):
-        report.error("dataset.yaml", f"acc_range_g names region {region!r}, which no IMU of imus.tsv has "
-                                     f"(regions: {', '.join(sorted(regions))}): the clipping check would be off")
+        report.error(
+            "dataset.yaml",
+            f"acc_range_g names region {region!r}, which no IMU of imus.tsv has "
+            f"(regions: {', '.join(sorted(regions))}): the clipping check would be off",
+        )
     tests = sheets["tests.tsv"]
     if "first_phase" not in tests.columns:  # Kong's tests by name; others unchecked
         tests = tests.assign(first_phase=tests["test"].map(KONG_FIRST_PHASE).fillna(""))
     for index, row in tests.iterrows():
         if row["kind"] not in ("static", "motion"):
-            report.error(f"tests.tsv {_line(index)}", f"test {row['test']}: kind {row['kind']!r} must be static or motion")
+            report.error(
+                f"tests.tsv {_line(index)}",
+                f"test {row['test']}: kind {row['kind']!r} must be static or motion",
+            )
         if row["first_phase"] not in FIRST_PHASES:
-            report.error(f"tests.tsv {_line(index)}", f"test {row['test']}: first_phase {row['first_phase']!r} must be "
-                         f"one of -y, +y, gait or empty")
+            report.error(
+                f"tests.tsv {_line(index)}",
+                f"test {row['test']}: first_phase {row['first_phase']!r} must be "
+                f"one of -y, +y, gait or empty",
+            )
     subjects = sheets["subjects.tsv"]
-    for sheet, table, column in (("tests.tsv", tests, "test"), ("subjects.tsv", subjects, "subject")):
+    for sheet, table, column in (
+        ("tests.tsv", tests, "test"),
+        ("subjects.tsv", subjects, "subject"),
+    ):
         for index in table.index[table.duplicated(column, keep="first")]:
-            report.error(f"{sheet} {_line(index)}", f"{column} {table.loc[index, column]!r} is defined twice")
+            report.error(
+                f"{sheet} {_line(index)}", f"{column} {table.loc[index, column]!r} is defined twice"
+            )
     tests = tests.drop_duplicates("test").set_index("test")
     subjects = subjects.drop_duplicates("subject").set_index("subject", drop=False)
     imu_names = set(imus.index.get_level_values("imu"))
@@ -369,28 +454,48 @@ def read_sheets(root: str | Path, report: ValidationReport | None = None) -> tup
     recordings = sheets["recordings.tsv"]
     for index, row in recordings.iterrows():
         where = f"recordings.tsv {_line(index)}"
-        for column, known, sheet in (("subject", subjects.index, "subjects.tsv"), ("test", tests.index, "tests.tsv"),
-                                     ("imu", imu_names, "imus.tsv")):
+        for column, known, sheet in (
+            ("subject", subjects.index, "subjects.tsv"),
+            ("test", tests.index, "tests.tsv"),
+            ("imu", imu_names, "imus.tsv"),
+        ):
             if row[column] not in known:
                 report.error(where, f"{column} {row[column]!r} is not defined in {sheet}")
         if row["sensor_set"] not in meta["sensor_sets"]:
-            report.error(where, f"sensor_set {row['sensor_set']!r} is not in dataset.yaml sensor_sets")
+            report.error(
+                where, f"sensor_set {row['sensor_set']!r} is not in dataset.yaml sensor_sets"
+            )
         if not row["rep"].isdigit() or int(row["rep"]) < 1:
             report.error(where, f"rep {row['rep']!r} must be a positive integer")
         if problem := path_problem(row["path"]):
             report.error(where, problem)
-    recordings = recordings.assign(rep=pd.to_numeric(recordings["rep"], errors="coerce").astype("Int64"))
-    key = ["subject", "sensor_set", "test", "rep", "imu"]  # rep as a number: '01' and '1' are one repetition
+    recordings = recordings.assign(
+        rep=pd.to_numeric(recordings["rep"], errors="coerce").astype("Int64")
+    )
+    key = [
+        "subject",
+        "sensor_set",
+        "test",
+        "rep",
+        "imu",
+    ]  # rep as a number: '01' and '1' are one repetition
     for index in recordings.index[recordings.duplicated(key, keep="first")]:
         row = recordings.loc[index]
-        report.error(f"recordings.tsv {_line(index)}", "duplicate recording " + " ".join(map(str, row[key]))
-                     + " (repetitions are compared as numbers)")
+        report.error(
+            f"recordings.tsv {_line(index)}",
+            "duplicate recording "
+            + " ".join(map(str, row[key]))
+            + " (repetitions are compared as numbers)",
+        )
     recordings = recordings[~recordings.duplicated(key, keep="first")].copy()
     same_file = recordings["path"].map(os.path.normpath)
     for index in recordings.index[same_file.duplicated(keep="first")]:
         first = recordings.index[same_file == same_file[index]][0]
-        report.warning(f"recordings.tsv {_line(index)}", f"path {recordings.loc[index, 'path']!r} is also the file "
-                       f"of {_line(first)}: one file serves two recordings")
+        report.warning(
+            f"recordings.tsv {_line(index)}",
+            f"path {recordings.loc[index, 'path']!r} is also the file "
+            f"of {_line(first)}: one file serves two recordings",
+        )
 
     _check_static_available(recordings, tests, calibrates, report)
 
@@ -398,13 +503,16 @@ def read_sheets(root: str | Path, report: ValidationReport | None = None) -> tup
         ground_truth = _check_ground_truth(ground_truth, report)
     if functional_axes is not None:
         _check_functional_axes(functional_axes, tests, imus, report)
-    dataset = Dataset(root, meta, imus, tests, calibrates, subjects, recordings, ground_truth, functional_axes)
+    dataset = Dataset(
+        root, meta, imus, tests, calibrates, subjects, recordings, ground_truth, functional_axes
+    )
     return dataset, report
 
 
 def _check_functional_axes(sheet, tests, imus, report) -> None:
     """functional_axes.tsv: known tests, known segments (``<segment>`` or ``<segment>_r|l``) and
-    signed axes."""
+    signed axes.
+    """
     segments = set(imus["segment"])
     segments |= {f"{seg}_{str(side)[:1]}" for seg, side in zip(imus["segment"], imus["side"])}
     for index, row in sheet.iterrows():
@@ -412,9 +520,14 @@ def _check_functional_axes(sheet, tests, imus, report) -> None:
         if row["test"] not in tests.index:
             report.error(where, f"test {row['test']!r} is not defined in tests.tsv")
         if row["segment"] not in segments:
-            report.error(where, f"segment {row['segment']!r} is not a segment (or segment_r/_l) of imus.tsv")
+            report.error(
+                where, f"segment {row['segment']!r} is not a segment (or segment_r/_l) of imus.tsv"
+            )
         if row["axis"].lower() not in AXIS_VECTORS:
-            report.error(where, f"axis {row['axis']!r} must be a signed axis, one of {', '.join(AXIS_VECTORS)}")
+            report.error(
+                where,
+                f"axis {row['axis']!r} must be a signed axis, one of {', '.join(AXIS_VECTORS)}",
+            )
     for index in sheet.index[sheet.duplicated(["test", "segment"], keep="first")]:
         report.error(f"functional_axes.tsv {_line(index)}", "test and segment given twice")
 
@@ -423,21 +536,35 @@ def _check_static_available(recordings, tests, calibrates, report) -> None:
     """Every (subject, set, IMU) recorded in a test that may calibrate it needs a static recording."""
     static = set(tests.index[tests["kind"] == "static"])
     allowed = set(map(tuple, calibrates[["test", "imu"]].to_numpy()))
-    has_static = set(map(tuple, recordings[recordings["test"].isin(static)][["subject", "sensor_set", "imu"]].to_numpy()))
+    has_static = set(
+        map(
+            tuple,
+            recordings[recordings["test"].isin(static)][
+                ["subject", "sensor_set", "imu"]
+            ].to_numpy(),
+        )
+    )
     needing = recordings[[(t, i) in allowed for t, i in zip(recordings["test"], recordings["imu"])]]
     missing = needing.drop_duplicates(["subject", "sensor_set", "imu", "test"])
     for _, row in missing.iterrows():
         if (row["subject"], row["sensor_set"], row["imu"]) not in has_static:
-            report.error("calibrates.tsv", f"subject {row['subject']}, set {row['sensor_set']}, IMU {row['imu']}: "
-                         f"test {row['test']} may calibrate it but there is no static test "
-                         f"({', '.join(sorted(static)) or 'none defined'}) recording to give z0")
+            report.error(
+                "calibrates.tsv",
+                f"subject {row['subject']}, set {row['sensor_set']}, IMU {row['imu']}: "
+                f"test {row['test']} may calibrate it but there is no static test "
+                f"({', '.join(sorted(static)) or 'none defined'}) recording to give z0",
+            )
 
 
 def _check_ground_truth(ground_truth, report):
     key = ["subject", "sensor_set", "imu"]
     for index in ground_truth.index[ground_truth.duplicated(key, keep=False)]:
-        report.error(f"ground_truth.tsv {_line(index)}", "IMU " + " ".join(ground_truth.loc[index, key])
-                     + " has more than one row: which is the truth?")
+        report.error(
+            f"ground_truth.tsv {_line(index)}",
+            "IMU "
+            + " ".join(ground_truth.loc[index, key])
+            + " has more than one row: which is the truth?",
+        )
     ground_truth = ground_truth.drop_duplicates(key, keep=False)
     values = ground_truth[R_COLUMNS].apply(pd.to_numeric, errors="coerce")
     for index in values.index:
@@ -446,7 +573,9 @@ def _check_ground_truth(ground_truth, report):
         if not np.isfinite(R).all():
             report.error(where, "r11..r33 must be numbers")
         elif not (np.allclose(R @ R.T, np.eye(3), atol=1e-3) and np.linalg.det(R) > 0):
-            report.error(where, "r11..r33 is not a rotation matrix (orthonormal, det +1, tolerance 1e-3)")
+            report.error(
+                where, "r11..r33 is not a rotation matrix (orthonormal, det +1, tolerance 1e-3)"
+            )
     out = ground_truth.copy()
     out[R_COLUMNS] = values
     return out.set_index(["subject", "sensor_set", "imu"])
@@ -470,7 +599,10 @@ def check_recording(dataset: Dataset, row, report: ValidationReport) -> None:
     bad = ~np.isfinite(values)
     if bad.any():
         line = int(np.flatnonzero(bad.any(axis=1))[0]) + 2
-        report.error(where, f"{int(bad.any(axis=1).sum())} rows with NaN, inf or non-numeric values (first at line {line})")
+        report.error(
+            where,
+            f"{int(bad.any(axis=1).sum())} rows with NaN, inf or non-numeric values (first at line {line})",
+        )
         return
     t = values[:, 0]
     dt = np.diff(t)
@@ -481,7 +613,10 @@ def check_recording(dataset: Dataset, row, report: ValidationReport) -> None:
         return
     fs_in_t = 1.0 / float(np.median(dt))
     if abs(fs_in_t - dataset.fs_hz) > FS_TOLERANCE * dataset.fs_hz:
-        report.error(where, f"sampling rate in t is {fs_in_t:.4g} Hz, dataset.yaml declares {dataset.fs_hz:g} Hz")
+        report.error(
+            where,
+            f"sampling rate in t is {fs_in_t:.4g} Hz, dataset.yaml declares {dataset.fs_hz:g} Hz",
+        )
     duration = t[-1] - t[0]
     if duration < SHORT_RECORDING_S:
         report.warning(where, f"very short recording: {duration:.2f} s")
@@ -489,36 +624,49 @@ def check_recording(dataset: Dataset, row, report: ValidationReport) -> None:
     if dataset.test_kinds[row["test"]] == "static":
         magnitude_g = float(np.median(np.linalg.norm(acc, axis=1))) * dataset.acc_scale / GRAVITY
         if not UNITS_GRAVITY_BAND[0] <= magnitude_g <= UNITS_GRAVITY_BAND[1]:
-            report.error(where, f"acceleration at rest is {magnitude_g:.3g} g (expected about 1 g): "
-                         f"are units.acc ({dataset.meta['units']['acc']}) right?")
+            report.error(
+                where,
+                f"acceleration at rest is {magnitude_g:.3g} g (expected about 1 g): "
+                f"are units.acc ({dataset.meta['units']['acc']}) right?",
+            )
         elif not REST_GRAVITY_BAND[0] <= magnitude_g <= REST_GRAVITY_BAND[1]:
-            report.warning(where, f"static recording with median |acc| {magnitude_g:.3g} g: not at rest")
+            report.warning(
+                where, f"static recording with median |acc| {magnitude_g:.3g} g: not at rest"
+            )
     region = dataset.imu_regions[(row["sensor_set"], row["imu"])]
     acc_range = (dataset.meta.get("acc_range_g") or {}).get(region)
     if acc_range:
         limit = SATURATION_FRACTION * float(acc_range) * GRAVITY / dataset.acc_scale
         n_sat = int((np.abs(acc) >= limit).any(axis=1).sum())
         if n_sat:
-            report.warning(where, f"{n_sat} samples at the accelerometer range +-{acc_range} g (saturated)")
+            report.warning(
+                where, f"{n_sat} samples at the accelerometer range +-{acc_range} g (saturated)"
+            )
     if dataset.test_kinds[row["test"]] == "motion" and (plateau := plateau_limit(acc)) is not None:
         level_g = plateau * dataset.acc_scale / GRAVITY
         if not acc_range or level_g < SATURATION_FRACTION * float(acc_range):
             n_flat = int((np.abs(acc) >= plateau).any(axis=1).sum())
-            report.warning(where, f"{n_flat} samples sit at +-{level_g:.3g} g, {PLATEAU_RUN} or more in a row: "
-                           f"clipped below the declared range ({acc_range or 'none'} g)? aceval leaves them out")
+            report.warning(
+                where,
+                f"{n_flat} samples sit at +-{level_g:.3g} g, {PLATEAU_RUN} or more in a row: "
+                f"clipped below the declared range ({acc_range or 'none'} g)? aceval leaves them out",
+            )
     gyr_range = dataset.meta.get("gyr_range_dps")
     if gyr_range:
         limit = SATURATION_FRACTION * np.radians(float(gyr_range)) / dataset.gyr_scale
         n_sat = int((np.abs(values[:, 4:7]) >= limit).any(axis=1).sum())
         if n_sat:
-            report.warning(where, f"{n_sat} samples at the gyroscope range +-{gyr_range} deg/s (saturated)")
+            report.warning(
+                where, f"{n_sat} samples at the gyroscope range +-{gyr_range} deg/s (saturated)"
+            )
 
 
 def plateau_limit(signal: np.ndarray, run: int = PLATEAU_RUN) -> float | None:
     """The |value| (in the signal's units) at which an (N, 3) signal is clipped, found from the data
     alone: the largest |value| of an axis held for ``run`` or more consecutive samples (a smooth
     signal passes its peak in one sample; a clipped one sits on the rail). The lowest such level over
-    the axes, or None when no axis has a plateau at its extreme."""
+    the axes, or None when no axis has a plateau at its extreme.
+    """
     magnitude = np.abs(np.asarray(signal, dtype=float))
     if len(magnitude) < run:
         return None
@@ -533,16 +681,21 @@ def plateau_limit(signal: np.ndarray, run: int = PLATEAU_RUN) -> float | None:
 def known_recordings(dataset: Dataset) -> pd.DataFrame:
     """Recordings whose subject, set, test and IMU the sheets define (the rest are reported)."""
     recordings = dataset.recordings
-    known = (recordings["subject"].isin(dataset.subjects.index)
-             & recordings["test"].isin(dataset.tests.index)
-             & pd.Series([key in dataset.imus.index for key in zip(recordings["sensor_set"], recordings["imu"])],
-                         index=recordings.index))
+    known = (
+        recordings["subject"].isin(dataset.subjects.index)
+        & recordings["test"].isin(dataset.tests.index)
+        & pd.Series(
+            [key in dataset.imus.index for key in zip(recordings["sensor_set"], recordings["imu"])],
+            index=recordings.index,
+        )
+    )
     return recordings[known]
 
 
 def validate(root: str | Path, check_files: bool = True) -> tuple[Dataset | None, ValidationReport]:
     """Full validation: sheets, then every recording file. Returns the dataset (None if the sheets
-    are unusable) and the report; ``report.ok`` is False when there are errors."""
+    are unusable) and the report; ``report.ok`` is False when there are errors.
+    """
     dataset, report = read_sheets(root)
     if dataset is not None and check_files:
         for row in known_recordings(dataset).to_dict("records"):

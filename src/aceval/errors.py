@@ -9,38 +9,56 @@ class CalibrationError(ValueError):
 
 
 class TooFewSamplesError(CalibrationError):
+    """Fewer samples than the method needs."""
+
     code = "too_few_samples"
 
 
 class NonFiniteError(CalibrationError):
+    """NaN or inf samples."""
+
     code = "non_finite"
 
 
 class ZeroGravityError(CalibrationError):
+    """The quiet-stance median is too short to be gravity."""
+
     code = "zero_gravity"
 
 
 class NoMovementError(CalibrationError):
+    """A motion recording without movement (peak angular velocity too low)."""
+
     code = "no_movement"
 
 
 class SaturatedError(CalibrationError):
+    """Too many samples clipped at the accelerometer range."""
+
     code = "saturated"
 
 
 class NotPlanarError(CalibrationError):
+    """Accelerations not in a plane, or its normal undetermined (Kong)."""
+
     code = "not_planar"
 
 
 class NormalParallelToVerticalError(CalibrationError):
+    """The plane normal is too close to the vertical (Kong)."""
+
     code = "normal_parallel_to_vertical"
 
 
 class TooFewAxesError(CalibrationError):
+    """Fewer than 2 axes for an axis method."""
+
     code = "too_few_axes"
 
 
 class AlignedAxesError(CalibrationError):
+    """The two axes of TRIAD are too close to each other."""
+
     code = "aligned_axes"
 
 

@@ -16,35 +16,50 @@ from .tables import SEGMENT_ORDER, rename_tests  # noqa: E402
 
 FIGURES = {
     6: "Acceleration correlation between the frontal/back and lateral sensor of each segment, by the "
-       "test the matrices are applied to (T_ap) and the test they come from (T_ex); mean and SD over "
-       "subjects and sides, each value averaged over the repetitions",
+    "test the matrices are applied to (T_ap) and the test they come from (T_ex); mean and SD over "
+    "subjects and sides, each value averaged over the repetitions",
     8: "Acceleration correlation between body segments moved as one rigid body (same sensor set), by "
-       "T_ap and T_ex; mean and SD over subjects, sets and sides",
+    "T_ap and T_ex; mean and SD over subjects, sets and sides",
     9: "'Incremental' error angle: the change of the calibration when one repetition is added to k "
-       "repetitions (Kong Eq. 11-12), mean and SD by T_ex and segment",
+    "repetitions (Kong Eq. 11-12), mean and SD by T_ex and segment",
     10: "'To last' error angle: calibration from k repetitions vs from all of them (Kong Eq. 13 is "
-        "k = 1), mean and SD by T_ex and segment",
+    "k = 1), mean and SD by T_ex and segment",
 }
 
 
 def _segments(values) -> list:
     present = list(dict.fromkeys(values))
-    return [s for s in SEGMENT_ORDER if s in present] + sorted(s for s in present if s not in SEGMENT_ORDER)
+    return [s for s in SEGMENT_ORDER if s in present] + sorted(
+        s for s in present if s not in SEGMENT_ORDER
+    )
 
 
-def plot(number: int, correlations: pd.DataFrame | None, angles: pd.DataFrame | None, out: Path,
-         title: str, paper_names: dict | None = None) -> None:
+def plot(
+    number: int,
+    correlations: pd.DataFrame | None,
+    angles: pd.DataFrame | None,
+    out: Path,
+    title: str,
+    paper_names: dict | None = None,
+) -> None:
     """Draw Kong Figure ``number`` to ``out`` (PNG). ``title`` names the dataset (and says SIMULATED)."""
     names = paper_names or {}
     sns.set_theme(style="whitegrid", context="paper")
     if number in (6, 8):
         objective = "frontal_lateral" if number == 6 else "segment_pair"
-        data = correlations[(correlations["objective"] == objective) & (correlations["signal"] == "acc")
-                            & unflagged(correlations)].copy()
+        data = correlations[
+            (correlations["objective"] == objective)
+            & (correlations["signal"] == "acc")
+            & unflagged(correlations)
+        ].copy()
         panel = "segment" if number == 6 else "pair"
         keys = ["subject", "sensor_set", "imu", panel, "t_ex", "t_ap"]
         data = data.groupby(keys, as_index=False)["correlation"].mean()
-        x, y, order_panels = "t_ap", "correlation", _segments(data[panel]) if number == 6 else sorted(data[panel].unique())
+        x, y, order_panels = (
+            "t_ap",
+            "correlation",
+            _segments(data[panel]) if number == 6 else sorted(data[panel].unique()),
+        )
         ylabel = "acceleration correlation"
     elif number in (9, 10):
         data = angles[angles["comparison"] == ("incremental" if number == 9 else "to_last")].copy()
@@ -55,21 +70,45 @@ def plot(number: int, correlations: pd.DataFrame | None, angles: pd.DataFrame | 
         raise ValueError(f"Kong Figure {number} is not one aceval draws (6, 8, 9, 10)")
     if data.empty:  # e.g. one sensor set: say so in the figure rather than stop the workflow
         figure = plt.figure(figsize=(6, 1.5))
-        figure.text(0.5, 0.5, f"Kong Fig. {number}, {title}: not testable on this dataset (no data)",
-                    ha="center", va="center", fontsize=9)
+        figure.text(
+            0.5,
+            0.5,
+            f"Kong Fig. {number}, {title}: not testable on this dataset (no data)",
+            ha="center",
+            va="center",
+            fontsize=9,
+        )
         figure.savefig(out, dpi=120, metadata={"Software": None})
         plt.close(figure)
         return
     data["t_ex"] = rename_tests(data["t_ex" if "t_ex" in data else "test"], names)
     if x == "t_ap":
         data["t_ap"] = rename_tests(data["t_ap"], names)
-    grid = sns.catplot(data=data, x=x, y=y, hue="t_ex", col=panel, col_order=order_panels,
-                       col_wrap=min(3, len(order_panels)), kind="point", errorbar="sd",
-                       dodge=0.3 if data["t_ex"].nunique() > 1 else False,  # seaborn divides by levels - 1
-                       hue_order=sorted(data["t_ex"].unique()), order=sorted(data[x].unique()),
-                       height=2.6, aspect=1.15, markersize=4, linewidth=1)
-    grid.set_axis_labels({"t_ap": "T_ap (test the matrix is applied to)",
-                          "k": "k (repetitions before adding one)" if number == 9 else "k (repetitions used)"}[x], ylabel)
+    grid = sns.catplot(
+        data=data,
+        x=x,
+        y=y,
+        hue="t_ex",
+        col=panel,
+        col_order=order_panels,
+        col_wrap=min(3, len(order_panels)),
+        kind="point",
+        errorbar="sd",
+        dodge=0.3 if data["t_ex"].nunique() > 1 else False,  # seaborn divides by levels - 1
+        hue_order=sorted(data["t_ex"].unique()),
+        order=sorted(data[x].unique()),
+        height=2.6,
+        aspect=1.15,
+        markersize=4,
+        linewidth=1,
+    )
+    grid.set_axis_labels(
+        {
+            "t_ap": "T_ap (test the matrix is applied to)",
+            "k": "k (repetitions before adding one)" if number == 9 else "k (repetitions used)",
+        }[x],
+        ylabel,
+    )
     grid.set_titles("{col_name}")
     if grid.legend is not None:  # seaborn draws none for a single T_ex
         grid.legend.set_title("T_ex")
@@ -80,12 +119,13 @@ def plot(number: int, correlations: pd.DataFrame | None, angles: pd.DataFrame | 
 
 NAMED_FIGURES = {
     "ricci_figure4": "Ricci Fig. 4 in spirit: the LM fit of one thorax frame per iteration (quaternion, "
-                     "roll/pitch/yaw, residual vector, cost), and the cost from 10 random starts",
+    "roll/pitch/yaw, residual vector, cost), and the cost from 10 random starts",
     "ricci_figure5": "Ricci Fig. 5 in spirit: residual angle between each reference axis and its estimate "
-                     "before (identity) and after the LM fit, mean and SD over children",
+    "before (identity) and after the LM fit, mean and SD over children",
     "reliability": "Reliability index of each Kong test (rho of the gyroscope axis; Kong planarity) against "
-                   "the Obj 4 test-retest angle, one point per subject x set x IMU x test",
-    "methods": "Error angle to the true mounting by method and test, per segment: median and interquartile range",
+    "the Obj 4 test-retest angle, one point per subject x set x IMU x test",
+    "methods": "Error angle to the true mounting by method and test, per segment: median and "
+    "interquartile range",
 }
 
 
@@ -132,17 +172,26 @@ def _lm_example(axes: pd.DataFrame, figure_title: str, out: Path) -> None:
     panels[1, 0].set(title="Euler angles (deg)", xlabel="iteration")
     panels[1, 0].legend(fontsize=7)
     panels[0, 1].plot(iterations, residuals, marker=".", ms=3, lw=0.8)
-    panels[0, 1].set(title=f"residual vector e (Eq. 5), {residuals.shape[1]} components", xlabel="iteration")
+    panels[0, 1].set(
+        title=f"residual vector e (Eq. 5), {residuals.shape[1]} components", xlabel="iteration"
+    )
     starts = Rotation.random(10, random_state=0).as_quat(scalar_first=True)
     for start in starts:
         run = lm_fit(v_ref, v_est, rho, q0_wxyz=start)
-        panels[1, 1].semilogy(np.arange(len(run.cost_history)), run.cost_history, color="0.7", lw=0.8)
-    panels[1, 1].semilogy(iterations, fit.cost_history, color="C3", marker="o", ms=3, label="from identity")
+        panels[1, 1].semilogy(
+            np.arange(len(run.cost_history)), run.cost_history, color="0.7", lw=0.8
+        )
+    panels[1, 1].semilogy(
+        iterations, fit.cost_history, color="C3", marker="o", ms=3, label="from identity"
+    )
     panels[1, 1].plot([], [], color="0.7", label="10 random starts")
     panels[1, 1].set(title="cost C (Eq. 6)", xlabel="iteration")
     panels[1, 1].legend(fontsize=7)
-    figure.suptitle(f"Ricci Fig. 4 in spirit, {figure_title}: {first['subject']} {first['imu']} "
-                    f"({', '.join(rows['test'])}); {fit.n_iterations} iterations", fontsize=9)
+    figure.suptitle(
+        f"Ricci Fig. 4 in spirit, {figure_title}: {first['subject']} {first['imu']} "
+        f"({', '.join(rows['test'])}); {fit.n_iterations} iterations",
+        fontsize=9,
+    )
     figure.tight_layout()
     _save(figure, out)
 
@@ -159,11 +208,27 @@ def plot_named(name: str, data: dict, out: Path, title: str) -> None:
         if used.empty:
             return _not_testable(out, f"Ricci Fig. 5, {title}: no LM fit in this dataset")
         long = used.assign(segment=reliability.segment_label(used["segment"], used["side"])).melt(
-            id_vars=["segment", "test"], value_vars=["residual_before_deg", "residual_after_deg"],
-            var_name="when", value_name="residual angle (deg)")
-        long["when"] = long["when"].map({"residual_before_deg": "before (identity)", "residual_after_deg": "after the fit"})
-        grid = sns.catplot(data=long, x="test", y="residual angle (deg)", hue="when", col="segment", col_wrap=3,
-                           kind="bar", errorbar="sd", height=2.6, aspect=1.1, sharex=False)
+            id_vars=["segment", "test"],
+            value_vars=["residual_before_deg", "residual_after_deg"],
+            var_name="when",
+            value_name="residual angle (deg)",
+        )
+        long["when"] = long["when"].map(
+            {"residual_before_deg": "before (identity)", "residual_after_deg": "after the fit"}
+        )
+        grid = sns.catplot(
+            data=long,
+            x="test",
+            y="residual angle (deg)",
+            hue="when",
+            col="segment",
+            col_wrap=3,
+            kind="bar",
+            errorbar="sd",
+            height=2.6,
+            aspect=1.1,
+            sharex=False,
+        )
         grid.figure.suptitle(f"Ricci Fig. 5 in spirit, {title}", y=1.02, fontsize=9)
         return _save(grid.figure, out)
     if name == "reliability":
@@ -172,10 +237,23 @@ def plot_named(name: str, data: dict, out: Path, title: str) -> None:
         if units.empty:
             return _not_testable(out, f"Reliability vs test-retest, {title}: no test-retest angles")
         figure, panels = plt.subplots(1, 2, figsize=(9, 3.6), sharey=True)
-        for panel, (column, label) in zip(panels, [("rho", "rho of the gyroscope axis (Ricci)"),
-                                                    ("planarity", "Kong planarity (0 = plane)")]):
-            sns.scatterplot(data=units, x=column, y="test_retest_deg", hue="test", hue_order=sorted(units["test"].unique()),
-                            s=14, ax=panel, legend=panel is panels[-1])
+        for panel, (column, label) in zip(
+            panels,
+            [
+                ("rho", "rho of the gyroscope axis (Ricci)"),
+                ("planarity", "Kong planarity (0 = plane)"),
+            ],
+        ):
+            sns.scatterplot(
+                data=units,
+                x=column,
+                y="test_retest_deg",
+                hue="test",
+                hue_order=sorted(units["test"].unique()),
+                s=14,
+                ax=panel,
+                legend=panel is panels[-1],
+            )
             panel.set(xlabel=label, ylabel="test-retest angle (deg)", yscale="log")
         figure.suptitle(f"Reliability index vs Obj 4 test-retest angle, {title}", fontsize=9)
         figure.tight_layout()
@@ -186,12 +264,30 @@ def plot_named(name: str, data: dict, out: Path, title: str) -> None:
             return _not_testable(out, f"Methods vs ground truth, {title}: no ground truth")
         order = [m for m in comparison.METHOD_ORDER if m in set(errors["method"])]
         segments = _segments(errors["segment"])
-        grid = sns.catplot(data=errors, x="test", y="error_deg", hue="method", hue_order=order, col="segment",
-                           col_order=segments, col_wrap=min(3, len(segments)), kind="point", estimator="median",
-                           errorbar=("pi", 50), dodge=0.4, order=sorted(errors["test"].unique()),
-                           height=2.6, aspect=1.15, markersize=4, linewidth=1, sharex=False)
+        grid = sns.catplot(
+            data=errors,
+            x="test",
+            y="error_deg",
+            hue="method",
+            hue_order=order,
+            col="segment",
+            col_order=segments,
+            col_wrap=min(3, len(segments)),
+            kind="point",
+            estimator="median",
+            errorbar=("pi", 50),
+            dodge=0.4,
+            order=sorted(errors["test"].unique()),
+            height=2.6,
+            aspect=1.15,
+            markersize=4,
+            linewidth=1,
+            sharex=False,
+        )
         grid.set_axis_labels("test", "error to the true mounting (deg)")
         grid.set_titles("{col_name}")
         grid.figure.suptitle(f"Methods against the ground truth, {title}", y=1.02, fontsize=9)
         return _save(grid.figure, out)
-    raise ValueError(f"unknown figure {name!r}: one of {', '.join(NAMED_FIGURES)} or a Kong figure number")
+    raise ValueError(
+        f"unknown figure {name!r}: one of {', '.join(NAMED_FIGURES)} or a Kong figure number"
+    )

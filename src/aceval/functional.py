@@ -29,7 +29,12 @@ import pandas as pd
 from scipy.spatial.transform import Rotation
 
 from .calibration.ricci import (
-    AxisEstimate, axis_from_moments, first_phase_sign, lm_fit, unit_moments, wahba_fit,
+    AxisEstimate,
+    axis_from_moments,
+    first_phase_sign,
+    lm_fit,
+    unit_moments,
+    wahba_fit,
 )
 from .calibration.triad import triad
 from .errors import CalibrationError
@@ -54,7 +59,11 @@ def recording_moments(samples, fs_hz: float, motion: bool) -> dict:
     first movement phase (:func:`first_phase_sign`); NaN for a static test.
     """
     unit_sum, scatter, n = unit_moments(samples)
-    row = dict(zip(SUM_COLUMNS, unit_sum)) | dict(zip(SCATTER_COLUMNS, scatter.ravel())) | {"n_unit": n}
+    row = (
+        dict(zip(SUM_COLUMNS, unit_sum))
+        | dict(zip(SCATTER_COLUMNS, scatter.ravel()))
+        | {"n_unit": n}
+    )
     phase = np.full(3, np.nan)
     if motion and n >= 3:
         axis = axis_from_moments(unit_sum, scatter, n).axis
@@ -80,7 +89,9 @@ def pool_summed(summed: np.ndarray, orient: str | np.ndarray = "mean") -> AxisEs
         return estimate
     hint = summed[13:16] if isinstance(orient, str) else orient
     if float(estimate.axis @ hint) < 0:
-        return AxisEstimate(-estimate.axis, estimate.rho, estimate.singular_values, estimate.n_samples)
+        return AxisEstimate(
+            -estimate.axis, estimate.rho, estimate.singular_values, estimate.n_samples
+        )
     return estimate
 
 
@@ -93,8 +104,14 @@ def _failed(exc: Exception) -> dict:
     return {"R": None, "flag": getattr(exc, "code", "calibration_error"), "message": str(exc)}
 
 
-def fit_axes(v_ref: np.ndarray, v_est: np.ndarray, rho: np.ndarray, triad_pair: tuple[int, int],
-             random_starts: int = 0, seed: int = 0) -> dict[str, dict]:
+def fit_axes(
+    v_ref: np.ndarray,
+    v_est: np.ndarray,
+    rho: np.ndarray,
+    triad_pair: tuple[int, int],
+    random_starts: int = 0,
+    seed: int = 0,
+) -> dict[str, dict]:
     """R (sensor -> body) by each of ``AXIS_METHODS`` from axis pairs ``v_ref ~ R v_est``.
 
     ``rho`` weights the axes (Ricci Eq. 7); ``triad_pair`` = (primary, secondary) row indices.
@@ -111,18 +128,28 @@ def fit_axes(v_ref: np.ndarray, v_est: np.ndarray, rho: np.ndarray, triad_pair: 
         out["align_vectors"] = _failed(exc)
     try:
         fit = lm_fit(v_ref, v_est, rho)
-        entry = {"R": fit.R, "n_iterations": fit.n_iterations, "converged": fit.converged,
-                 "cost": float(fit.cost_history[-1]),
-                 "residual_before_deg": fit.residual_angle_before_deg,
-                 "residual_after_deg": fit.residual_angle_after_deg}
+        entry = {
+            "R": fit.R,
+            "n_iterations": fit.n_iterations,
+            "converged": fit.converged,
+            "cost": float(fit.cost_history[-1]),
+            "residual_before_deg": fit.residual_angle_before_deg,
+            "residual_after_deg": fit.residual_angle_after_deg,
+        }
         if random_starts and optimum is not None:
             starts = Rotation.random(random_starts, random_state=seed).as_quat(scalar_first=True)
             runs = [lm_fit(v_ref, v_est, rho, q0_wxyz=q) for q in starts]
-            reached = [float(np.degrees((r.rotation * Rotation.from_matrix(optimum).inv()).magnitude()))
-                       <= SAME_SOLUTION_DEG for r in runs]
-            entry.update(random_starts=random_starts, random_starts_optimum=int(np.sum(reached)),
-                         random_start_iterations_mean=float(np.mean([r.n_iterations for r in runs])),
-                         random_start_iterations_max=int(max(r.n_iterations for r in runs)))
+            reached = [
+                float(np.degrees((r.rotation * Rotation.from_matrix(optimum).inv()).magnitude()))
+                <= SAME_SOLUTION_DEG
+                for r in runs
+            ]
+            entry.update(
+                random_starts=random_starts,
+                random_starts_optimum=int(np.sum(reached)),
+                random_start_iterations_mean=float(np.mean([r.n_iterations for r in runs])),
+                random_start_iterations_max=int(max(r.n_iterations for r in runs)),
+            )
         out["ricci_lm"] = entry
     except (CalibrationError, ValueError) as exc:
         out["ricci_lm"] = _failed(exc)
@@ -158,7 +185,8 @@ class AxisLimits:
 
 def axis_spread_deg(repetition_axes: np.ndarray, pooled: np.ndarray) -> float:
     """Median angle (deg, sign ignored) between each repetition's own axis (rows; NaN rows skipped)
-    and the pooled axis; NaN with no repetition axis."""
+    and the pooled axis; NaN with no repetition axis.
+    """
     axes = np.asarray(repetition_axes, float)
     axes = axes[np.isfinite(axes).all(axis=1)]
     if not len(axes):
@@ -174,32 +202,52 @@ def _flag_all(fits: dict[str, dict], code: str, message: str) -> dict[str, dict]
     return fits
 
 
-def sagittal_fits(z0: np.ndarray, rho_static: float, motion_axis: np.ndarray, rho_motion: float,
-                  spread_deg: float = float("nan"), limits: AxisLimits = AxisLimits()) -> dict[str, dict]:
+def sagittal_fits(
+    z0: np.ndarray,
+    rho_static: float,
+    motion_axis: np.ndarray,
+    rho_motion: float,
+    spread_deg: float = float("nan"),
+    limits: AxisLimits = AxisLimits(),
+) -> dict[str, dict]:
     """Kong's protocol, axis methods: body z (down) <- z0 from quiet stance, body y (right) <- the
     gyroscope axis of the motion test (already oriented to the right), weighted by their rho.
     Flagged (every method) beyond :class:`AxisLimits`: ``low_rho``, ``axis_near_vertical``,
-    ``axes_disagree`` (``spread_deg``: :func:`axis_spread_deg` of the repetitions)."""
+    ``axes_disagree`` (``spread_deg``: :func:`axis_spread_deg` of the repetitions).
+    """
     v_ref = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
     v_est = np.array([z0, motion_axis])
     fits = fit_axes(v_ref, v_est, np.array([rho_static, rho_motion]), (0, 1))
     vertical_angle = float(np.degrees(np.arccos(min(1.0, abs(float(np.dot(z0, motion_axis)))))))
     if rho_motion < limits.min_rho:
-        return _flag_all(fits, "low_rho", f"rho of the movement axis {rho_motion:.2f} < {limits.min_rho}: "
-                                          f"no preferred rotation axis")
+        return _flag_all(
+            fits,
+            "low_rho",
+            f"rho of the movement axis {rho_motion:.2f} < {limits.min_rho}: "
+            f"no preferred rotation axis",
+        )
     if vertical_angle < limits.min_vertical_angle_deg:
-        return _flag_all(fits, "axis_near_vertical", f"movement axis {vertical_angle:.0f} deg from z0 "
-                                                     f"(< {limits.min_vertical_angle_deg:g}): not a sagittal motion")
+        return _flag_all(
+            fits,
+            "axis_near_vertical",
+            f"movement axis {vertical_angle:.0f} deg from z0 "
+            f"(< {limits.min_vertical_angle_deg:g}): not a sagittal motion",
+        )
     if spread_deg > limits.max_spread_deg:
-        return _flag_all(fits, "axes_disagree", f"the repetitions' axes are {spread_deg:.0f} deg (median) from "
-                                                f"the pooled one (> {limits.max_spread_deg:g})")
+        return _flag_all(
+            fits,
+            "axes_disagree",
+            f"the repetitions' axes are {spread_deg:.0f} deg (median) from "
+            f"the pooled one (> {limits.max_spread_deg:g})",
+        )
     return fits
 
 
 def triad_pair(v_ref: np.ndarray, rho: np.ndarray, min_angle_deg: float = 30.0) -> tuple[int, int]:
     """The most reliable axis, and the most reliable one whose reference is at least
     ``min_angle_deg`` from it (Ricci's functional frames repeat some references, e.g. two
-    flexion-extensions about one axis)."""
+    flexion-extensions about one axis).
+    """
     order = [int(i) for i in np.argsort(-np.asarray(rho), kind="stable")]
     primary = order[0]
     limit = np.cos(np.radians(min_angle_deg))
@@ -209,30 +257,44 @@ def triad_pair(v_ref: np.ndarray, rho: np.ndarray, min_angle_deg: float = 30.0) 
     return primary, order[1] if len(order) > 1 else primary
 
 
-def functional_fits(axes: pd.DataFrame, random_starts: int = RANDOM_STARTS, seed_key=(),
-                    limits: AxisLimits = AxisLimits()) -> dict[str, dict]:
+def functional_fits(
+    axes: pd.DataFrame,
+    random_starts: int = RANDOM_STARTS,
+    seed_key=(),
+    limits: AxisLimits = AxisLimits(),
+) -> dict[str, dict]:
     """Ricci's protocol: one calibration per IMU from every axis in ``axes`` (rows with
     ``reference`` ('+x', ...), ``axis_x/y/z`` and ``rho``). Flagged (every method) beyond
     :class:`AxisLimits`: ``low_rho`` (fewer than 2 axes with rho >= min_rho), ``axes_inconsistent``
-    (an LM residual above max_residual_deg)."""
+    (an LM residual above max_residual_deg).
+    """
     v_ref = np.stack([axis_vector(a) for a in axes["reference"]])
     v_est = axes[["axis_x", "axis_y", "axis_z"]].to_numpy(float)
     rho = axes["rho"].to_numpy(float)
     fits = fit_axes(v_ref, v_est, rho, triad_pair(v_ref, rho), random_starts, _seed(*seed_key))
     if np.sum(rho >= limits.min_rho) < 2:
-        return _flag_all(fits, "low_rho", f"fewer than 2 axes with rho >= {limits.min_rho} "
-                                          f"({', '.join(f'{r:.2f}' for r in rho)})")
+        return _flag_all(
+            fits,
+            "low_rho",
+            f"fewer than 2 axes with rho >= {limits.min_rho} "
+            f"({', '.join(f'{r:.2f}' for r in rho)})",
+        )
     residual = fits["ricci_lm"].get("residual_after_deg")
     if residual is not None and np.max(residual) > limits.max_residual_deg:
-        return _flag_all(fits, "axes_inconsistent", f"an axis is {np.max(residual):.0f} deg from its reference "
-                                                    f"after the fit (> {limits.max_residual_deg:g}): the axes do "
-                                                    f"not form one frame")
+        return _flag_all(
+            fits,
+            "axes_inconsistent",
+            f"an axis is {np.max(residual):.0f} deg from its reference "
+            f"after the fit (> {limits.max_residual_deg:g}): the axes do "
+            f"not form one frame",
+        )
     return fits
 
 
 def subset_axes(scatters: np.ndarray, membership: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """rho (Ricci Eq. 2) and axis (unit, sign arbitrary) of every subset of repetitions at once:
-    ``scatters`` (n_rep, 3, 3) unit scatters, ``membership`` (n_subsets, n_rep) 0/1."""
+    """Rho (Ricci Eq. 2) and axis (unit, sign arbitrary) of every subset of repetitions at once:
+    ``scatters`` (n_rep, 3, 3) unit scatters, ``membership`` (n_subsets, n_rep) 0/1.
+    """
     total = np.einsum("sr,rij->sij", membership, scatters)
     eigenvalues, vectors = np.linalg.eigh(total)
     singular = np.sqrt(np.clip(eigenvalues, 0.0, None))

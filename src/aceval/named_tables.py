@@ -15,62 +15,91 @@ from .tables import _fmt, _fmt_p, rounded
 
 TABLES = {
     "ricci_table1": dict(
-        needs="axes", title="Ricci et al. 2014, Table 1: reliability index rho per movement and segment",
+        needs="axes",
+        title="Ricci et al. 2014, Table 1: reliability index rho per movement and segment",
         unit="subjects (each child's rho pooled over its 3 trials, as Ricci: 9-12 repetitions)",
-        build=lambda d: reliability.rho_table(d["axes"], d["paper_names"])),
+        build=lambda d: reliability.rho_table(d["axes"], d["paper_names"]),
+    ),
     "ricci_ttest": dict(
-        needs="axes", title="Ricci et al. 2014: paired t-test of rho, supported (bar) vs unsupported movement",
+        needs="axes",
+        title="Ricci et al. 2014: paired t-test of rho, supported (bar) vs unsupported movement",
         unit="children, one pair per child and side (rho pooled over the 3 trials); sides tested separately; "
-             "Holm's correction across the rows; the paper reports only p < 0.05 for each frame",
-        build=lambda d: reliability.supported_ttest(d["axes"])),
+        "Holm's correction across the rows; the paper reports only p < 0.05 for each frame",
+        build=lambda d: reliability.supported_ttest(d["axes"]),
+    ),
     "ricci_lm": dict(
-        needs="calibrations", title="Ricci et al. 2014: Levenberg-Marquardt iterations per frame, and random starts",
+        needs="calibrations",
+        title="Ricci et al. 2014: Levenberg-Marquardt iterations per frame, and random starts",
         unit="IMUs (subject x side); q0 = identity, lambda = 1e-3, stop at relative cost change < 1e-4; "
-             "each fit also from random unit quaternions (how many: random_starts), counted as reaching the optimum when within "
-             "0.1 deg of SciPy's closed-form solution",
-        build=lambda d: reliability.lm_table(d["calibrations"])),
+        "each fit also from random unit quaternions (how many: random_starts), counted as reaching "
+        "the optimum when within 0.1 deg of SciPy's closed-form solution",
+        build=lambda d: reliability.lm_table(d["calibrations"]),
+    ),
     "ricci_residuals": dict(
-        needs="axes", title="Ricci et al. 2014, Fig. 5 / Eq. 13: residual angle between each reference axis and its "
-                            "estimate, before (identity) and after the LM fit (deg)",
-        unit="IMUs (subject x side)", build=lambda d: reliability.residual_table(d["axes"], d["paper_names"])),
+        needs="axes",
+        title="Ricci et al. 2014, Fig. 5 / Eq. 13: residual angle between each reference axis and its "
+        "estimate, before (identity) and after the LM fit (deg)",
+        unit="IMUs (subject x side)",
+        build=lambda d: reliability.residual_table(d["axes"], d["paper_names"]),
+    ),
     "reliability": dict(
         needs="axes+calibrations",
-        title="Reliability indices of Kong's tests in Ricci Table 1's layout: rho of the gyroscope axis and Kong planarity",
+        title="Reliability indices of Kong's tests in Ricci Table 1's layout: rho of the gyroscope "
+        "axis and Kong planarity",
         unit="subject x sensor set x IMU (both from all repetitions of the test)",
         build=lambda d: reliability.kong_reliability_table(
-            reliability.kong_units(d["axes"], d["calibrations"], d.get("angles")))),
+            reliability.kong_units(d["axes"], d["calibrations"], d.get("angles"))
+        ),
+    ),
     "reliability_retest": dict(
         needs="axes+calibrations+angles",
         title="Does a reliability index predict the Obj 4 test-retest angle? Spearman rank correlation",
         unit="subject x sensor set x IMU x test (index from all repetitions; angle = mean over the pairs of "
-             "3-repetition subsets)",
+        "3-repetition subsets)",
         build=lambda d: reliability.reliability_vs_retest(
-            reliability.kong_units(d["axes"], d["calibrations"], d.get("angles")))),
+            reliability.kong_units(d["axes"], d["calibrations"], d.get("angles"))
+        ),
+    ),
     "methods": dict(
-        needs="calibrations", title="Every method against the ground truth: error angle to the true mounting (deg)",
-        unit="subjects (each IMU's calibration from all repetitions of the test; Ricci's design: from all its axes)",
-        build=lambda d: comparison.methods_table(d["calibrations"])),
+        needs="calibrations",
+        title="Every method against the ground truth: error angle to the true mounting (deg)",
+        unit="subjects (each IMU's calibration from all repetitions of the test; Ricci's design: "
+        "from all its axes)",
+        build=lambda d: comparison.methods_table(d["calibrations"]),
+    ),
     "methods_best": dict(
-        needs="calibrations", title="Which test to use for which segment: smallest median error per method, "
-                                    "beside Kong's recommendation (T3 upper body, T6 thighs and shanks)",
-        unit="calibrations of both sensor sets", build=lambda d: comparison.best_tests(d["calibrations"])),
+        needs="calibrations",
+        title="Which test to use for which segment: smallest median error per method, "
+        "beside Kong's recommendation (T3 upper body, T6 thighs and shanks)",
+        unit="calibrations of both sensor sets",
+        build=lambda d: comparison.best_tests(d["calibrations"]),
+    ),
 }
 
 
 def build(name: str, axes=None, calibrations=None, angles=None, paper_names=None) -> pd.DataFrame:
     """Table ``name`` (a key of ``TABLES``) as a tidy frame, floats rounded to 4 decimals."""
     if name not in TABLES:
-        raise ValueError(f"unknown table {name!r}: one of {', '.join(TABLES)} or a Kong table number")
-    table = TABLES[name]["build"](dict(axes=axes, calibrations=calibrations, angles=angles,
-                                       paper_names=paper_names or {}))
+        raise ValueError(
+            f"unknown table {name!r}: one of {', '.join(TABLES)} or a Kong table number"
+        )
+    table = TABLES[name]["build"](
+        dict(axes=axes, calibrations=calibrations, angles=angles, paper_names=paper_names or {})
+    )
     return rounded(table.reset_index(drop=True))
 
 
 def to_markdown(table: pd.DataFrame, name: str, dataset: str, simulated: bool) -> str:
+    """A named table as Markdown, labelled with its dataset (and SIMULATED)."""
     spec = TABLES[name]
-    lines = [f"# {spec['title']}", "",
-             f"Dataset **{dataset}**" + (" (SIMULATED data, not the paper's recordings)" if simulated else "")
-             + f". n counts {spec['unit']}.", ""]
+    lines = [
+        f"# {spec['title']}",
+        "",
+        f"Dataset **{dataset}**"
+        + (" (SIMULATED data, not the paper's recordings)" if simulated else "")
+        + f". n counts {spec['unit']}.",
+        "",
+    ]
     if table.empty:
         return "\n".join(lines + ["No data in this dataset for this table.", ""])
     shown = table.copy()

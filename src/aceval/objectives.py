@@ -27,8 +27,20 @@ from .rotations import error_angle_deg, vertical_share
 CORRELATION_MODES = ("concatenated", "per_axis")
 CALIBRATION_KEY = ["subject", "sensor_set", "imu", "test"]
 #: columns of every angle row
-ANGLE_COLUMNS = ["comparison", "subject", "sensor_set", "imu", "segment", "side", "test", "k",
-                 "calibration_a", "calibration_b", "error_angle_deg", "vertical_share"]
+ANGLE_COLUMNS = [
+    "comparison",
+    "subject",
+    "sensor_set",
+    "imu",
+    "segment",
+    "side",
+    "test",
+    "k",
+    "calibration_a",
+    "calibration_b",
+    "error_angle_deg",
+    "vertical_share",
+]
 
 
 def correlation_3d(a: np.ndarray, b: np.ndarray, mode: str = "concatenated") -> float:
@@ -41,15 +53,20 @@ def correlation_3d(a: np.ndarray, b: np.ndarray, mode: str = "concatenated") -> 
     """
     a, b = np.asarray(a, float), np.asarray(b, float)
     if a.shape != b.shape or a.ndim != 2 or a.shape[1] != 3:
-        raise ValueError(f"expected two (N, 3) signals of the same shape, got {a.shape} and {b.shape}")
+        raise ValueError(
+            f"expected two (N, 3) signals of the same shape, got {a.shape} and {b.shape}"
+        )
     if mode == "concatenated":
         x, y = a.T.ravel(), b.T.ravel()
         if np.std(x) == 0 or np.std(y) == 0:
             return float("nan")
         return float(np.corrcoef(x, y)[0, 1])
     if mode == "per_axis":
-        values = [np.corrcoef(a[:, k], b[:, k])[0, 1] for k in range(3)
-                  if np.std(a[:, k]) > 0 and np.std(b[:, k]) > 0]
+        values = [
+            np.corrcoef(a[:, k], b[:, k])[0, 1]
+            for k in range(3)
+            if np.std(a[:, k]) > 0 and np.std(b[:, k]) > 0
+        ]
         return float(np.mean(values)) if values else float("nan")
     raise ValueError(f"correlation mode {mode!r} is not one of {', '.join(CORRELATION_MODES)}")
 
@@ -72,25 +89,37 @@ def unflagged(table: pd.DataFrame) -> pd.Series:
 
 def usable(calibrations: pd.DataFrame) -> pd.DataFrame:
     """Kong calibrations that are not flagged (Objectives 1-5 are about Kong's method; the axis
-    methods' rows, ``method`` != 'kong', are compared in :mod:`aceval.comparison`)."""
+    methods' rows, ``method`` != 'kong', are compared in :mod:`aceval.comparison`).
+    """
     calibrations = kong_rows(calibrations)
     return calibrations[unflagged(calibrations)]
 
 
 def kong_rows(calibrations: pd.DataFrame) -> pd.DataFrame:
-    return calibrations[calibrations["method"] == "kong"] if "method" in calibrations.columns else calibrations
+    """The rows of Kong's method (all rows of a table without ``method``)."""
+    return (
+        calibrations[calibrations["method"] == "kong"]
+        if "method" in calibrations.columns
+        else calibrations
+    )
 
 
 def full_sets(calibrations: pd.DataFrame) -> pd.DataFrame:
     """The calibration from all usable repetitions of each (subject, set, IMU, test); left out when
-    that calibration itself is flagged."""
+    that calibration itself is flagged.
+    """
     calibrations = kong_rows(calibrations)
     most = calibrations.groupby(CALIBRATION_KEY)["n_reps"].transform("max")
     return usable(calibrations[calibrations["n_reps"] == most])
 
 
-def _angle_rows(comparison: str, calibrations: pd.DataFrame, pairs: list[tuple[int, int]], k: list[int],
-                test: list[str] | None = None) -> pd.DataFrame:
+def _angle_rows(
+    comparison: str,
+    calibrations: pd.DataFrame,
+    pairs: list[tuple[int, int]],
+    k: list[int],
+    test: list[str] | None = None,
+) -> pd.DataFrame:
     """Rows of ANGLE_COLUMNS for index pairs (a, b) into ``calibrations`` (positional)."""
     if not pairs:
         return pd.DataFrame(columns=ANGLE_COLUMNS)
@@ -98,23 +127,29 @@ def _angle_rows(comparison: str, calibrations: pd.DataFrame, pairs: list[tuple[i
     R = matrices(calibrations)
     first = calibrations.iloc[ia]
     second = calibrations.iloc[ib]
-    out = pd.DataFrame({
-        "comparison": comparison,
-        "subject": first["subject"].to_numpy(), "sensor_set": first["sensor_set"].to_numpy(),
-        "imu": first["imu"].to_numpy(), "segment": first["segment"].to_numpy(), "side": first["side"].to_numpy(),
-        "test": test if test is not None else first["test"].to_numpy(),
-        "k": k,
-        "calibration_a": (first["test"] + ":" + first["repetitions"]).to_numpy(),
-        "calibration_b": (second["test"] + ":" + second["repetitions"]).to_numpy(),
-        "error_angle_deg": error_angle_deg(R[ia], R[ib]),
-        "vertical_share": vertical_share(R[ia], R[ib]),
-    })
+    out = pd.DataFrame(
+        {
+            "comparison": comparison,
+            "subject": first["subject"].to_numpy(),
+            "sensor_set": first["sensor_set"].to_numpy(),
+            "imu": first["imu"].to_numpy(),
+            "segment": first["segment"].to_numpy(),
+            "side": first["side"].to_numpy(),
+            "test": test if test is not None else first["test"].to_numpy(),
+            "k": k,
+            "calibration_a": (first["test"] + ":" + first["repetitions"]).to_numpy(),
+            "calibration_b": (second["test"] + ":" + second["repetitions"]).to_numpy(),
+            "error_angle_deg": error_angle_deg(R[ia], R[ib]),
+            "vertical_share": vertical_share(R[ia], R[ib]),
+        }
+    )
     return out[ANGLE_COLUMNS]
 
 
 def _subset_groups(calibrations: pd.DataFrame):
     """The usable calibrations (positional index) and, per (subject, set, IMU, test),
-    ``({subset: position}, all repetitions)``."""
+    ``({subset: position}, all repetitions)``.
+    """
     table = usable(calibrations).reset_index(drop=True)
     groups = []
     for _, group in table.groupby(CALIBRATION_KEY, sort=True):
@@ -125,7 +160,8 @@ def _subset_groups(calibrations: pd.DataFrame):
 
 def incremental_angles(calibrations: pd.DataFrame) -> pd.DataFrame:
     """Obj 3 "incremental" (Kong Eq. 11-12): for each subset A of k repetitions and each repetition
-    a not in A, the angle between R(A u {a}) and R(A). ``k`` = |A|."""
+    a not in A, the angle between R(A u {a}) and R(A). ``k`` = |A|.
+    """
     table, groups = _subset_groups(calibrations)
     pairs, ks = [], []
     for by_subset, reps in groups:
@@ -140,7 +176,8 @@ def incremental_angles(calibrations: pd.DataFrame) -> pd.DataFrame:
 
 def to_last_angles(calibrations: pd.DataFrame) -> pd.DataFrame:
     """Obj 3 "to last" (Kong Eq. 13): the angle between R(all repetitions) and R(A) for every proper
-    subset A; Eq. 13 itself is the rows with ``k`` = |A| = 1."""
+    subset A; Eq. 13 itself is the rows with ``k`` = |A| = 1.
+    """
     table, groups = _subset_groups(calibrations)
     pairs, ks = [], []
     for by_subset, reps in groups:
@@ -155,7 +192,8 @@ def to_last_angles(calibrations: pd.DataFrame) -> pd.DataFrame:
 
 def test_retest_angles(calibrations: pd.DataFrame, k: int = 3) -> pd.DataFrame:
     """Obj 4 (Kong Eq. 15): the angle between R(A) and R(A') for every pair of distinct subsets of
-    ``k`` repetitions (45 pairs for 3 of 5)."""
+    ``k`` repetitions (45 pairs for 3 of 5).
+    """
     table, groups = _subset_groups(calibrations)
     pairs = []
     for by_subset, _ in groups:
@@ -166,7 +204,8 @@ def test_retest_angles(calibrations: pd.DataFrame, k: int = 3) -> pd.DataFrame:
 
 def cross_test_angles(calibrations: pd.DataFrame) -> pd.DataFrame:
     """Obj 5 (Kong Eq. 16): for each (subject, set, IMU), the angle between the full-set
-    calibrations of every two tests that calibrate it; ``test`` is the pair, e.g. 'T1-T2'."""
+    calibrations of every two tests that calibrate it; ``test`` is the pair, e.g. 'T1-T2'.
+    """
     table = full_sets(calibrations).reset_index(drop=True)
     pairs, names = [], []
     for _, group in table.groupby(["subject", "sensor_set", "imu"], sort=True):
@@ -182,8 +221,14 @@ def all_angles(calibrations: pd.DataFrame, test_retest_k: int = 3) -> pd.DataFra
     """Objectives 3-5 in one tidy table (``comparison`` says which)."""
     if calibrations.empty:
         return pd.DataFrame(columns=ANGLE_COLUMNS)
-    return _concat([incremental_angles(calibrations), to_last_angles(calibrations),
-                    test_retest_angles(calibrations, test_retest_k), cross_test_angles(calibrations)])
+    return _concat(
+        [
+            incremental_angles(calibrations),
+            to_last_angles(calibrations),
+            test_retest_angles(calibrations, test_retest_k),
+            cross_test_angles(calibrations),
+        ]
+    )
 
 
 def _concat(parts: list[pd.DataFrame]) -> pd.DataFrame:
@@ -196,7 +241,8 @@ def _concat(parts: list[pd.DataFrame]) -> pd.DataFrame:
 
 def _joined(first: pd.DataFrame, second: pd.DataFrame, on: list[str]) -> pd.DataFrame:
     """Rows of ``first`` and ``second`` matched on ``on`` (columns suffixed _a and _b), with their
-    rotations as ``R_a`` and ``R_b`` ((3, 3) arrays)."""
+    rotations as ``R_a`` and ``R_b`` ((3, 3) arrays).
+    """
     merged = first.merge(second, on=on, suffixes=("_a", "_b"))
     merged["R_a"] = list(merged[[f"{c}_a" for c in R_COLUMNS]].to_numpy(float).reshape(-1, 3, 3))
     merged["R_b"] = list(merged[[f"{c}_b" for c in R_COLUMNS]].to_numpy(float).reshape(-1, 3, 3))
@@ -205,25 +251,54 @@ def _joined(first: pd.DataFrame, second: pd.DataFrame, on: list[str]) -> pd.Data
 
 def frontal_lateral_plan(full: pd.DataFrame, sensor_sets: list[str]) -> pd.DataFrame:
     """Obj 1 (Eq. 7-8): per (subject, IMU, T_ex) where both sensor sets have a full-set
-    calibration, one row with both rotations (columns ``R_a``, ``R_b`` as (3, 3) arrays)."""
+    calibration, one row with both rotations (columns ``R_a``, ``R_b`` as (3, 3) arrays).
+    """
     set_a, set_b = sensor_sets
-    merged = _joined(full[full["sensor_set"] == set_a], full[full["sensor_set"] == set_b], ["subject", "imu", "test"])
+    merged = _joined(
+        full[full["sensor_set"] == set_a],
+        full[full["sensor_set"] == set_b],
+        ["subject", "imu", "test"],
+    )
     merged = merged.sort_values(["subject", "imu", "test"])
-    return pd.DataFrame({"subject": merged["subject"], "imu": merged["imu"], "segment": merged["segment_a"],
-                         "side": merged["side_a"], "t_ex": merged["test"], "R_a": merged["R_a"],
-                         "R_b": merged["R_b"]}).reset_index(drop=True)
+    return pd.DataFrame(
+        {
+            "subject": merged["subject"],
+            "imu": merged["imu"],
+            "segment": merged["segment_a"],
+            "side": merged["side_a"],
+            "t_ex": merged["test"],
+            "R_a": merged["R_a"],
+            "R_b": merged["R_b"],
+        }
+    ).reset_index(drop=True)
 
 
 def segment_pair_plan(full: pd.DataFrame, pairs: dict[str, dict]) -> pd.DataFrame:
     """Obj 2 (Eq. 9-10): per sensor set, pair of segments (same side) and T_ex that calibrates
-    both IMUs, one row with both rotations. ``pairs``: ``{name: {"segments": [a, b], "t_ap": [...]}}``."""
+    both IMUs, one row with both rotations. ``pairs``: ``{name: {"segments": [a, b], "t_ap": [...]}}``.
+    """
     parts = []
     for name, spec in pairs.items():
         seg_a, seg_b = spec["segments"]
-        merged = _joined(full[full["segment"] == seg_a], full[full["segment"] == seg_b],
-                         ["subject", "sensor_set", "side", "test"])
-        parts.append(pd.DataFrame({
-            "pair": name, "subject": merged["subject"], "sensor_set": merged["sensor_set"], "side": merged["side"],
-            "imu_a": merged["imu_a"], "imu_b": merged["imu_b"], "t_ex": merged["test"],
-            "t_ap": [list(spec["t_ap"])] * len(merged), "R_a": merged["R_a"], "R_b": merged["R_b"]}))
+        merged = _joined(
+            full[full["segment"] == seg_a],
+            full[full["segment"] == seg_b],
+            ["subject", "sensor_set", "side", "test"],
+        )
+        parts.append(
+            pd.DataFrame(
+                {
+                    "pair": name,
+                    "subject": merged["subject"],
+                    "sensor_set": merged["sensor_set"],
+                    "side": merged["side"],
+                    "imu_a": merged["imu_a"],
+                    "imu_b": merged["imu_b"],
+                    "t_ex": merged["test"],
+                    "t_ap": [list(spec["t_ap"])] * len(merged),
+                    "R_a": merged["R_a"],
+                    "R_b": merged["R_b"],
+                }
+            )
+        )
     return pd.concat(parts, ignore_index=True) if parts else pd.DataFrame()

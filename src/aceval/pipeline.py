@@ -1,6 +1,6 @@
 """From a dataset to calibrations: recordings -> trimmed per-repetition summaries -> rotations.
 
-Data flow one way (DESIGN.md section 2): each recording is read once and reduced to a summary
+Data flow one way (docs/design.md, section 2): each recording is read once and reduced to a summary
 (static: the median specific force; motion: the scatter matrix ``sum a a^T`` and count of its
 trimmed samples); every subset of repetitions is then calibrated from the summaries alone.
 """
@@ -14,31 +14,67 @@ import pandas as pd
 
 from .calibration.kong import KongLimits, kong_from_scatters, scatter, vertical_axis
 from .checks import (
-    AGREEMENT_COLUMNS, MAX_NORMAL_GYRO_ANGLE_DEG, THIRD_MOMENT_COLUMNS, agreement_moments, direction_checks,
-    sensor_problem, third_moments,
+    AGREEMENT_COLUMNS,
+    MAX_NORMAL_GYRO_ANGLE_DEG,
+    THIRD_MOMENT_COLUMNS,
+    agreement_moments,
+    direction_checks,
+    sensor_problem,
+    third_moments,
 )
 from .dataset import R_COLUMNS, Dataset, RecordingError, plateau_limit
 from .errors import CalibrationError, SaturatedError
 from .functional import (
-    AXIS_METHODS, MOMENT_COLUMNS, PHASE_COLUMNS, SCATTER_COLUMNS as UNIT_SCATTER_COLUMNS, axis_spread_deg, functional_fits, pool, pool_summed,
-    recording_moments, sagittal_fits, subset_axes,
+    AXIS_METHODS,
+    MOMENT_COLUMNS,
+    PHASE_COLUMNS,
+    axis_spread_deg,
+    functional_fits,
+    pool,
+    pool_summed,
+    recording_moments,
+    sagittal_fits,
+    subset_axes,
 )
-from .objectives import correlation_3d, frontal_lateral_plan, full_sets, segment_pair_plan, unflagged
+from .functional import (
+    SCATTER_COLUMNS as UNIT_SCATTER_COLUMNS,
+)
+from .objectives import (
+    correlation_3d,
+    frontal_lateral_plan,
+    full_sets,
+    segment_pair_plan,
+    unflagged,
+)
 from .rotations import axis_vector, error_angle_deg, vertical_share
 from .segmentation import TrimParams, mask_to_ranges, movement_mask
 
 SCATTER_COLUMNS = [f"s{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
 KEY = ["subject", "sensor_set", "imu"]
 #: the columns every calibration table has (an empty table keeps them)
-CALIBRATION_COLUMNS = [*KEY, "segment", "side", "test", "repetitions", "n_reps", "method", *R_COLUMNS, "flag"]
+CALIBRATION_COLUMNS = [
+    *KEY,
+    "segment",
+    "side",
+    "test",
+    "repetitions",
+    "n_reps",
+    "method",
+    *R_COLUMNS,
+    "flag",
+]
 #: a motion recording is left out when more than this fraction of its moving samples is clipped at
 #: the accelerometer range (a choice, not from the papers: the clipped samples themselves are always
 #: left out of the scatter, and beyond a fifth of them the plane rests on a biased remainder)
 MAX_CLIPPED_FRACTION = 0.2
 
 
-def summarise_recordings(dataset: Dataset, subject: str | None = None,
-                         trim: TrimParams = TrimParams(), tests: list[str] | None = None) -> pd.DataFrame:
+def summarise_recordings(
+    dataset: Dataset,
+    subject: str | None = None,
+    trim: TrimParams = TrimParams(),
+    tests: list[str] | None = None,
+) -> pd.DataFrame:
     """One row per recording of ``subject`` (all subjects if None) that some analysis needs.
 
     Static tests: ``z0_x, z0_y, z0_z`` (Kong Eq. 2). Motion tests that may calibrate the IMU
@@ -74,16 +110,25 @@ def summarise_recordings(dataset: Dataset, subject: str | None = None,
                 row.update(recording_moments(data.acc, dataset.fs_hz, motion=False))
             else:
                 row.update(agreement_moments(data.acc, data.gyr, dataset.fs_hz))
-                row["gyro_p995_deg_s"] = float(np.degrees(np.percentile(np.linalg.norm(data.gyr, axis=1), 99.5)))
+                row["gyro_p995_deg_s"] = float(
+                    np.degrees(np.percentile(np.linalg.norm(data.gyr, axis=1), 99.5))
+                )
                 mask = movement_mask(data.gyr, dataset.fs_hz, trim)
                 limit = dataset.acc_limit(rec["sensor_set"], rec["imu"])
                 if limit is None and (plateau := plateau_limit(data.acc)) is not None:
-                    limit, row["clipping_from_data"] = plateau, True  # clipped at a range nobody declared
-                clipped = mask & (np.abs(data.acc) >= limit).any(axis=1) if limit else np.zeros_like(mask)
+                    limit, row["clipping_from_data"] = (
+                        plateau,
+                        True,
+                    )  # clipped at a range nobody declared
+                clipped = (
+                    mask & (np.abs(data.acc) >= limit).any(axis=1) if limit else np.zeros_like(mask)
+                )
                 row["n_clipped"] = int(clipped.sum())
                 if row["n_clipped"] > MAX_CLIPPED_FRACTION * mask.sum():
-                    raise SaturatedError(f"{row['n_clipped']} of {int(mask.sum())} moving samples are clipped at "
-                                         f"the accelerometer range (more than {MAX_CLIPPED_FRACTION:.0%})")
+                    raise SaturatedError(
+                        f"{row['n_clipped']} of {int(mask.sum())} moving samples are clipped at "
+                        f"the accelerometer range (more than {MAX_CLIPPED_FRACTION:.0%})"
+                    )
                 mask = mask & ~clipped
                 kept = data.acc[mask]
                 row["n_samples"] = int(mask.sum())
@@ -99,15 +144,22 @@ def summarise_recordings(dataset: Dataset, subject: str | None = None,
 
 def all_subsets(repetitions: list[int]) -> list[tuple[int, ...]]:
     """Every non-empty subset of the repetitions, by size then lexicographically (31 for 5)."""
-    return [c for k in range(1, len(repetitions) + 1) for c in itertools.combinations(repetitions, k)]
+    return [
+        c for k in range(1, len(repetitions) + 1) for c in itertools.combinations(repetitions, k)
+    ]
 
 
 def subset_label(subset) -> str:
+    """``(1, 3)`` -> ``'R1+R3'`` (the inverse of :func:`aceval.objectives.parse_subset`)."""
     return "+".join(f"R{r}" for r in subset)
 
 
-def calibrate(dataset: Dataset, summaries: pd.DataFrame, subsets: str = "all",
-              limits: KongLimits = KongLimits()) -> tuple[pd.DataFrame, pd.DataFrame]:
+def calibrate(
+    dataset: Dataset,
+    summaries: pd.DataFrame,
+    subsets: str = "all",
+    limits: KongLimits = KongLimits(),
+) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Every calibration of the IMUs in ``summaries``: ``(calibrations, axes)``.
 
     Datasets with ``functional_axes.tsv`` (Ricci's protocol) get the functional design
@@ -120,16 +172,26 @@ def calibrate(dataset: Dataset, summaries: pd.DataFrame, subsets: str = "all",
 
 def _identity(dataset: Dataset, subject: str, sensor_set: str, imu: str) -> dict:
     segment, side = dataset.imus.loc[(sensor_set, imu), ["segment", "side"]]
-    return {"subject": subject, "sensor_set": sensor_set, "imu": imu, "segment": segment, "side": side}
+    return {
+        "subject": subject,
+        "sensor_set": sensor_set,
+        "imu": imu,
+        "segment": segment,
+        "side": side,
+    }
 
 
 def _truth_columns(truth, R) -> dict:
     """``error_deg`` and ``error_vertical_share`` of ``R`` (3x3 or a stack) against the ground
-    truth (NaN without)."""
+    truth (NaN without).
+    """
     if truth is None or R is None:
         shape = np.shape(R)[:-2] if R is not None else ()
         return {"error_deg": np.full(shape, np.nan), "error_vertical_share": np.full(shape, np.nan)}
-    return {"error_deg": error_angle_deg(R, truth), "error_vertical_share": vertical_share(R, truth)}
+    return {
+        "error_deg": error_angle_deg(R, truth),
+        "error_vertical_share": vertical_share(R, truth),
+    }
 
 
 def _method_rows(base: dict, fits: dict, truth) -> list[dict]:
@@ -138,16 +200,29 @@ def _method_rows(base: dict, fits: dict, truth) -> list[dict]:
     for method in AXIS_METHODS:
         fit = fits[method]
         R = fit.get("R")
-        row = {**base, "method": method, **dict(zip(R_COLUMNS, R.ravel() if R is not None else [np.nan] * 9)),
-               "flag": fit.get("flag", ""), **{k: float(v) for k, v in _truth_columns(truth, R).items()}}
+        row = {
+            **base,
+            "method": method,
+            **dict(zip(R_COLUMNS, R.ravel() if R is not None else [np.nan] * 9)),
+            "flag": fit.get("flag", ""),
+            **{k: float(v) for k, v in _truth_columns(truth, R).items()},
+        }
         row.update({k: v for k, v in fit.items() if k in LM_COLUMNS})
         rows.append(row)
     return rows
 
 
-LM_COLUMNS = ["n_iterations", "converged", "cost", "random_starts", "random_starts_optimum",
-              "random_start_iterations_mean", "random_start_iterations_max", "first_phase_agreement",
-              "right_axis_angle_deg"]
+LM_COLUMNS = [
+    "n_iterations",
+    "converged",
+    "cost",
+    "random_starts",
+    "random_starts_optimum",
+    "random_start_iterations_mean",
+    "random_start_iterations_max",
+    "first_phase_agreement",
+    "right_axis_angle_deg",
+]
 
 
 def _static_axes(summaries: pd.DataFrame) -> tuple[pd.DataFrame, dict]:
@@ -155,14 +230,17 @@ def _static_axes(summaries: pd.DataFrame) -> tuple[pd.DataFrame, dict]:
     static = summaries[(summaries["kind"] == "static") & (summaries["flag"] == "")]
     z0 = static.groupby(KEY)[["z0_x", "z0_y", "z0_z"]].mean()
     z0 = z0.div(np.linalg.norm(z0.to_numpy(), axis=1), axis=0)
-    axes = {key: (pool(group), ",".join(sorted(group["test"].unique())), len(group))
-            for key, group in static.groupby(KEY)}
+    axes = {
+        key: (pool(group), ",".join(sorted(group["test"].unique())), len(group))
+        for key, group in static.groupby(KEY)
+    }
     return z0, axes
 
 
 def imu_checks(dataset: Dataset, summaries: pd.DataFrame) -> dict[tuple, dict]:
     """Per (subject, set, IMU), what its motion recordings say about the sensor itself
-    (:func:`aceval.checks.sensor_problem`; walking recordings are left out of the agreement)."""
+    (:func:`aceval.checks.sensor_problem`; walking recordings are left out of the agreement).
+    """
     motion = summaries[summaries["kind"] == "motion"]
     if motion.empty or AGREEMENT_COLUMNS[0] not in motion:
         return {}
@@ -170,25 +248,42 @@ def imu_checks(dataset: Dataset, summaries: pd.DataFrame) -> dict[tuple, dict]:
     out = {}
     for key, group in motion.groupby(KEY, sort=False):
         summed = group.loc[~gait[group.index], AGREEMENT_COLUMNS].sum().to_numpy(float)
-        verdict = sensor_problem(summed, float(group["gyro_p995_deg_s"].max()), dataset.meta["units"]["gyr"])
+        verdict = sensor_problem(
+            summed, float(group["gyro_p995_deg_s"].max()), dataset.meta["units"]["gyr"]
+        )
         if verdict["message"]:
             verdict["message"] = f"{' '.join(key)}: {verdict['message']}"
         out[key] = verdict
     return out
 
 
-def _direction(dataset: Dataset, test: str, segment: str, group: pd.DataFrame, membership, R, right) -> dict:
-    third = group[THIRD_MOMENT_COLUMNS].to_numpy(float) if THIRD_MOMENT_COLUMNS[0] in group else None
-    return direction_checks(dataset.first_phase(test), segment, group[PHASE_COLUMNS].to_numpy(float), third,
-                            membership, R, right)
+def _direction(
+    dataset: Dataset, test: str, segment: str, group: pd.DataFrame, membership, R, right
+) -> dict:
+    third = (
+        group[THIRD_MOMENT_COLUMNS].to_numpy(float) if THIRD_MOMENT_COLUMNS[0] in group else None
+    )
+    return direction_checks(
+        dataset.first_phase(test),
+        segment,
+        group[PHASE_COLUMNS].to_numpy(float),
+        third,
+        membership,
+        R,
+        right,
+    )
 
 
 def _first_flag(*flags) -> str:
     return next((f for f in flags if f), "")
 
 
-def calibrate_sagittal(dataset: Dataset, summaries: pd.DataFrame, subsets: str = "all",
-                       limits: KongLimits = KongLimits()) -> tuple[pd.DataFrame, pd.DataFrame]:
+def calibrate_sagittal(
+    dataset: Dataset,
+    summaries: pd.DataFrame,
+    subsets: str = "all",
+    limits: KongLimits = KongLimits(),
+) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Kong calibrations for every (subject, set, IMU, motion test) in ``summaries`` and every
     subset of its usable repetitions (``subsets='all'``) or all of them together (``'full'``);
     for all the repetitions together, also the axis methods (:func:`aceval.functional.sagittal_fits`).
@@ -206,7 +301,9 @@ def calibrate_sagittal(dataset: Dataset, summaries: pd.DataFrame, subsets: str =
     motion = summaries[(summaries["kind"] == "motion") & (summaries["flag"] == "")]
     out, axes = [], []
     for key, (estimate, tests, n_recordings) in static_axes.items():
-        axes.append(_axis_row(_identity(dataset, *key), tests, "static", estimate, "-z", n_recordings))
+        axes.append(
+            _axis_row(_identity(dataset, *key), tests, "static", estimate, "-z", n_recordings)
+        )
     for (subject, sensor_set, imu, test), group in motion.groupby(KEY + ["test"], sort=True):
         group = group.sort_values("rep")
         reps = [int(r) for r in group["rep"]]
@@ -218,54 +315,107 @@ def calibrate_sagittal(dataset: Dataset, summaries: pd.DataFrame, subsets: str =
         z0_imu = z0.loc[(subject, sensor_set, imu)].to_numpy(float)
         members = [[index[r] for r in subset] for subset in chosen]
         result = kong_from_scatters(
-            group[SCATTER_COLUMNS].to_numpy(float).reshape(-1, 3, 3), group["n_samples"].to_numpy(float),
-            z0_imu, right, members, limits=limits, strict=False,
+            group[SCATTER_COLUMNS].to_numpy(float).reshape(-1, 3, 3),
+            group["n_samples"].to_numpy(float),
+            z0_imu,
+            right,
+            members,
+            limits=limits,
+            strict=False,
         )
         membership = np.zeros((len(chosen), len(reps)))
         for row, subset in enumerate(members):
             membership[row, subset] = 1.0
-        rho_motion, gyro_axes = subset_axes(group[UNIT_SCATTER_COLUMNS].to_numpy(float).reshape(-1, 3, 3), membership)
-        gyro_angle = np.degrees(np.arccos(np.clip(np.abs(np.einsum("ki,ki->k", result.R[:, 1], gyro_axes)), 0.0, 1.0)))
+        rho_motion, gyro_axes = subset_axes(
+            group[UNIT_SCATTER_COLUMNS].to_numpy(float).reshape(-1, 3, 3), membership
+        )
+        gyro_angle = np.degrees(
+            np.arccos(np.clip(np.abs(np.einsum("ki,ki->k", result.R[:, 1], gyro_axes)), 0.0, 1.0))
+        )
         static_axis, z0_tests, _ = static_axes[(subject, sensor_set, imu)]
         rho_static = static_axis.rho
         truth = dataset.ground_truth_matrix(subject, sensor_set, imu)
         errors = _truth_columns(truth, result.R)
         identity = _identity(dataset, subject, sensor_set, imu)
         sensor = sensors.get((subject, sensor_set, imu), {"flag": ""})
-        sensor_columns = {k: sensor.get(k, np.nan) for k in ("gyro_acc_agreement", "gyro_acc_evidence_deg")}
-        direction = _direction(dataset, test, identity["segment"], group, membership, result.R, right)
+        sensor_columns = {
+            k: sensor.get(k, np.nan) for k in ("gyro_acc_agreement", "gyro_acc_evidence_deg")
+        }
+        direction = _direction(
+            dataset, test, identity["segment"], group, membership, result.R, right
+        )
         # forward or backward is a property of the IMU's mounting: judged on all repetitions together
         # (the largest subset, last), it holds for every subset of them
-        full = _direction(dataset, test, identity["segment"], group, np.ones((1, len(reps))), result.R[-1:], right)
-        own_mismatch = np.where(direction["flag"] == "right_axis_mismatch", "right_axis_mismatch", "")
+        full = _direction(
+            dataset, test, identity["segment"], group, np.ones((1, len(reps))), result.R[-1:], right
+        )
+        own_mismatch = np.where(
+            direction["flag"] == "right_axis_mismatch", "right_axis_mismatch", ""
+        )
         direction["flag"] = np.where(full["flag"][0] == "backward", "backward", own_mismatch)
         for k, subset in enumerate(chosen):
-            out.append({
-                **identity, "test": test, "repetitions": subset_label(subset), "n_reps": len(subset), "method": "kong",
-                **dict(zip(R_COLUMNS, result.R[k].ravel())),
-                "n_samples": int(result.n_samples[k]),
-                "eig1": result.eigenvalues[k, 0], "eig2": result.eigenvalues[k, 1], "eig3": result.eigenvalues[k, 2],
-                "planarity": result.planarity[k], "normal_ratio": result.normal_ratio[k],
-                "normal_vertical_angle_deg": result.normal_vertical_angle_deg[k],
-                "rho_static": rho_static, "rho_motion": rho_motion[k], "z0_tests": z0_tests,
-                "normal_gyro_angle_deg": gyro_angle[k], "first_phase_agreement": direction["first_phase_agreement"][k],
-                "right_axis_angle_deg": direction["right_axis_angle_deg"][k], **sensor_columns,
-                "flag": _first_flag(sensor["flag"], result.flag[k], "normal_gyro_disagree" if gyro_angle[k] >
-                                    MAX_NORMAL_GYRO_ANGLE_DEG else "", direction["flag"][k]),
-                **{name: values[k] for name, values in errors.items()},
-            })
+            out.append(
+                {
+                    **identity,
+                    "test": test,
+                    "repetitions": subset_label(subset),
+                    "n_reps": len(subset),
+                    "method": "kong",
+                    **dict(zip(R_COLUMNS, result.R[k].ravel())),
+                    "n_samples": int(result.n_samples[k]),
+                    "eig1": result.eigenvalues[k, 0],
+                    "eig2": result.eigenvalues[k, 1],
+                    "eig3": result.eigenvalues[k, 2],
+                    "planarity": result.planarity[k],
+                    "normal_ratio": result.normal_ratio[k],
+                    "normal_vertical_angle_deg": result.normal_vertical_angle_deg[k],
+                    "rho_static": rho_static,
+                    "rho_motion": rho_motion[k],
+                    "z0_tests": z0_tests,
+                    "normal_gyro_angle_deg": gyro_angle[k],
+                    "first_phase_agreement": direction["first_phase_agreement"][k],
+                    "right_axis_angle_deg": direction["right_axis_angle_deg"][k],
+                    **sensor_columns,
+                    "flag": _first_flag(
+                        sensor["flag"],
+                        result.flag[k],
+                        "normal_gyro_disagree" if gyro_angle[k] > MAX_NORMAL_GYRO_ANGLE_DEG else "",
+                        direction["flag"][k],
+                    ),
+                    **{name: values[k] for name, values in errors.items()},
+                }
+            )
         gyro_axis = pool(group, orient=right)
         axes.append(_axis_row(identity, test, "motion", gyro_axis, "+y", len(reps)))
         spread = axis_spread_deg(group[PHASE_COLUMNS].to_numpy(float), gyro_axis.axis)
-        base = {**identity, "test": test, "repetitions": subset_label(reps), "n_reps": len(reps),
-                "n_samples": int(group["n_samples"].sum()), "rho_static": rho_static, "rho_motion": gyro_axis.rho,
-                "z0_tests": z0_tests, "axis_spread_deg": spread, **sensor_columns}
+        base = {
+            **identity,
+            "test": test,
+            "repetitions": subset_label(reps),
+            "n_reps": len(reps),
+            "n_samples": int(group["n_samples"].sum()),
+            "rho_static": rho_static,
+            "rho_motion": gyro_axis.rho,
+            "z0_tests": z0_tests,
+            "axis_spread_deg": spread,
+            **sensor_columns,
+        }
         fits = sagittal_fits(z0_imu, rho_static, gyro_axis.axis, gyro_axis.rho, spread)
         all_reps = np.ones((1, len(reps)))
         for method in AXIS_METHODS:  # the same direction checks as Kong's
             if fits[method].get("R") is not None:
-                checked = _direction(dataset, test, identity["segment"], group, all_reps, fits[method]["R"][None], right)
-                fits[method]["flag"] = _first_flag(sensor["flag"], fits[method].get("flag", ""), checked["flag"][0])
+                checked = _direction(
+                    dataset,
+                    test,
+                    identity["segment"],
+                    group,
+                    all_reps,
+                    fits[method]["R"][None],
+                    right,
+                )
+                fits[method]["flag"] = _first_flag(
+                    sensor["flag"], fits[method].get("flag", ""), checked["flag"][0]
+                )
                 fits[method]["first_phase_agreement"] = checked["first_phase_agreement"][0]
                 fits[method]["right_axis_angle_deg"] = checked["right_axis_angle_deg"][0]
         out += _method_rows(base, fits, truth)
@@ -277,7 +427,8 @@ def propagate_backward(calibrations: pd.DataFrame) -> pd.DataFrame:
     """Tests whose direction cannot be checked (e.g. the thigh in walking) inherit the verdict of a
     checked test of the same IMU: every test's y axis takes its sign from the same ``right_axis``,
     so a calibration within 90 deg of one found backward is backward too. Judged on Kong's
-    calibrations from all repetitions; the flag goes to every calibration (and method) of the test."""
+    calibrations from all repetitions; the flag goes to every calibration (and method) of the test.
+    """
     if calibrations.empty or "first_phase_agreement" not in calibrations:
         return calibrations
     kong = calibrations[calibrations["method"] == "kong"]
@@ -292,25 +443,57 @@ def propagate_backward(calibrations: pd.DataFrame) -> pd.DataFrame:
         R_backward = backward[R_COLUMNS].to_numpy(float).reshape(1, -1, 3, 3)
         near = (error_angle_deg(R_unchecked, R_backward) < 90.0).any(axis=1)
         for test in unchecked["test"][near]:
-            same = ((calibrations[KEY] == imu.iloc[0][KEY]).all(axis=1) & (calibrations["test"] == test)).to_numpy()
+            same = (
+                (calibrations[KEY] == imu.iloc[0][KEY]).all(axis=1) & (calibrations["test"] == test)
+            ).to_numpy()
             flags[same & (flags == "")] = "backward"
     return calibrations.assign(flag=flags)
 
 
-AXES_COLUMNS = ["subject", "sensor_set", "imu", "segment", "side", "test", "kind", "signal", "n_recordings",
-                "n_samples", "axis_x", "axis_y", "axis_z", "rho", "reference", "residual_before_deg",
-                "residual_after_deg"]
+AXES_COLUMNS = [
+    "subject",
+    "sensor_set",
+    "imu",
+    "segment",
+    "side",
+    "test",
+    "kind",
+    "signal",
+    "n_recordings",
+    "n_samples",
+    "axis_x",
+    "axis_y",
+    "axis_z",
+    "rho",
+    "reference",
+    "residual_before_deg",
+    "residual_after_deg",
+]
 
 
-def _axis_row(identity: dict, test: str, kind: str, estimate, reference: str, n_recordings: int | None = None) -> dict:
-    return {**identity, "test": test, "kind": kind, "signal": "acc" if kind == "static" else "gyr",
-            "n_recordings": n_recordings, "n_samples": estimate.n_samples,
-            "axis_x": estimate.axis[0], "axis_y": estimate.axis[1], "axis_z": estimate.axis[2],
-            "rho": estimate.rho, "reference": reference,
-            "residual_before_deg": np.nan, "residual_after_deg": np.nan}
+def _axis_row(
+    identity: dict, test: str, kind: str, estimate, reference: str, n_recordings: int | None = None
+) -> dict:
+    return {
+        **identity,
+        "test": test,
+        "kind": kind,
+        "signal": "acc" if kind == "static" else "gyr",
+        "n_recordings": n_recordings,
+        "n_samples": estimate.n_samples,
+        "axis_x": estimate.axis[0],
+        "axis_y": estimate.axis[1],
+        "axis_z": estimate.axis[2],
+        "rho": estimate.rho,
+        "reference": reference,
+        "residual_before_deg": np.nan,
+        "residual_after_deg": np.nan,
+    }
 
 
-def calibrate_functional(dataset: Dataset, summaries: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+def calibrate_functional(
+    dataset: Dataset, summaries: pd.DataFrame
+) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Ricci's protocol: for every (subject, set, IMU), the axes of the tests functional_axes.tsv
     lists for its segment (each pooled over all trials: Ricci computes rho from the 9-12
     repetitions of a movement), then one calibration per axis method.
@@ -333,8 +516,16 @@ def calibrate_functional(dataset: Dataset, summaries: pd.DataFrame) -> tuple[pd.
         rows = []
         for (*_, test, kind), moments in zip(per_test.index, per_test.to_numpy(float)):
             estimate = pool_summed(moments, orient="mean" if kind == "static" else "phase")
-            rows.append(_axis_row(identity, test, kind, estimate, reference.get(test, ""),
-                                  int(counts[(subject, sensor_set, imu, test, kind)])))
+            rows.append(
+                _axis_row(
+                    identity,
+                    test,
+                    kind,
+                    estimate,
+                    reference.get(test, ""),
+                    int(counts[(subject, sensor_set, imu, test, kind)]),
+                )
+            )
         table = pd.DataFrame(rows)
         used = table[table["reference"] != ""]
         if len(used) >= 2:
@@ -343,20 +534,48 @@ def calibrate_functional(dataset: Dataset, summaries: pd.DataFrame) -> tuple[pd.
             if lm.get("R") is not None:
                 table.loc[used.index, "residual_before_deg"] = lm["residual_before_deg"]
                 table.loc[used.index, "residual_after_deg"] = lm["residual_after_deg"]
-            base = {**identity, "test": "+".join(used["test"]), "repetitions": "all",
-                    "n_reps": int(used["n_recordings"].sum()), "n_samples": int(used["n_samples"].sum())}
-            calibrations += _method_rows(base, fits, dataset.ground_truth_matrix(subject, sensor_set, imu))
+            base = {
+                **identity,
+                "test": "+".join(used["test"]),
+                "repetitions": "all",
+                "n_reps": int(used["n_recordings"].sum()),
+                "n_samples": int(used["n_samples"].sum()),
+            }
+            calibrations += _method_rows(
+                base, fits, dataset.ground_truth_matrix(subject, sensor_set, imu)
+            )
         axes.append(table)
-    return pd.DataFrame(calibrations, columns=None if calibrations else CALIBRATION_COLUMNS), (pd.concat(axes, ignore_index=True)[AXES_COLUMNS] if axes
-                                        else pd.DataFrame(columns=AXES_COLUMNS))
+    return pd.DataFrame(calibrations, columns=None if calibrations else CALIBRATION_COLUMNS), (
+        pd.concat(axes, ignore_index=True)[AXES_COLUMNS]
+        if axes
+        else pd.DataFrame(columns=AXES_COLUMNS)
+    )
 
 
-CORRELATION_COLUMNS = ["objective", "subject", "sensor_set", "imu", "imu_b", "segment", "pair", "side",
-                       "t_ex", "t_ap", "rep", "signal", "correlation", "flag"]
+CORRELATION_COLUMNS = [
+    "objective",
+    "subject",
+    "sensor_set",
+    "imu",
+    "imu_b",
+    "segment",
+    "pair",
+    "side",
+    "t_ex",
+    "t_ap",
+    "rep",
+    "signal",
+    "correlation",
+    "flag",
+]
 
 
-def correlations(dataset: Dataset, calibrations: pd.DataFrame, mode: str = "concatenated",
-                 segment_pairs: dict | None = None) -> pd.DataFrame:
+def correlations(
+    dataset: Dataset,
+    calibrations: pd.DataFrame,
+    mode: str = "concatenated",
+    segment_pairs: dict | None = None,
+) -> pd.DataFrame:
     """Kong Obj 1 and 2 (Eq. 7-10) for the subjects in ``calibrations``: full-set calibrations
     applied to every repetition of every motion test (T_ap), correlation per recording.
 
@@ -370,7 +589,9 @@ def correlations(dataset: Dataset, calibrations: pd.DataFrame, mode: str = "conc
         return pd.DataFrame(columns=CORRELATION_COLUMNS)
     full = full_sets(calibrations)
     motion = [t for t in dataset.tests.index if dataset.tests.loc[t, "kind"] == "motion"]
-    paths = dataset.recordings.set_index(["subject", "sensor_set", "test", "rep", "imu"])["path"].to_dict()
+    paths = dataset.recordings.set_index(["subject", "sensor_set", "test", "rep", "imu"])[
+        "path"
+    ].to_dict()
     reps: dict = {}
     for subject, sensor_set, test, rep, imu in paths:
         reps.setdefault((subject, sensor_set, test, imu), []).append(rep)
@@ -390,30 +611,58 @@ def correlations(dataset: Dataset, calibrations: pd.DataFrame, mode: str = "conc
             if len(a.t) != len(b.t):
                 row.update(correlation=np.nan, flag="lengths_differ")
             else:
-                row["correlation"] = correlation_3d(getattr(a, signal) @ R_a.T, getattr(b, signal) @ R_b.T, mode)
+                row["correlation"] = correlation_3d(
+                    getattr(a, signal) @ R_a.T, getattr(b, signal) @ R_b.T, mode
+                )
             rows.append(row)
 
     rows: list[dict] = []
     sensor_sets = list(dataset.meta["sensor_sets"])
     if len(sensor_sets) == 2 and len(full):
         for plan in frontal_lateral_plan(full, sensor_sets).to_dict("records"):
-            base = {"objective": "frontal_lateral", "subject": plan["subject"], "sensor_set": "|".join(sensor_sets),
-                    "imu": plan["imu"], "segment": plan["segment"], "side": plan["side"], "t_ex": plan["t_ex"]}
+            base = {
+                "objective": "frontal_lateral",
+                "subject": plan["subject"],
+                "sensor_set": "|".join(sensor_sets),
+                "imu": plan["imu"],
+                "segment": plan["segment"],
+                "side": plan["side"],
+                "t_ex": plan["t_ex"],
+            }
             for t_ap in motion:
-                for rep in sorted(reps.get((plan["subject"], sensor_sets[0], t_ap, plan["imu"]), [])):
-                    correlate({**base, "t_ap": t_ap},
-                              (plan["subject"], sensor_sets[0], t_ap, rep, plan["imu"]),
-                              (plan["subject"], sensor_sets[1], t_ap, rep, plan["imu"]),
-                              plan["R_a"], plan["R_b"], ("acc", "gyr"))
+                for rep in sorted(
+                    reps.get((plan["subject"], sensor_sets[0], t_ap, plan["imu"]), [])
+                ):
+                    correlate(
+                        {**base, "t_ap": t_ap},
+                        (plan["subject"], sensor_sets[0], t_ap, rep, plan["imu"]),
+                        (plan["subject"], sensor_sets[1], t_ap, rep, plan["imu"]),
+                        plan["R_a"],
+                        plan["R_b"],
+                        ("acc", "gyr"),
+                    )
     if segment_pairs and len(full):
         for plan in segment_pair_plan(full, segment_pairs).to_dict("records"):
-            base = {"objective": "segment_pair", "subject": plan["subject"], "sensor_set": plan["sensor_set"],
-                    "imu": plan["imu_a"], "imu_b": plan["imu_b"], "pair": plan["pair"], "side": plan["side"],
-                    "t_ex": plan["t_ex"]}
+            base = {
+                "objective": "segment_pair",
+                "subject": plan["subject"],
+                "sensor_set": plan["sensor_set"],
+                "imu": plan["imu_a"],
+                "imu_b": plan["imu_b"],
+                "pair": plan["pair"],
+                "side": plan["side"],
+                "t_ex": plan["t_ex"],
+            }
             for t_ap in [t for t in plan["t_ap"] if t in motion]:
-                for rep in sorted(reps.get((plan["subject"], plan["sensor_set"], t_ap, plan["imu_a"]), [])):
-                    correlate({**base, "t_ap": t_ap},
-                              (plan["subject"], plan["sensor_set"], t_ap, rep, plan["imu_a"]),
-                              (plan["subject"], plan["sensor_set"], t_ap, rep, plan["imu_b"]),
-                              plan["R_a"], plan["R_b"], ("acc",))
+                for rep in sorted(
+                    reps.get((plan["subject"], plan["sensor_set"], t_ap, plan["imu_a"]), [])
+                ):
+                    correlate(
+                        {**base, "t_ap": t_ap},
+                        (plan["subject"], plan["sensor_set"], t_ap, rep, plan["imu_a"]),
+                        (plan["subject"], plan["sensor_set"], t_ap, rep, plan["imu_b"]),
+                        plan["R_a"],
+                        plan["R_b"],
+                        ("acc",),
+                    )
     return pd.DataFrame(rows, columns=CORRELATION_COLUMNS)

@@ -35,18 +35,29 @@ def _published_table1() -> pd.DataFrame:
         for column in wide.columns:
             if column.endswith("_mean") and np.isfinite(row[column]):
                 segment = column[: -len("_mean")]
-                rows.append({"test": row["code"], "segment": segment, "published_mean": row[column],
-                             "published_sd": row[f"{segment}_sd"]})
+                rows.append(
+                    {
+                        "test": row["code"],
+                        "segment": segment,
+                        "published_mean": row[column],
+                        "published_sd": row[f"{segment}_sd"],
+                    }
+                )
     return pd.DataFrame(rows)
 
 
 def rho_table(axes: pd.DataFrame, paper_names: dict | None = None) -> pd.DataFrame:
     """Ricci Table 1: rho mean, SD and n (subjects) per test and segment (with side), the
-    published value beside it (tests renamed with ``paper_names``, e.g. S -> 'TS/US/FS')."""
+    published value beside it (tests renamed with ``paper_names``, e.g. S -> 'TS/US/FS').
+    """
     names = paper_names or {}
-    data = axes.assign(segment=segment_label(axes["segment"], axes["side"]),
-                       test=axes["test"].map(lambda t: names.get(t, t)))
-    result = data.groupby(["test", "segment"])["rho"].agg(mean="mean", sd="std", n="count").reset_index()
+    data = axes.assign(
+        segment=segment_label(axes["segment"], axes["side"]),
+        test=axes["test"].map(lambda t: names.get(t, t)),
+    )
+    result = (
+        data.groupby(["test", "segment"])["rho"].agg(mean="mean", sd="std", n="count").reset_index()
+    )
     merged = result.merge(_published_table1(), on=["test", "segment"], how="outer")
     merged["difference"] = merged["mean"] - merged["published_mean"]
     return merged
@@ -68,59 +79,107 @@ def supported_ttest(axes: pd.DataFrame) -> pd.DataFrame:
             if not {supported, unsupported} <= set(wide.columns):
                 continue
             wide = wide[[supported, unsupported]].dropna()
-            rows.append({"segment": label, "supported": supported, "unsupported": unsupported,
-                         **paired_ttest(wide[supported].to_numpy(), wide[unsupported].to_numpy())})
+            rows.append(
+                {
+                    "segment": label,
+                    "supported": supported,
+                    "unsupported": unsupported,
+                    **paired_ttest(wide[supported].to_numpy(), wide[unsupported].to_numpy()),
+                }
+            )
     result = pd.DataFrame(rows, columns=["segment", "supported", "unsupported", *TTEST_COLUMNS])
     result["p_holm"] = holm(result["p"])
     published = _published_table1().set_index(["test", "segment"])
     for side, column in (("a", "supported"), ("b", "unsupported")):
         keys = list(zip(result[column], result["segment"]))
-        result[f"published_mean_{side}"] = [published["published_mean"].get(k, np.nan) for k in keys]
+        result[f"published_mean_{side}"] = [
+            published["published_mean"].get(k, np.nan) for k in keys
+        ]
     result["published_p"] = "< 0.05"
     return result
 
 
 def _published_lm() -> pd.DataFrame:
-    return pd.read_csv(REFERENCE / "lm_published.csv", comment="#", dtype={"test": str}).fillna({"test": ""})
+    return pd.read_csv(REFERENCE / "lm_published.csv", comment="#", dtype={"test": str}).fillna(
+        {"test": ""}
+    )
 
 
 def lm_table(calibrations: pd.DataFrame) -> pd.DataFrame:
     """LM iterations per frame (mean, SD, n IMUs), the share that converged, and the random starts:
-    the share that reach the closed-form optimum and their iterations; published beside."""
+    the share that reach the closed-form optimum and their iterations; published beside.
+    """
     lm = calibrations[calibrations["method"] == "ricci_lm"]
-    result = lm.groupby("segment").agg(
-        mean=("n_iterations", "mean"), sd=("n_iterations", "std"), n=("n_iterations", "count"),
-        converged_share=("converged", "mean"),
-        random_starts=("random_starts", "sum"), random_starts_optimum=("random_starts_optimum", "sum"),
-        random_start_iterations_mean=("random_start_iterations_mean", "mean"),
-        random_start_iterations_max=("random_start_iterations_max", "max"),
-    ).reset_index()
-    result["random_starts_optimum_share"] = result["random_starts_optimum"] / result["random_starts"]
-    result[["random_starts", "random_starts_optimum"]] = result[["random_starts", "random_starts_optimum"]].astype(int)
-    published = _published_lm().query("quantity == 'iterations'").rename(
-        columns={"frame": "segment", "mean": "published_mean", "sd": "published_sd"})
-    merged = result.merge(published[["segment", "published_mean", "published_sd"]], on="segment", how="outer")
+    result = (
+        lm.groupby("segment")
+        .agg(
+            mean=("n_iterations", "mean"),
+            sd=("n_iterations", "std"),
+            n=("n_iterations", "count"),
+            converged_share=("converged", "mean"),
+            random_starts=("random_starts", "sum"),
+            random_starts_optimum=("random_starts_optimum", "sum"),
+            random_start_iterations_mean=("random_start_iterations_mean", "mean"),
+            random_start_iterations_max=("random_start_iterations_max", "max"),
+        )
+        .reset_index()
+    )
+    result["random_starts_optimum_share"] = (
+        result["random_starts_optimum"] / result["random_starts"]
+    )
+    result[["random_starts", "random_starts_optimum"]] = result[
+        ["random_starts", "random_starts_optimum"]
+    ].astype(int)
+    published = (
+        _published_lm()
+        .query("quantity == 'iterations'")
+        .rename(columns={"frame": "segment", "mean": "published_mean", "sd": "published_sd"})
+    )
+    merged = result.merge(
+        published[["segment", "published_mean", "published_sd"]], on="segment", how="outer"
+    )
     merged["difference"] = merged["mean"] - merged["published_mean"]
     return merged
 
 
 def residual_table(axes: pd.DataFrame, paper_names: dict | None = None) -> pd.DataFrame:
     """Ricci Fig. 5 / Eq. 13: residual angle (deg) between each reference axis and its estimate,
-    before (identity) and after the LM fit, mean and SD per segment (with side) and test."""
+    before (identity) and after the LM fit, mean and SD per segment (with side) and test.
+    """
     names = paper_names or {}
     used = axes.dropna(subset=["residual_after_deg"])
     data = used.assign(segment=segment_label(used["segment"], used["side"]))
-    result = data.groupby(["segment", "test"]).agg(
-        before_mean=("residual_before_deg", "mean"), before_sd=("residual_before_deg", "std"),
-        mean=("residual_after_deg", "mean"), sd=("residual_after_deg", "std"),
-        n=("residual_after_deg", "count")).reset_index()
-    overall = data.groupby("segment").agg(
-        before_mean=("residual_before_deg", "mean"), before_sd=("residual_before_deg", "std"),
-        mean=("residual_after_deg", "mean"), sd=("residual_after_deg", "std"),
-        n=("residual_after_deg", "count")).reset_index().assign(test="all")
+    result = (
+        data.groupby(["segment", "test"])
+        .agg(
+            before_mean=("residual_before_deg", "mean"),
+            before_sd=("residual_before_deg", "std"),
+            mean=("residual_after_deg", "mean"),
+            sd=("residual_after_deg", "std"),
+            n=("residual_after_deg", "count"),
+        )
+        .reset_index()
+    )
+    overall = (
+        data.groupby("segment")
+        .agg(
+            before_mean=("residual_before_deg", "mean"),
+            before_sd=("residual_before_deg", "std"),
+            mean=("residual_after_deg", "mean"),
+            sd=("residual_after_deg", "std"),
+            n=("residual_after_deg", "count"),
+        )
+        .reset_index()
+        .assign(test="all")
+    )
     result = pd.concat([result, overall], ignore_index=True)
-    published = _published_lm().query("quantity == 'residual_after_deg'").rename(
-        columns={"frame": "segment", "mean": "published_mean"})[["segment", "test", "published_mean"]]
+    published = (
+        _published_lm()
+        .query("quantity == 'residual_after_deg'")
+        .rename(columns={"frame": "segment", "mean": "published_mean"})[
+            ["segment", "test", "published_mean"]
+        ]
+    )
     merged = result.merge(published, on=["segment", "test"], how="left")
     merged["difference"] = merged["mean"] - merged["published_mean"]
     merged["test"] = merged["test"].map(lambda t: names.get(t, t))
@@ -130,42 +189,62 @@ def residual_table(axes: pd.DataFrame, paper_names: dict | None = None) -> pd.Da
 # --- Kong's datasets -------------------------------------------------------------------------
 
 
-def kong_units(axes: pd.DataFrame, calibrations: pd.DataFrame, angles: pd.DataFrame | None) -> pd.DataFrame:
+def kong_units(
+    axes: pd.DataFrame, calibrations: pd.DataFrame, angles: pd.DataFrame | None
+) -> pd.DataFrame:
     """One row per (subject, set, IMU, motion test): rho of the gyroscope axis (Ricci), Kong's
     planarity (smallest/largest eigenvalue of the acceleration second moment; 0 = a perfect
-    plane), both from all repetitions, and the mean Obj 4 test-retest angle (deg)."""
+    plane), both from all repetitions, and the mean Obj 4 test-retest angle (deg).
+    """
     key = ["subject", "sensor_set", "imu", "test"]
     motion = axes[axes["kind"] == "motion"][key + ["segment", "side", "rho"]]
     units = motion.merge(full_sets(calibrations)[key + ["planarity"]], on=key, how="left")
     if angles is not None and len(angles):
-        retest = (angles[angles["comparison"] == "test_retest"].groupby(key)["error_angle_deg"].mean()
-                  .rename("test_retest_deg").reset_index())
+        retest = (
+            angles[angles["comparison"] == "test_retest"]
+            .groupby(key)["error_angle_deg"]
+            .mean()
+            .rename("test_retest_deg")
+            .reset_index()
+        )
         units = units.merge(retest, on=key, how="left")
     else:
         units["test_retest_deg"] = np.nan
     return units
 
 
-INDICES = {"rho_gyro": "rho of the gyroscope axis (Ricci Eq. 2; 1 = one axis)",
-           "planarity": "Kong planarity (smallest/largest eigenvalue; 0 = one plane)"}
+INDICES = {
+    "rho_gyro": "rho of the gyroscope axis (Ricci Eq. 2; 1 = one axis)",
+    "planarity": "Kong planarity (smallest/largest eigenvalue; 0 = one plane)",
+}
 
 
 def kong_reliability_table(units: pd.DataFrame) -> pd.DataFrame:
     """Both indices in Table 1's layout: mean, SD and n per test and segment."""
     long = units.rename(columns={"rho": "rho_gyro"}).melt(
-        id_vars=["test", "segment"], value_vars=list(INDICES), var_name="index", value_name="value")
-    return long.groupby(["index", "test", "segment"])["value"].agg(mean="mean", sd="std", n="count").reset_index()
+        id_vars=["test", "segment"], value_vars=list(INDICES), var_name="index", value_name="value"
+    )
+    return (
+        long.groupby(["index", "test", "segment"])["value"]
+        .agg(mean="mean", sd="std", n="count")
+        .reset_index()
+    )
 
 
 def reliability_vs_retest(units: pd.DataFrame) -> pd.DataFrame:
     """Spearman rank correlation of each index with the test-retest angle, over all units and
-    within each test (n = units)."""
+    within each test (n = units).
+    """
     rows = []
     data = units.rename(columns={"rho": "rho_gyro"})
     for index in INDICES:
         for test, group in [("all", data), *data.groupby("test", sort=True)]:
             pair = group[[index, "test_retest_deg"]].dropna()
-            if len(pair) >= 3 and pair[index].nunique() > 1 and pair["test_retest_deg"].nunique() > 1:
+            if (
+                len(pair) >= 3
+                and pair[index].nunique() > 1
+                and pair["test_retest_deg"].nunique() > 1
+            ):
                 from scipy import stats
 
                 result = stats.spearmanr(pair[index], pair["test_retest_deg"])

@@ -11,9 +11,12 @@ from scipy.spatial.transform import Rotation
 
 #: unit vectors of the declared sensor axes (imus.tsv ``right_axis``)
 AXIS_VECTORS = {
-    "+x": (1.0, 0.0, 0.0), "-x": (-1.0, 0.0, 0.0),
-    "+y": (0.0, 1.0, 0.0), "-y": (0.0, -1.0, 0.0),
-    "+z": (0.0, 0.0, 1.0), "-z": (0.0, 0.0, -1.0),
+    "+x": (1.0, 0.0, 0.0),
+    "-x": (-1.0, 0.0, 0.0),
+    "+y": (0.0, 1.0, 0.0),
+    "-y": (0.0, -1.0, 0.0),
+    "+z": (0.0, 0.0, 1.0),
+    "-z": (0.0, 0.0, -1.0),
 }
 
 
@@ -25,9 +28,7 @@ def axis_vector(spec: str) -> np.ndarray:
     try:
         return np.array(AXIS_VECTORS[key])
     except KeyError:
-        raise ValueError(
-            f"right_axis {spec!r} is not one of {', '.join(AXIS_VECTORS)}"
-        ) from None
+        raise ValueError(f"right_axis {spec!r} is not one of {', '.join(AXIS_VECTORS)}") from None
 
 
 def _as_rotation(matrices: np.ndarray) -> tuple[Rotation, tuple[int, ...]]:

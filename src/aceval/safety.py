@@ -42,11 +42,13 @@ def is_within(path: str | Path, folder: str | Path) -> bool:
     return path == folder or folder in path.parents
 
 
-def check_outputs(outputs: dict[str, str | Path], inputs: dict[str, str | Path],
-                  folders: tuple[str, ...] = ()) -> None:
+def check_outputs(
+    outputs: dict[str, str | Path], inputs: dict[str, str | Path], folders: tuple[str, ...] = ()
+) -> None:
     """Refuse any output that is or lies inside an input folder, is an input file, or (for the
     options named in ``folders``) contains an input. ``outputs`` and ``inputs`` map an option name
-    (for the message) to a path; None values are skipped."""
+    (for the message) to a path; None values are skipped.
+    """
     for option, out in outputs.items():
         if out is None:
             continue
@@ -55,18 +57,23 @@ def check_outputs(outputs: dict[str, str | Path], inputs: dict[str, str | Path],
                 continue
             if is_within(out, source):
                 what = "is" if _resolved(out) == _resolved(source) else "lies inside"
-                raise UnsafeOutputError(f"{option} {out} {what} the input {name} {source}: aceval never "
-                                        f"writes into its inputs; choose an output outside it")
+                raise UnsafeOutputError(
+                    f"{option} {out} {what} the input {name} {source}: aceval never "
+                    f"writes into its inputs; choose an output outside it"
+                )
             if option in folders and is_within(source, out):
-                raise UnsafeOutputError(f"{option} {out} contains the input {name} {source}: replacing it "
-                                        f"would delete the input; choose another folder")
+                raise UnsafeOutputError(
+                    f"{option} {out} contains the input {name} {source}: replacing it "
+                    f"would delete the input; choose another folder"
+                )
         if option not in folders and Path(out).is_dir():
             raise UnsafeOutputError(f"{option} {out} is a folder; give a file name")
 
 
 def contained(root: str | Path, relative: str | PurePath) -> Path:
     """``root / relative`` after checking that ``relative`` is relative and stays inside ``root``
-    (no absolute path, no ``..`` that climbs out); raises UnsafeOutputError otherwise."""
+    (no absolute path, no ``..`` that climbs out); raises UnsafeOutputError otherwise.
+    """
     relative = PurePath(relative)
     if relative.is_absolute() or relative.drive:
         raise UnsafeOutputError(f"{relative} is an absolute path; paths must be relative to {root}")
@@ -93,16 +100,21 @@ def path_problem(relative: str) -> str:
 def staged_folder(out: str | Path, force: bool, write) -> None:
     """Call ``write(folder)`` on a hidden staging sibling of ``out``, mark it as aceval's and move
     it into place: a failed run leaves nothing behind. A non-empty ``out`` is only replaced with
-    ``force`` and only when aceval wrote it (it holds :data:`MARKER`)."""
+    ``force`` and only when aceval wrote it (it holds :data:`MARKER`).
+    """
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise UnsafeOutputError(f"{out} exists and is a file, not a folder")
     if out.is_dir() and any(out.iterdir()):
         if not force:
-            raise UnsafeOutputError(f"{out} exists and is not empty (use --force to replace a folder aceval wrote)")
+            raise UnsafeOutputError(
+                f"{out} exists and is not empty (use --force to replace a folder aceval wrote)"
+            )
         if not (out / MARKER).is_file():
-            raise UnsafeOutputError(f"{out} was not written by aceval (it has no {MARKER} file): --force only "
-                                    f"replaces folders aceval wrote itself; choose a new folder")
+            raise UnsafeOutputError(
+                f"{out} was not written by aceval (it has no {MARKER} file): --force only "
+                f"replaces folders aceval wrote itself; choose a new folder"
+            )
     out.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
     try:
@@ -118,7 +130,8 @@ def staged_folder(out: str | Path, force: bool, write) -> None:
 
 def atomic_file(path: str | Path, write) -> None:
     """Call ``write(tmp_path)`` then move the file into place: a failed step leaves no output.
-    The temporary file keeps the suffix, so writers can pick the format from it."""
+    The temporary file keeps the suffix, so writers can pick the format from it.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".tmp.{os.getpid()}.{path.name}")

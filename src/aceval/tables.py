@@ -15,53 +15,106 @@ import pandas as pd
 
 from .objectives import unflagged
 
-
 REFERENCE = Path(__file__).parent / "reference" / "kong2016"
 SEGMENT_ORDER = ["head", "chest", "waist", "thigh", "shank", "foot"]
 
 TABLES = {
-    3: dict(reference="table3_frontal_lateral_correlation", objective="Obj 1",
-            title="Acceleration correlation between the two sensors of one segment (frontal/back vs lateral set)",
-            unit="subject x IMU x T_ex, each averaged over the repetitions of T_ap",
-            row="t_ap", column="segment", kind="correlation"),
-    4: dict(reference="table4_box_acc_correlation", objective="Obj 1, rigid box",
-            title="Acceleration correlation between the two sensors of each IMU position on a rigid box",
-            unit="repetitions of T_ap (per box, averaged)", row="t_ap", column="imu", kind="correlation"),
-    5: dict(reference="table5_box_gyro_correlation", objective="Obj 1, rigid box",
-            title="Angular velocity correlation between the two sensors of each IMU position on a rigid box",
-            unit="repetitions of T_ap (per box, averaged)", row="t_ap", column="imu", kind="correlation"),
-    6: dict(reference="table6_segment_pair_correlation", objective="Obj 2",
-            title="Acceleration correlation between segments moved as one rigid body (same sensor set)",
-            unit="subject x sensor set x side x T_ex, each averaged over the repetitions of T_ap",
-            row="pair", column="t_ap", kind="correlation"),
-    7: dict(reference="table7_ttest_segment_pair_correlation", objective="Obj 2",
-            title="Paired t-test, segment-pair correlation, first vs second sensor set",
-            unit="pairs matched on subject, side, T_ex, T_ap and repetition", row="pair", kind="ttest"),
-    8: dict(reference="table8_ttest_incremental_angle", objective="Obj 3",
-            title="Paired t-test, 'incremental' error angle (deg), first vs second sensor set",
-            unit="pairs matched on subject, IMU, T_ex and the two subsets compared", row="segment", kind="ttest"),
-    9: dict(reference="table9_test_retest_angle", objective="Obj 4",
-            title="Error angle (deg) between different subsets of three repetitions of the same test",
-            unit="subject x set x IMU x pair of 3-repetition subsets", row="t_ex", column="segment", kind="angle",
-            flag_above=1.0),
-    10: dict(reference="table10_ttest_test_retest_angle", objective="Obj 4",
-             title="Paired t-test, test-retest error angle (deg), first vs second sensor set",
-             unit="pairs matched on subject, IMU, T_ex and the two subsets compared", row="segment", kind="ttest"),
-    11: dict(reference="table11_cross_test_angle", objective="Obj 5",
-             title="Error angle (deg) between the calibrations from two different tests",
-             unit="subject x set x IMU", row="t_ex_pair", column="segment", kind="angle", flag_above=5.0),
+    3: dict(
+        reference="table3_frontal_lateral_correlation",
+        objective="Obj 1",
+        title="Acceleration correlation between the two sensors of one segment (frontal/back vs lateral set)",
+        unit="subject x IMU x T_ex, each averaged over the repetitions of T_ap",
+        row="t_ap",
+        column="segment",
+        kind="correlation",
+    ),
+    4: dict(
+        reference="table4_box_acc_correlation",
+        objective="Obj 1, rigid box",
+        title="Acceleration correlation between the two sensors of each IMU position on a rigid box",
+        unit="repetitions of T_ap (per box, averaged)",
+        row="t_ap",
+        column="imu",
+        kind="correlation",
+    ),
+    5: dict(
+        reference="table5_box_gyro_correlation",
+        objective="Obj 1, rigid box",
+        title="Angular velocity correlation between the two sensors of each IMU position on a rigid box",
+        unit="repetitions of T_ap (per box, averaged)",
+        row="t_ap",
+        column="imu",
+        kind="correlation",
+    ),
+    6: dict(
+        reference="table6_segment_pair_correlation",
+        objective="Obj 2",
+        title="Acceleration correlation between segments moved as one rigid body (same sensor set)",
+        unit="subject x sensor set x side x T_ex, each averaged over the repetitions of T_ap",
+        row="pair",
+        column="t_ap",
+        kind="correlation",
+    ),
+    7: dict(
+        reference="table7_ttest_segment_pair_correlation",
+        objective="Obj 2",
+        title="Paired t-test, segment-pair correlation, first vs second sensor set",
+        unit="pairs matched on subject, side, T_ex, T_ap and repetition",
+        row="pair",
+        kind="ttest",
+    ),
+    8: dict(
+        reference="table8_ttest_incremental_angle",
+        objective="Obj 3",
+        title="Paired t-test, 'incremental' error angle (deg), first vs second sensor set",
+        unit="pairs matched on subject, IMU, T_ex and the two subsets compared",
+        row="segment",
+        kind="ttest",
+    ),
+    9: dict(
+        reference="table9_test_retest_angle",
+        objective="Obj 4",
+        title="Error angle (deg) between different subsets of three repetitions of the same test",
+        unit="subject x set x IMU x pair of 3-repetition subsets",
+        row="t_ex",
+        column="segment",
+        kind="angle",
+        flag_above=1.0,
+    ),
+    10: dict(
+        reference="table10_ttest_test_retest_angle",
+        objective="Obj 4",
+        title="Paired t-test, test-retest error angle (deg), first vs second sensor set",
+        unit="pairs matched on subject, IMU, T_ex and the two subsets compared",
+        row="segment",
+        kind="ttest",
+    ),
+    11: dict(
+        reference="table11_cross_test_angle",
+        objective="Obj 5",
+        title="Error angle (deg) between the calibrations from two different tests",
+        unit="subject x set x IMU",
+        row="t_ex_pair",
+        column="segment",
+        kind="angle",
+        flag_above=5.0,
+    ),
 }
 CORRELATION_FLAG = 0.95  # Kong's grey cells: correlation <= 0.95
 
 
 def reference(number: int) -> pd.DataFrame:
+    """The published Kong table ``number`` (reference/kong2016)."""
     return pd.read_csv(REFERENCE / f"{TABLES[number]['reference']}.csv", comment="#")
 
 
 def rename_tests(values: pd.Series, paper_names: dict[str, str]) -> pd.Series:
     """Test names as the paper calls them (``paper_names`` maps the dataset's names; 'A-B' pairs
-    are renamed part by part)."""
-    return values.astype(str).map(lambda v: "-".join(paper_names.get(part, part) for part in v.split("-")))
+    are renamed part by part).
+    """
+    return values.astype(str).map(
+        lambda v: "-".join(paper_names.get(part, part) for part in v.split("-"))
+    )
 
 
 def _summary(values: pd.DataFrame, keys: list[str], value: str) -> pd.DataFrame:
@@ -69,9 +122,12 @@ def _summary(values: pd.DataFrame, keys: list[str], value: str) -> pd.DataFrame:
     return values.groupby(keys)[value].agg(mean="mean", sd="std", n="count").reset_index()
 
 
-def _compare(result: pd.DataFrame, published: pd.DataFrame, keys: list[str], columns: list[str]) -> pd.DataFrame:
+def _compare(
+    result: pd.DataFrame, published: pd.DataFrame, keys: list[str], columns: list[str]
+) -> pd.DataFrame:
     """Outer-join this run with the paper's ``columns`` (as ``published_*``) on ``keys``, and add
-    ``difference`` = mean - published mean."""
+    ``difference`` = mean - published mean.
+    """
     published = published[keys + columns].rename(columns={c: f"published_{c}" for c in columns})
     merged = result.merge(published, on=keys, how="outer")
     merged["difference"] = merged["mean"] - merged["published_mean"]
@@ -82,12 +138,18 @@ def _compare(result: pd.DataFrame, published: pd.DataFrame, keys: list[str], col
 
 
 def _frontal_lateral_units(correlations: pd.DataFrame, signal: str) -> pd.DataFrame:
-    table = correlations[(correlations["objective"] == "frontal_lateral") & (correlations["signal"] == signal)
-                         & unflagged(correlations)]
-    return table.groupby(["subject", "imu", "segment", "t_ex", "t_ap"], as_index=False)["correlation"].mean()
+    table = correlations[
+        (correlations["objective"] == "frontal_lateral")
+        & (correlations["signal"] == signal)
+        & unflagged(correlations)
+    ]
+    return table.groupby(["subject", "imu", "segment", "t_ex", "t_ap"], as_index=False)[
+        "correlation"
+    ].mean()
 
 
 def table3(correlations: pd.DataFrame, paper_names: dict) -> pd.DataFrame:
+    """Kong Table 3: frontal vs lateral acceleration correlation per T_ap and segment."""
     units = _frontal_lateral_units(correlations, "acc")
     units["t_ap"] = rename_tests(units["t_ap"], paper_names)
     result = _summary(units, ["t_ap", "segment"], "correlation")
@@ -104,8 +166,11 @@ def box_table(number: int, correlations: pd.DataFrame, paper_names: dict) -> pd.
 
 
 def table6(correlations: pd.DataFrame, paper_names: dict) -> pd.DataFrame:
+    """Kong Table 6: correlation of segments moved as one rigid body, per pair and T_ap."""
     table = correlations[(correlations["objective"] == "segment_pair") & unflagged(correlations)]
-    units = table.groupby(["subject", "sensor_set", "side", "pair", "t_ex", "t_ap"], as_index=False)["correlation"].mean()
+    units = table.groupby(
+        ["subject", "sensor_set", "side", "pair", "t_ex", "t_ap"], as_index=False
+    )["correlation"].mean()
     units["t_ap"] = rename_tests(units["t_ap"], paper_names)
     result = _summary(units, ["pair", "t_ap"], "correlation")
     return _flag_low(_compare(result, reference(6), ["pair", "t_ap"], ["mean", "sd"]))
@@ -121,6 +186,7 @@ def _flag_low(table: pd.DataFrame) -> pd.DataFrame:
 
 
 def angle_table(number: int, angles: pd.DataFrame, paper_names: dict) -> pd.DataFrame:
+    """Kong Table 9 (test-retest) or 11 (cross-test): error angle per row and segment."""
     comparison, row = ("test_retest", "t_ex") if number == 9 else ("cross_test", "t_ex_pair")
     table = angles[angles["comparison"] == comparison].copy()
     table[row] = rename_tests(table["test"], paper_names)
@@ -136,37 +202,77 @@ def angle_table(number: int, angles: pd.DataFrame, paper_names: dict) -> pd.Data
 # --- paired t-tests (7, 8, 10) ----------------------------------------------------------------
 
 
-def ttest_table(number: int, correlations: pd.DataFrame | None, angles: pd.DataFrame | None,
-                sensor_sets: list[str]) -> pd.DataFrame:
+def ttest_table(
+    number: int,
+    correlations: pd.DataFrame | None,
+    angles: pd.DataFrame | None,
+    sensor_sets: list[str],
+) -> pd.DataFrame:
     """First vs second sensor set of the dataset (the paper's frontal/back vs lateral), one test
-    per row, Holm-corrected within the table."""
-    from .stats import holm, paired_by_set  # scipy.stats and statsmodels: only these tables need them
+    per row, Holm-corrected within the table.
+    """
+    from .stats import (
+        holm,
+        paired_by_set,
+    )  # scipy.stats and statsmodels: only these tables need them
 
-    set_a, set_b = (list(sensor_sets) + ["(no second set)"] * 2)[:2]  # one set: nothing is paired, n = 0
+    set_a, set_b = (list(sensor_sets) + ["(no second set)"] * 2)[
+        :2
+    ]  # one set: nothing is paired, n = 0
     if number == 7:
         data = correlations[(correlations["objective"] == "segment_pair") & unflagged(correlations)]
         rows, value, pair_on = "pair", "correlation", ["subject", "side", "t_ex", "t_ap", "rep"]
     else:
         comparison = "incremental" if number == 8 else "test_retest"
         data = angles[angles["comparison"] == comparison]
-        rows, value, pair_on = "segment", "error_angle_deg", ["subject", "imu", "test", "calibration_a", "calibration_b"]
+        rows, value, pair_on = (
+            "segment",
+            "error_angle_deg",
+            ["subject", "imu", "test", "calibration_a", "calibration_b"],
+        )
     results = []
     for key, group in data.groupby(rows, sort=False):
         results.append({rows: key, **paired_by_set(group, value, pair_on, [set_a, set_b])})
-    result = pd.DataFrame(results, columns=[rows, "mean_a", "sd_a", "mean_b", "sd_b", "mean_difference",
-                                            "ci95_low", "ci95_high", "cohens_dz", "n", "t", "p"])
+    result = pd.DataFrame(
+        results,
+        columns=[
+            rows,
+            "mean_a",
+            "sd_a",
+            "mean_b",
+            "sd_b",
+            "mean_difference",
+            "ci95_low",
+            "ci95_high",
+            "cohens_dz",
+            "n",
+            "t",
+            "p",
+        ],
+    )
     result["p_holm"] = holm(result["p"])
-    result["smaller"] = np.where(result["mean_a"] < result["mean_b"], set_a,
-                                 np.where(result["mean_b"] < result["mean_a"], set_b, ""))
+    result["smaller"] = np.where(
+        result["mean_a"] < result["mean_b"],
+        set_a,
+        np.where(result["mean_b"] < result["mean_a"], set_b, ""),
+    )
     published = reference(number)
     suffix = "" if number == 7 else "_deg"
-    published = published.rename(columns={f"frontal_mean{suffix}": "published_mean_a",
-                                          f"lateral_mean{suffix}": "published_mean_b",
-                                          "frontal_sd": "published_sd_a", "lateral_sd": "published_sd_b",
-                                          "p_value": "published_p"})
+    published = published.rename(
+        columns={
+            f"frontal_mean{suffix}": "published_mean_a",
+            f"lateral_mean{suffix}": "published_mean_b",
+            "frontal_sd": "published_sd_a",
+            "lateral_sd": "published_sd_b",
+            "p_value": "published_p",
+        }
+    )
     merged = result.merge(published, on=rows, how="outer")
-    merged["published_smaller"] = np.where(merged["published_mean_a"] < merged["published_mean_b"], "frontal",
-                                           np.where(merged["published_mean_b"] < merged["published_mean_a"], "lateral", ""))
+    merged["published_smaller"] = np.where(
+        merged["published_mean_a"] < merged["published_mean_b"],
+        "frontal",
+        np.where(merged["published_mean_b"] < merged["published_mean_a"], "lateral", ""),
+    )
     merged.insert(1, "set_a", set_a)
     merged.insert(2, "set_b", set_b)
     return merged
@@ -175,10 +281,16 @@ def ttest_table(number: int, correlations: pd.DataFrame | None, angles: pd.DataF
 # --- one entry point --------------------------------------------------------------------------
 
 
-def build(number: int, correlations: pd.DataFrame | None, angles: pd.DataFrame | None,
-          sensor_sets: list[str], paper_names: dict | None = None) -> pd.DataFrame:
+def build(
+    number: int,
+    correlations: pd.DataFrame | None,
+    angles: pd.DataFrame | None,
+    sensor_sets: list[str],
+    paper_names: dict | None = None,
+) -> pd.DataFrame:
     """Kong Table ``number`` (3-11) as a tidy frame, rows in the paper's order, values rounded
-    (correlations and angles to 4 decimals, p to 3 significant digits)."""
+    (correlations and angles to 4 decimals, p to 3 significant digits).
+    """
     names = paper_names or {}
     if number == 3:
         table = table3(correlations, names)
@@ -231,10 +343,16 @@ def _fmt_p(value) -> str:
 
 
 def to_markdown(table: pd.DataFrame, number: int, dataset: str, simulated: bool) -> str:
+    """Kong Table ``number`` as Markdown: the paper's layout, then beside the published values."""
     spec = TABLES[number]
-    lines = [f"# Kong et al. 2016, Table {number}: {spec['title']}", "",
-             f"Dataset **{dataset}**" + (" (SIMULATED data, not the paper's recordings)" if simulated else "")
-             + f". {spec['objective']}. n counts {spec['unit']}.", ""]
+    lines = [
+        f"# Kong et al. 2016, Table {number}: {spec['title']}",
+        "",
+        f"Dataset **{dataset}**"
+        + (" (SIMULATED data, not the paper's recordings)" if simulated else "")
+        + f". {spec['objective']}. n counts {spec['unit']}.",
+        "",
+    ]
     if spec["kind"] == "ttest":
         lines += _ttest_markdown(table, spec)
     else:
@@ -251,21 +369,50 @@ def _matrix_markdown(table: pd.DataFrame, spec: dict) -> list[str]:
         text = _fmt(r["mean"]) + (f" ± {_fmt(r['sd'])}" if has_sd and np.isfinite(r["sd"]) else "")
         return text + (" †" if r["flag"] else "")
 
-    matrix = ours.assign(cell=ours.apply(cell, axis=1)).pivot(index=row, columns=column, values="cell")
-    matrix = matrix.reindex(columns=[c for c in _ordered(table[column]) if c in matrix.columns]).fillna("")
-    flag_text = "correlation <= 0.95" if spec["kind"] == "correlation" else f"angle > {spec['flag_above']:g} deg"
-    lines = ["## This run, in the paper's layout", "",
-             f"Mean{' ± SD' if has_sd else ''}; † marks {flag_text} (the paper's grey cells).", "",
-             matrix.reset_index().to_markdown(index=False, disable_numparse=True), "", "## Beside the published values", ""]
-    long = pd.DataFrame({
-        row: table[row], column: table[column],
-        "this run": [cell(r) if r["n"] > 0 else "not in this dataset" for _, r in table.iterrows()],
-        "n": table["n"],
-        "paper": [_fmt(r["published_mean"]) + (f" ± {_fmt(r['published_sd'])}" if has_sd and np.isfinite(r.get("published_sd", np.nan)) else "")
-                  + (" †" if r["published_flag"] else "") if np.isfinite(r["published_mean"]) else "not in the paper"
-                  for _, r in table.iterrows()],
-        "difference": [_fmt(v) for v in table["difference"]],
-    })
+    matrix = ours.assign(cell=ours.apply(cell, axis=1)).pivot(
+        index=row, columns=column, values="cell"
+    )
+    matrix = matrix.reindex(
+        columns=[c for c in _ordered(table[column]) if c in matrix.columns]
+    ).fillna("")
+    flag_text = (
+        "correlation <= 0.95"
+        if spec["kind"] == "correlation"
+        else f"angle > {spec['flag_above']:g} deg"
+    )
+    lines = [
+        "## This run, in the paper's layout",
+        "",
+        f"Mean{' ± SD' if has_sd else ''}; † marks {flag_text} (the paper's grey cells).",
+        "",
+        matrix.reset_index().to_markdown(index=False, disable_numparse=True),
+        "",
+        "## Beside the published values",
+        "",
+    ]
+    long = pd.DataFrame(
+        {
+            row: table[row],
+            column: table[column],
+            "this run": [
+                cell(r) if r["n"] > 0 else "not in this dataset" for _, r in table.iterrows()
+            ],
+            "n": table["n"],
+            "paper": [
+                _fmt(r["published_mean"])
+                + (
+                    f" ± {_fmt(r['published_sd'])}"
+                    if has_sd and np.isfinite(r.get("published_sd", np.nan))
+                    else ""
+                )
+                + (" †" if r["published_flag"] else "")
+                if np.isfinite(r["published_mean"])
+                else "not in the paper"
+                for _, r in table.iterrows()
+            ],
+            "difference": [_fmt(v) for v in table["difference"]],
+        }
+    )
     return lines + [long.to_markdown(index=False, disable_numparse=True)]
 
 
@@ -280,26 +427,42 @@ def _ttest_markdown(table: pd.DataFrame, spec: dict) -> list[str]:
             return "not in the paper"
         return _fmt(value) + (f" ± {_fmt(r[f'published_sd_{side}'])}" if has_sd else "")
 
-    long = pd.DataFrame({
-        row: table[row],
-        f"{set_a} (mean ± SD)": [f"{_fmt(r['mean_a'])} ± {_fmt(r['sd_a'])}" if r["n"] else "" for _, r in table.iterrows()],
-        f"{set_b} (mean ± SD)": [f"{_fmt(r['mean_b'])} ± {_fmt(r['sd_b'])}" if r["n"] else "" for _, r in table.iterrows()],
-        "difference [95% CI]": [f"{_fmt(r['mean_difference'])} [{_fmt(r['ci95_low'])}, {_fmt(r['ci95_high'])}]"
-                                if r["n"] else "" for _, r in table.iterrows()],
-        "d_z": [_fmt(v, 2) for v in table["cohens_dz"]],
-        "n": table["n"],
-        "p": [_fmt_p(v) for v in table["p"]],
-        "p (Holm)": [_fmt_p(v) for v in table["p_holm"]],
-        "smaller": table["smaller"],
-        "paper frontal": [published(r, "a") for _, r in table.iterrows()],
-        "paper lateral": [published(r, "b") for _, r in table.iterrows()],
-        "paper p": table["published_p"].fillna(""),
-        "paper smaller": table["published_smaller"],
-    })
-    return [f"Two-sided paired t-test of {set_a} vs {set_b} (compared with the paper's frontal/back and "
-            f"lateral sets); difference = {set_a} - {set_b}; d_z = mean difference / SD of the "
-            "differences; Holm's correction across the rows of this table. 'smaller' is the set "
-            "with the smaller mean (the paper's grey cells).", "", long.to_markdown(index=False, disable_numparse=True)]
+    long = pd.DataFrame(
+        {
+            row: table[row],
+            f"{set_a} (mean ± SD)": [
+                f"{_fmt(r['mean_a'])} ± {_fmt(r['sd_a'])}" if r["n"] else ""
+                for _, r in table.iterrows()
+            ],
+            f"{set_b} (mean ± SD)": [
+                f"{_fmt(r['mean_b'])} ± {_fmt(r['sd_b'])}" if r["n"] else ""
+                for _, r in table.iterrows()
+            ],
+            "difference [95% CI]": [
+                f"{_fmt(r['mean_difference'])} [{_fmt(r['ci95_low'])}, {_fmt(r['ci95_high'])}]"
+                if r["n"]
+                else ""
+                for _, r in table.iterrows()
+            ],
+            "d_z": [_fmt(v, 2) for v in table["cohens_dz"]],
+            "n": table["n"],
+            "p": [_fmt_p(v) for v in table["p"]],
+            "p (Holm)": [_fmt_p(v) for v in table["p_holm"]],
+            "smaller": table["smaller"],
+            "paper frontal": [published(r, "a") for _, r in table.iterrows()],
+            "paper lateral": [published(r, "b") for _, r in table.iterrows()],
+            "paper p": table["published_p"].fillna(""),
+            "paper smaller": table["published_smaller"],
+        }
+    )
+    return [
+        f"Two-sided paired t-test of {set_a} vs {set_b} (compared with the paper's frontal/back and "
+        f"lateral sets); difference = {set_a} - {set_b}; d_z = mean difference / SD of the "
+        "differences; Holm's correction across the rows of this table. 'smaller' is the set "
+        "with the smaller mean (the paper's grey cells).",
+        "",
+        long.to_markdown(index=False, disable_numparse=True),
+    ]
 
 
 def _segment_rank(value) -> int:

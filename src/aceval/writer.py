@@ -1,5 +1,6 @@
-"""Write a dataset in the on-disk contract (DESIGN.md section 1), streaming to disk: used by the
-simulator and the importers."""
+"""Write a dataset in the on-disk contract (docs/design.md, section 1), streaming to disk: used by the
+simulator and the importers.
+"""
 
 from __future__ import annotations
 
@@ -13,19 +14,30 @@ from .dataset import ACC_UNITS, GYR_UNITS, KONG_FIRST_PHASE, R_COLUMNS, RECORDIN
 
 
 def write_sheet(path: Path, columns: list[str], rows: list) -> None:
+    """Write a tab-separated sheet with a header line."""
     with open(path, "w", newline="") as handle:
         writer = csv.writer(handle, delimiter="\t", lineterminator="\n")
         writer.writerow(columns)
         writer.writerows(rows)
 
 
-def simulated_meta(name: str, protocol: str, command: str, seed: int, fs_hz: float, *, units: dict,
-                   sensor_sets: list[str], acc_range_g: dict, gyr_range_dps: float) -> dict:
+def simulated_meta(
+    name: str,
+    protocol: str,
+    command: str,
+    seed: int,
+    fs_hz: float,
+    *,
+    units: dict,
+    sensor_sets: list[str],
+    acc_range_g: dict,
+    gyr_range_dps: float,
+) -> dict:
     """dataset.yaml of a simulated dataset, labelled as simulated in its fields and description."""
     return {
         "name": name,
         "description": f"SIMULATED data in the protocol of {protocol} (aceval simulate {command}, "
-                       f"seed {seed}); not the paper's recordings",
+        f"seed {seed}); not the paper's recordings",
         "simulated": True,
         "sampling_rate_hz": fs_hz,
         "units": units,
@@ -59,7 +71,9 @@ class DatasetWriter:
         table = np.column_stack([t, acc / self.acc_scale, gyr / self.gyr_scale])
         row_format = ",".join(["%.6g"] * table.shape[1]) + "\n"
         # one %-format over the whole table: the same text as np.savetxt, several times faster
-        path.write_text(",".join(RECORDING_COLUMNS) + "\n" + (row_format * len(table)) % tuple(table.ravel()))
+        path.write_text(
+            ",".join(RECORDING_COLUMNS) + "\n" + (row_format * len(table)) % tuple(table.ravel())
+        )
         self.reference(subject, sensor_set, test, rep, imu, rel.as_posix())
         return rel.as_posix()
 
@@ -70,17 +84,38 @@ class DatasetWriter:
     def protocol_sheets(self, tests: dict, repetitions: dict, calibrates: dict) -> None:
         """tests.tsv from ``{test: (kind, description)}`` and ``{test: repetitions}`` (``first_phase``
         from Kong's test names, :data:`aceval.dataset.KONG_FIRST_PHASE`), and
-        calibrates.tsv from ``{test: [imu, ...]}``."""
-        write_sheet(self.root / "tests.tsv", ["test", "kind", "repetitions", "first_phase", "description"],
-                    [[test, kind, repetitions[test], KONG_FIRST_PHASE.get(test, "") if kind == "motion" else "", text]
-                     for test, (kind, text) in tests.items()])
-        write_sheet(self.root / "calibrates.tsv", ["test", "imu"],
-                    [[test, imu] for test, imus in calibrates.items() for imu in imus])
+        calibrates.tsv from ``{test: [imu, ...]}``.
+        """
+        write_sheet(
+            self.root / "tests.tsv",
+            ["test", "kind", "repetitions", "first_phase", "description"],
+            [
+                [
+                    test,
+                    kind,
+                    repetitions[test],
+                    KONG_FIRST_PHASE.get(test, "") if kind == "motion" else "",
+                    text,
+                ]
+                for test, (kind, text) in tests.items()
+            ],
+        )
+        write_sheet(
+            self.root / "calibrates.tsv",
+            ["test", "imu"],
+            [[test, imu] for test, imus in calibrates.items() for imu in imus],
+        )
 
     def ground_truth(self, subject, sensor_set, imu, R: np.ndarray) -> None:
+        """Record the true sensor-to-body rotation of one IMU (ground_truth.tsv)."""
         self._ground_truth.append([subject, sensor_set, imu, *[f"{v:.10f}" for v in R.ravel()]])
 
     def close(self) -> None:
+        """Finish recordings.tsv and write ground_truth.tsv."""
         self._recordings.close()
         if self._ground_truth:
-            write_sheet(self.root / "ground_truth.tsv", ["subject", "sensor_set", "imu", *R_COLUMNS], self._ground_truth)
+            write_sheet(
+                self.root / "ground_truth.tsv",
+                ["subject", "sensor_set", "imu", *R_COLUMNS],
+                self._ground_truth,
+            )

@@ -13,6 +13,10 @@ rule calibrate:
         calibrations="results/{dataset}/calibrations/{subject}.csv",
         recordings="results/{dataset}/calibrations/{subject}_recordings.csv",
         axes="results/{dataset}/calibrations/{subject}_axes.csv",
+    log:
+        "logs/{dataset}/calibrate_{subject}.log",
+    conda:
+        "../envs/aceval.yaml"
     params:
         root=lambda w: dataset_dir(w.dataset),
         subject=lambda w: [] if w.subject == ALL_UNITS else ["--subject", w.subject],
@@ -22,8 +26,6 @@ rule calibrate:
             f"--window-s={config['calibration']['trim']['window_s']}",
             f"--min-peak-deg-s={config['calibration']['trim']['min_peak_deg_s']}",
         ],
-    log:
-        "logs/{dataset}/calibrate_{subject}.log",
     shell:
         "python -m aceval calibrate {params.root:q} {params.subject:q} --validated --allow-empty "
         "--out {output.calibrations:q} --recordings-out {output.recordings:q} --axes-out {output.axes:q} "
@@ -36,12 +38,14 @@ rule correlate:
         recordings=subject_recordings,
     output:
         "results/{dataset}/correlations/{subject}.csv",
+    log:
+        "logs/{dataset}/correlate_{subject}.log",
+    conda:
+        "../envs/aceval.yaml"
     params:
         root=lambda w: dataset_dir(w.dataset),
         mode=config["objectives"]["correlation"],
         pairs=json.dumps(config["objectives"]["segment_pairs"]),
-    log:
-        "logs/{dataset}/correlate_{subject}.log",
     shell:
         "python -m aceval correlate {params.root:q} --calibrations {input.calibrations:q} --out {output:q} "
         "--mode {params.mode:q} --pairs {params.pairs:q} 2> {log:q}"

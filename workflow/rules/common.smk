@@ -21,7 +21,11 @@ def import_source(dataset, key="source"):
     path = DATASETS[dataset]["import"].get(key)
     if path is None:
         return None
-    return os.path.join(workflow.basedir, path) if path.startswith("config/") else os.path.join(DATA_ROOT, path)
+    return (
+        os.path.join(workflow.basedir, path)
+        if path.startswith("config/")
+        else os.path.join(DATA_ROOT, path)
+    )
 
 
 for _name in IMPORTED:
@@ -35,14 +39,23 @@ for _name in IMPORTED:
 
 
 def import_inputs(wildcards):
-    return [p for p in (import_source(wildcards.dataset, key) for key in ("source", "sensors", "vicon")) if p]
+    return [
+        p
+        for p in (import_source(wildcards.dataset, key) for key in ("source", "sensors", "vicon"))
+        if p
+    ]
 
 
 def import_options(wildcards):
     """--name, --sensors, --vicon and --subject of `aceval import`, as a list (quoted by the rule)."""
     spec = DATASETS[wildcards.dataset]["import"]
     options = ["--name", wildcards.dataset]
-    options += [item for key in ("sensors", "vicon") if key in spec for item in (f"--{key}", import_source(wildcards.dataset, key))]
+    options += [
+        item
+        for key in ("sensors", "vicon")
+        if key in spec
+        for item in (f"--{key}", import_source(wildcards.dataset, key))
+    ]
     return options + (["--subject", spec["subject"]] if "subject" in spec else [])
 
 
@@ -50,23 +63,45 @@ def import_options(wildcards):
 #: et al. 2014 reproduction, the reliability of Kong's tests; "methods" joins every dataset with
 #: ground truth
 ANALYSES = {
-    "kong": {"tables": ["table3", "table6", "table7", "table8", "table9", "table10", "table11",
-                        "reliability", "reliability_retest"],
-             "figures": ["figure6", "figure8", "figure9", "figure10", "reliability"]},
+    "kong": {
+        "tables": [
+            "table3",
+            "table6",
+            "table7",
+            "table8",
+            "table9",
+            "table10",
+            "table11",
+            "reliability",
+            "reliability_retest",
+        ],
+        "figures": ["figure6", "figure8", "figure9", "figure10", "reliability"],
+    },
     "box": {"tables": ["table4", "table5"], "figures": []},
-    "ricci": {"tables": ["ricci_table1", "ricci_ttest", "ricci_lm", "ricci_residuals"],
-              "figures": ["ricci_figure4", "ricci_figure5"]},
+    "ricci": {
+        "tables": ["ricci_table1", "ricci_ttest", "ricci_lm", "ricci_residuals"],
+        "figures": ["ricci_figure4", "ricci_figure5"],
+    },
     "methods": {"tables": ["methods", "methods_best"], "figures": ["methods"]},
 }
 #: the inputs of each table and figure (Kong's by number: correlations or error angles)
 INPUTS = {
     **{f"table{n}": ["correlations"] for n in (3, 4, 5, 6, 7)},
     **{f"table{n}": ["angles"] for n in (8, 9, 10, 11)},
-    "figure6": ["correlations"], "figure8": ["correlations"], "figure9": ["angles"], "figure10": ["angles"],
-    "ricci_table1": ["axes"], "ricci_ttest": ["axes"], "ricci_lm": ["calibrations"], "ricci_residuals": ["axes"],
-    "ricci_figure4": ["axes"], "ricci_figure5": ["axes"],
-    "reliability": ["axes", "calibrations", "angles"], "reliability_retest": ["axes", "calibrations", "angles"],
-    "methods": ["calibrations"], "methods_best": ["calibrations"],
+    "figure6": ["correlations"],
+    "figure8": ["correlations"],
+    "figure9": ["angles"],
+    "figure10": ["angles"],
+    "ricci_table1": ["axes"],
+    "ricci_ttest": ["axes"],
+    "ricci_lm": ["calibrations"],
+    "ricci_residuals": ["axes"],
+    "ricci_figure4": ["axes"],
+    "ricci_figure5": ["axes"],
+    "reliability": ["axes", "calibrations", "angles"],
+    "reliability_retest": ["axes", "calibrations", "angles"],
+    "methods": ["calibrations"],
+    "methods_best": ["calibrations"],
 }
 ALL_UNITS = "_all"  # the calibration "unit" of a dataset calibrated in one job
 
@@ -100,12 +135,25 @@ def dataset_input(wildcards):
     root = dataset_dir(wildcards.dataset)
     if wildcards.dataset in GENERATED:
         return root
-    sheets = [os.path.join(root, name) for name in ("dataset.yaml", "imus.tsv", "tests.tsv", "calibrates.tsv",
-                                                    "subjects.tsv", "recordings.tsv")]
+    sheets = [
+        os.path.join(root, name)
+        for name in (
+            "dataset.yaml",
+            "imus.tsv",
+            "tests.tsv",
+            "calibrates.tsv",
+            "subjects.tsv",
+            "recordings.tsv",
+        )
+    ]
     sheets += [p for p in [os.path.join(root, "ground_truth.tsv")] if os.path.exists(p)]
     try:
-        table = pd.read_csv(os.path.join(root, "recordings.tsv"), sep="\t", dtype=str, keep_default_na=False)
-        files = [p for p in _recording_paths(root, table) if os.path.exists(p)]  # missing ones: reported
+        table = pd.read_csv(
+            os.path.join(root, "recordings.tsv"), sep="\t", dtype=str, keep_default_na=False
+        )
+        files = [
+            p for p in _recording_paths(root, table) if os.path.exists(p)
+        ]  # missing ones: reported
     except (OSError, ValueError, KeyError):  # no or unreadable sheet: the validation reports it
         files = []
     return sheets + files
@@ -131,18 +179,26 @@ def subject_recordings(wildcards):
         return []
     root = dataset_dir(wildcards.dataset)
     table = pd.read_csv(os.path.join(root, "recordings.tsv"), sep="\t", dtype=str)
-    chosen = table if wildcards.subject == ALL_UNITS else table[table["subject"].str.strip() == wildcards.subject]
+    chosen = (
+        table
+        if wildcards.subject == ALL_UNITS
+        else table[table["subject"].str.strip() == wildcards.subject]
+    )
     return _recording_paths(root, chosen)
 
 
 def has_ground_truth(dataset):
     if dataset in IMPORTED:
         return "vicon" in DATASETS[dataset]["import"]
-    return dataset in SIMULATED or os.path.exists(os.path.join(dataset_dir(dataset), "ground_truth.tsv"))
+    return dataset in SIMULATED or os.path.exists(
+        os.path.join(dataset_dir(dataset), "ground_truth.tsv")
+    )
 
 
 def analyses(dataset):
-    return DATASETS[dataset].get("analyses", []) + (["methods"] if has_ground_truth(dataset) else [])
+    return DATASETS[dataset].get("analyses", []) + (
+        ["methods"] if has_ground_truth(dataset) else []
+    )
 
 
 def tables_of(dataset):
@@ -159,7 +215,11 @@ def paper_names(dataset):
 
 def simulated_label(dataset):
     """What the report's captions say about the data."""
-    return "SIMULATED data (generated by aceval, not the paper's recordings)" if dataset in SIMULATED else "recorded data"
+    return (
+        "SIMULATED data (generated by aceval, not the paper's recordings)"
+        if dataset in SIMULATED
+        else "recorded data"
+    )
 
 
 def all_outputs(wildcards):
@@ -175,21 +235,33 @@ def all_outputs(wildcards):
 
 
 def calibration_files(wildcards):
-    return [f"results/{wildcards.dataset}/calibrations/{u}.csv" for u in calibration_units(wildcards.dataset)]
+    return [
+        f"results/{wildcards.dataset}/calibrations/{u}.csv"
+        for u in calibration_units(wildcards.dataset)
+    ]
 
 
 def axes_files(wildcards):
-    return [f"results/{wildcards.dataset}/calibrations/{u}_axes.csv" for u in calibration_units(wildcards.dataset)]
+    return [
+        f"results/{wildcards.dataset}/calibrations/{u}_axes.csv"
+        for u in calibration_units(wildcards.dataset)
+    ]
 
 
 def correlation_files(wildcards):
-    return [f"results/{wildcards.dataset}/correlations/{s}.csv" for s in subjects(wildcards.dataset)]
+    return [
+        f"results/{wildcards.dataset}/correlations/{s}.csv" for s in subjects(wildcards.dataset)
+    ]
 
 
 def output_inputs(wildcards):
     """The inputs of a table or figure (INPUTS), by kind."""
-    files = {"correlations": correlation_files, "calibrations": calibration_files, "axes": axes_files,
-             "angles": lambda w: [f"results/{w.dataset}/angles.csv"]}
+    files = {
+        "correlations": correlation_files,
+        "calibrations": calibration_files,
+        "axes": axes_files,
+        "angles": lambda w: [f"results/{w.dataset}/angles.csv"],
+    }
     name = wildcards.table if "table" in wildcards.keys() else wildcards.figure
     return {kind: files[kind](wildcards) for kind in INPUTS[name]}
 
@@ -210,8 +282,10 @@ def kong_number(name):
 
 def summary_inputs(wildcards):
     dataset = wildcards.dataset
-    inputs = {"validation": f"results/{dataset}/validation.txt",
-              "tables": [f"results/{dataset}/tables/{name}.csv" for name in tables_of(dataset)]}
+    inputs = {
+        "validation": f"results/{dataset}/validation.txt",
+        "tables": [f"results/{dataset}/tables/{name}.csv" for name in tables_of(dataset)],
+    }
     if "kong" in analyses(dataset):
         inputs["angles"] = f"results/{dataset}/angles.csv"
         inputs["calibrations"] = calibration_files(wildcards)

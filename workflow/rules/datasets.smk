@@ -4,10 +4,14 @@
 
 
 rule simulate:
-    wildcard_constraints:
-        dataset=only(SIMULATED),
     output:
         directory("resources/{dataset}"),
+    log:
+        "logs/{dataset}/simulate.log",
+    wildcard_constraints:
+        dataset=only(SIMULATED),
+    conda:
+        "../envs/aceval.yaml"
     params:
         protocol=lambda w: DATASETS[w.dataset]["simulate"]["protocol"],
         seed=lambda w: DATASETS[w.dataset]["simulate"].get("seed", 0),
@@ -16,26 +20,26 @@ rule simulate:
             for key in ("subjects", "repetitions")
             if key in DATASETS[w.dataset]["simulate"]
         ],
-    log:
-        "logs/{dataset}/simulate.log",
     shell:
         "python -m aceval simulate {params.protocol:q} --out {output:q} --seed {params.seed:q} {params.options:q} "
         "--force 2> {log:q}"
 
 
 rule import_dataset:
-    wildcard_constraints:
-        dataset=only(IMPORTED),
     input:
         import_inputs,
     output:
         directory("resources/{dataset}"),
+    log:
+        "logs/{dataset}/import.log",
+    wildcard_constraints:
+        dataset=only(IMPORTED),
+    conda:
+        "../envs/aceval.yaml"
     params:
         format=lambda w: DATASETS[w.dataset]["import"]["format"],
         options=import_options,
         source=lambda w: import_source(w.dataset),
-    log:
-        "logs/{dataset}/import.log",
     shell:
         "python -m aceval import {params.format:q} {params.source:q} --out {output:q} {params.options:q} "
         "--force 2> {log:q}"
@@ -46,9 +50,11 @@ checkpoint validate:
         dataset_input,
     output:
         "results/{dataset}/validation.txt",
-    params:
-        root=lambda w: dataset_dir(w.dataset),
     log:
         "logs/{dataset}/validate.log",
+    conda:
+        "../envs/aceval.yaml"
+    params:
+        root=lambda w: dataset_dir(w.dataset),
     shell:
         "python -m aceval validate {params.root:q} --out {output:q} > {log:q} 2>&1 || (cat {log:q} >&2; exit 1)"

@@ -7,10 +7,12 @@ rule angles:
         calibration_files,
     output:
         "results/{dataset}/angles.csv",
-    params:
-        k=config["objectives"]["test_retest_k"],
     log:
         "logs/{dataset}/angles.log",
+    conda:
+        "../envs/aceval.yaml"
+    params:
+        k=config["objectives"]["test_retest_k"],
     shell:
         "python -m aceval angles --calibrations {input:q} --out {output:q} --test-retest-k {params.k:q} 2> {log:q}"
 
@@ -27,14 +29,16 @@ rule table:
             labels={"dataset": "{dataset}", "table": "{table}"},
         ),
         md="results/{dataset}/tables/{table}.md",
+    log:
+        "logs/{dataset}/{table}.log",
+    conda:
+        "../envs/aceval.yaml"
     params:
         root=lambda w: dataset_dir(w.dataset),
         data_label=lambda w: simulated_label(w.dataset),
         sources=source_options,
         names=lambda w: paper_names(w.dataset),
         which=lambda w: kong_number(w.table),
-    log:
-        "logs/{dataset}/{table}.log",
     shell:
         "python -m aceval table {params.which:q} --dataset {params.root:q} {params.sources:q} "
         "--paper-names {params.names:q} --csv {output.csv:q} --md {output.md:q} 2> {log:q}"
@@ -51,14 +55,16 @@ rule figure:
             subcategory="Figures",
             labels={"dataset": "{dataset}", "figure": "{figure}"},
         ),
+    log:
+        "logs/{dataset}/{figure}_figure.log",
+    conda:
+        "../envs/aceval.yaml"
     params:
         root=lambda w: dataset_dir(w.dataset),
         data_label=lambda w: simulated_label(w.dataset),
         sources=source_options,
         names=lambda w: paper_names(w.dataset),
         which=lambda w: kong_number(w.figure),
-    log:
-        "logs/{dataset}/{figure}_figure.log",
     shell:
         "python -m aceval figure {params.which:q} --dataset {params.root:q} {params.sources:q} "
         "--paper-names {params.names:q} --out {output:q} 2> {log:q}"

@@ -13,11 +13,13 @@ rule summary:
             subcategory="Summary",
             labels={"dataset": "{dataset}", "file": "SUMMARY.md"},
         ),
+    log:
+        "logs/{dataset}/summary.log",
+    conda:
+        "../envs/aceval.yaml"
     params:
         root=lambda w: dataset_dir(w.dataset),
         note=lambda w: DATASETS[w.dataset].get("note", ""),
         data_label=lambda w: simulated_label(w.dataset),
-    log:
-        "logs/{dataset}/summary.log",
     shell:
         "python -m aceval summary --dataset {params.root:q} --note={params.note:q} --out {output:q} {input:q} 2> {log:q}"

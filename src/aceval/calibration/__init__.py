@@ -5,6 +5,16 @@ from .ricci import AxisEstimate, LMResult, functional_axis, lm_fit, wahba_fit
 from .triad import triad
 
 __all__ = [
-    "AxisEstimate", "KongLimits", "KongResult", "LMResult", "functional_axis", "kong_calibrate",
-    "kong_from_scatters", "lm_fit", "scatter", "triad", "vertical_axis", "wahba_fit",
+    "AxisEstimate",
+    "KongLimits",
+    "KongResult",
+    "LMResult",
+    "functional_axis",
+    "kong_calibrate",
+    "kong_from_scatters",
+    "lm_fit",
+    "scatter",
+    "triad",
+    "vertical_axis",
+    "wahba_fit",
 ]

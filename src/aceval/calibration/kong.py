@@ -17,8 +17,8 @@ between n and z0 before orthogonalisation (90 for a perfectly sagittal motion).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Sequence
 
 import numpy as np
 
@@ -72,6 +72,7 @@ class KongResult:
 
     @property
     def valid(self) -> np.ndarray:
+        """True where the calibration is not flagged."""
         return self.flag == ""
 
 
@@ -80,7 +81,9 @@ def vertical_axis(acc_static, limits: KongLimits = KongLimits()) -> np.ndarray:
 
     ``acc_static`` (N, 3) in m/s^2. The median makes z0 robust to brief movements.
     """
-    acc = check_samples(acc_static, name="quiet-stance acceleration", min_samples=limits.min_samples)
+    acc = check_samples(
+        acc_static, name="quiet-stance acceleration", min_samples=limits.min_samples
+    )
     median = np.median(acc, axis=0)
     norm = float(np.linalg.norm(median))
     if norm < limits.min_gravity:
@@ -180,17 +183,37 @@ def kong_from_scatters(
     flag = np.full(n_samples.shape, "", dtype=object)
     messages: list[str] = []
     checks = [
-        (n_samples < limits.min_samples, TooFewSamplesError,
-         lambda i: f"{int(n_samples[i])} motion samples, at least {limits.min_samples} are needed"),
-        (~(planarity <= limits.max_planarity), NotPlanarError,
-         lambda i: f"accelerations are not planar: planarity {planarity[i]:.3f} > "
-                   f"{limits.max_planarity} (smallest/largest eigenvalue)"),
-        (~(normal_ratio <= limits.max_normal_ratio), NotPlanarError,
-         lambda i: f"plane normal undetermined: smallest/middle eigenvalue {normal_ratio[i]:.3f} > "
-                   f"{limits.max_normal_ratio}"),
-        (angle < limits.min_normal_vertical_angle_deg, NormalParallelToVerticalError,
-         lambda i: f"plane normal is {angle[i]:.1f} deg from the vertical z0 "
-                   f"(< {limits.min_normal_vertical_angle_deg} deg): the motion is not sagittal"),
+        (
+            n_samples < limits.min_samples,
+            TooFewSamplesError,
+            lambda i: (
+                f"{int(n_samples[i])} motion samples, at least {limits.min_samples} are needed"
+            ),
+        ),
+        (
+            ~(planarity <= limits.max_planarity),
+            NotPlanarError,
+            lambda i: (
+                f"accelerations are not planar: planarity {planarity[i]:.3f} > "
+                f"{limits.max_planarity} (smallest/largest eigenvalue)"
+            ),
+        ),
+        (
+            ~(normal_ratio <= limits.max_normal_ratio),
+            NotPlanarError,
+            lambda i: (
+                f"plane normal undetermined: smallest/middle eigenvalue {normal_ratio[i]:.3f} > "
+                f"{limits.max_normal_ratio}"
+            ),
+        ),
+        (
+            angle < limits.min_normal_vertical_angle_deg,
+            NormalParallelToVerticalError,
+            lambda i: (
+                f"plane normal is {angle[i]:.1f} deg from the vertical z0 "
+                f"(< {limits.min_normal_vertical_angle_deg} deg): the motion is not sagittal"
+            ),
+        ),
     ]
     for bad, error, describe in checks:
         bad = bad & (flag == "")
@@ -204,8 +227,14 @@ def kong_from_scatters(
             messages.append(f"{int(bad.sum())} calibrations flagged {error.code}, e.g. {message}")
 
     return KongResult(
-        R=R, n_samples=n_samples.astype(int), eigenvalues=eig_desc, planarity=planarity,
-        normal_ratio=normal_ratio, normal_vertical_angle_deg=angle, flag=flag, messages=messages,
+        R=R,
+        n_samples=n_samples.astype(int),
+        eigenvalues=eig_desc,
+        planarity=planarity,
+        normal_ratio=normal_ratio,
+        normal_vertical_angle_deg=angle,
+        flag=flag,
+        messages=messages,
     )
 
 
@@ -226,8 +255,12 @@ def kong_calibrate(
     counts = np.array([len(rep) for rep in repetitions])
     result = kong_from_scatters(scatters, counts, z0, right_axis, limits=limits, strict=True)
     return KongResult(
-        R=result.R[0], n_samples=result.n_samples[0], eigenvalues=result.eigenvalues[0],
-        planarity=result.planarity[0], normal_ratio=result.normal_ratio[0],
-        normal_vertical_angle_deg=result.normal_vertical_angle_deg[0], flag=result.flag[0],
+        R=result.R[0],
+        n_samples=result.n_samples[0],
+        eigenvalues=result.eigenvalues[0],
+        planarity=result.planarity[0],
+        normal_ratio=result.normal_ratio[0],
+        normal_vertical_angle_deg=result.normal_vertical_angle_deg[0],
+        flag=result.flag[0],
         messages=result.messages,
     )

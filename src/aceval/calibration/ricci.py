@@ -68,7 +68,9 @@ def axis_from_moments(unit_sum, unit_scatter, n_samples: int, min_samples: int =
     elif axis[np.argmax(np.abs(axis))] < 0:
         axis = -axis
     rho = float(singular_values[0] / singular_values.sum())
-    return AxisEstimate(axis=axis, rho=rho, singular_values=singular_values, n_samples=int(n_samples))
+    return AxisEstimate(
+        axis=axis, rho=rho, singular_values=singular_values, n_samples=int(n_samples)
+    )
 
 
 def functional_axis(samples, min_samples: int = 3, min_norm: float = 1e-9) -> AxisEstimate:
@@ -112,21 +114,24 @@ class LMResult:
 
     @property
     def R(self) -> np.ndarray:
+        """The fitted rotation as a 3x3 matrix (sensor -> functional frame)."""
         return self.rotation.as_matrix()
 
 
 def quaternion_matrix(q_wxyz: np.ndarray) -> np.ndarray:
     """Ricci Eq. 8: the quadratic rotation matrix of a (not necessarily unit) quaternion [w x y z]."""
     w, x, y, z = q_wxyz
-    return np.array([
-        [w*w + x*x - y*y - z*z, 2*x*y - 2*z*w, 2*x*z + 2*y*w],
-        [2*x*y + 2*z*w, w*w + y*y - x*x - z*z, 2*y*z - 2*x*w],
-        [2*x*z - 2*y*w, 2*y*z + 2*x*w, w*w + z*z - x*x - y*y],
-    ])
+    return np.array(
+        [
+            [w * w + x * x - y * y - z * z, 2 * x * y - 2 * z * w, 2 * x * z + 2 * y * w],
+            [2 * x * y + 2 * z * w, w * w + y * y - x * x - z * z, 2 * y * z - 2 * x * w],
+            [2 * x * z - 2 * y * w, 2 * y * z + 2 * x * w, w * w + z * z - x * x - y * y],
+        ]
+    )
 
 
 def _residual_jacobian(q: np.ndarray, v_est: np.ndarray) -> np.ndarray:
-    """d e / d q, shape (3N, 4), for e = v_ref - R(q) v_est with R(q) of Eq. 8.
+    """D e / d q, shape (3N, 4), for e = v_ref - R(q) v_est with R(q) of Eq. 8.
 
     R(q) v = (w^2 - |u|^2) v + 2 (u.v) u + 2 w (u x v), u = (x, y, z); differentiated analytically.
     """

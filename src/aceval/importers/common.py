@@ -19,7 +19,8 @@ MIN_STRIDE_S = 0.7
 
 class FormatError(ValueError):
     """A foreign file does not have the format its importer reads; the message names the file,
-    the line and the cause."""
+    the line and the cause.
+    """
 
 
 @dataclass
@@ -29,32 +30,43 @@ class ImportReport:
     rows: list[dict] = field(default_factory=list)
 
     def add(self, source: str, subject: str, imu: str, status: str, cause: str) -> None:
-        self.rows.append({"source": source, "subject": subject, "imu": imu, "status": status, "cause": cause})
+        """Record one imported, flagged, excluded or skipped item and why."""
+        self.rows.append(
+            {"source": source, "subject": subject, "imu": imu, "status": status, "cause": cause}
+        )
 
     def write(self, path: Path) -> None:
+        """Write the rows as ``import_report.tsv``."""
         from ..writer import write_sheet
 
         columns = ["source", "subject", "imu", "status", "cause"]
         write_sheet(path, columns, [[row[c] for c in columns] for row in self.rows])
 
     def summary(self) -> str:
+        """Counts per status, e.g. '2 excluded, 9 imported'."""
         counts: dict[str, int] = {}
         for row in self.rows:
             counts[row["status"]] = counts.get(row["status"], 0) + 1
-        return ", ".join(f"{n} {status}" for status, n in sorted(counts.items())) or "nothing to report"
+        return (
+            ", ".join(f"{n} {status}" for status, n in sorted(counts.items()))
+            or "nothing to report"
+        )
 
 
 def stride_peaks(gyr: np.ndarray, fs_hz: float) -> np.ndarray:
     """Sample indices of one peak per stride: the maxima of a shank's angular speed (rad/s,
     (N, 3)) low-passed at 3 Hz, at least :data:`MIN_STRIDE_S` apart and at least 40 % of the
     95th percentile high (the swing-phase peak). Only the timing is used, so a gain error in the
-    gyroscope does not move the peaks."""
+    gyroscope does not move the peaks.
+    """
     from scipy.signal import butter, find_peaks, sosfiltfilt
 
     speed = np.linalg.norm(gyr, axis=1)
     sos = butter(2, 3.0, fs=fs_hz, output="sos")
     smooth = sosfiltfilt(sos, speed) if len(speed) > 15 else speed
-    peaks, _ = find_peaks(smooth, height=0.4 * np.percentile(smooth, 95), distance=max(1, int(MIN_STRIDE_S * fs_hz)))
+    peaks, _ = find_peaks(
+        smooth, height=0.4 * np.percentile(smooth, 95), distance=max(1, int(MIN_STRIDE_S * fs_hz))
+    )
     return peaks
 
 
@@ -63,18 +75,28 @@ def stride_spans(peaks: np.ndarray) -> list[tuple[int, int]]:
     return [(int(a), int(b)) for a, b in zip(peaks[:-1], peaks[1:])]
 
 
-def straight_strides(strides: list[tuple[int, int]], yaw_rate: np.ndarray, fs_hz: float,
-                     max_turn_deg: float = MAX_TURN_DEG) -> list[tuple[int, int]]:
+def straight_strides(
+    strides: list[tuple[int, int]],
+    yaw_rate: np.ndarray,
+    fs_hz: float,
+    max_turn_deg: float = MAX_TURN_DEG,
+) -> list[tuple[int, int]]:
     """The strides during which the heading (``yaw_rate``, rad/s about the vertical, integrated)
-    changes by less than ``max_turn_deg``: turns are not sagittal-plane motion."""
-    return [(a, b) for a, b in strides if abs(np.degrees(yaw_rate[a:b].sum() / fs_hz)) < max_turn_deg]
+    changes by less than ``max_turn_deg``: turns are not sagittal-plane motion.
+    """
+    return [
+        (a, b) for a, b in strides if abs(np.degrees(yaw_rate[a:b].sum() / fs_hz)) < max_turn_deg
+    ]
 
 
-def walking_bouts(strides: list[tuple[int, int]], max_repetitions: int = MAX_REPETITIONS) -> list[tuple[int, int]]:
+def walking_bouts(
+    strides: list[tuple[int, int]], max_repetitions: int = MAX_REPETITIONS
+) -> list[tuple[int, int]]:
     """Group whole strides into at most ``max_repetitions`` repetitions of equal numbers of
     consecutive strides (``max(1, n // max_repetitions)`` each, in order; a gap between strides,
     e.g. a left-out turn, starts a new group; strides left over are not used). Returns half-open
-    sample ranges."""
+    sample ranges.
+    """
     per_rep = max(MIN_STRIDES_PER_REPETITION, len(strides) // max_repetitions)
     bouts, run = [], []
     for a, b in strides:

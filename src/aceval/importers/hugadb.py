@@ -56,16 +56,25 @@ MIN_STANDING_S = 2.0
 MEAN_POSTURE_CUTOFF_HZ = 0.5
 EDGE_S = 0.5
 #: HuGaDB code -> (segment, side)
-SENSORS = {"RT": ("thigh", "right"), "RS": ("shank", "right"), "RF": ("foot", "right"),
-           "LT": ("thigh", "left"), "LS": ("shank", "left"), "LF": ("foot", "left")}
+SENSORS = {
+    "RT": ("thigh", "right"),
+    "RS": ("shank", "right"),
+    "RF": ("foot", "right"),
+    "LT": ("thigh", "left"),
+    "LS": ("shank", "left"),
+    "LF": ("foot", "left"),
+}
 RIGHT_AXIS = "-y"
 WALKING, SITTING_DOWN, STANDING_UP, STANDING = 1, 6, 7, 8
 #: Kong Table 2 for these segments: T3 may calibrate thighs; T6 every lower-limb IMU
 CALIBRATES = {"T3": ["RT", "LT"], "T6": list(SENSORS)}
 TESTS = {
     "T0": ("static", "quiet standing (HuGaDB activity 8), 0.5 s cut at each end"),
-    "T0w": ("static", "FALLBACK z0, not quiet standing: the T6 walking bouts low-passed at 0.5 Hz (mean "
-                      "walking posture); the walking files have no standing"),
+    "T0w": (
+        "static",
+        "FALLBACK z0, not quiet standing: the T6 walking bouts low-passed at 0.5 Hz (mean "
+        "walking posture); the walking files have no standing",
+    ),
     "T3": ("motion", "standing up (activity 7), standing, sitting down (activity 6)"),
     "T6": ("motion", "walking (activity 1), bouts of equal numbers of whole strides"),
 }
@@ -76,6 +85,8 @@ _FILE = re.compile(r"HuGaDB_v(\d+)_([a-z]+)_(\d+)_(\d+)(?:-\w+)?\.txt")
 
 @dataclass
 class HugadbFile:
+    """One HuGaDB file: its date, the activity ID of each sample and the raw int16 counts."""
+
     path: Path
     date: str
     activity: np.ndarray  # (N,) int
@@ -95,11 +106,18 @@ def _canonical(name: str) -> str:
     match = _NAME.fullmatch(name.strip().lower())
     if not match:
         return name.strip().lower()
-    kind, sensor = (match.group(1), match.group(2)) if match.group(1) else (match.group(4), match.group(3))
+    kind, sensor = (
+        (match.group(1), match.group(2)) if match.group(1) else (match.group(4), match.group(3))
+    )
     return f"{sensor.upper()}_{kind}_{match.group(5)}"
 
 
-EXPECTED = [f"{s}_{k}_{a}" for s in ["RF", "RS", "RT", "LF", "LS", "LT"] for k in ("acc", "gyro") for a in "xyz"]
+EXPECTED = [
+    f"{s}_{k}_{a}"
+    for s in ["RF", "RS", "RT", "LF", "LS", "LT"]
+    for k in ("acc", "gyro")
+    for a in "xyz"
+]
 
 
 def read_hugadb(path: str | Path) -> HugadbFile:
@@ -109,35 +127,56 @@ def read_hugadb(path: str | Path) -> HugadbFile:
         header = [handle.readline() for _ in range(4)]
     for number, tag in enumerate(("#Activity", "#ActivityID", "#Date"), start=1):
         if not header[number - 1].startswith(tag):
-            raise FormatError(f"{path}: line {number}: expected a header line starting with {tag!r}, "
-                              f"found {header[number - 1][:40]!r} (is this a HuGaDB file?)")
+            raise FormatError(
+                f"{path}: line {number}: expected a header line starting with {tag!r}, "
+                f"found {header[number - 1][:40]!r} (is this a HuGaDB file?)"
+            )
     names = [_canonical(c) for c in header[3].rstrip("\r\n").split("\t") if c.strip()]
     missing = [c for c in EXPECTED + ["act"] if c not in names]
     if len(names) != N_COLUMNS or missing:
-        raise FormatError(f"{path}: line 4: expected {N_COLUMNS} column names including the 36 inertial "
-                          f"columns and 'act'; found {len(names)}" + (f", missing {', '.join(missing[:4])}" if missing else ""))
+        raise FormatError(
+            f"{path}: line 4: expected {N_COLUMNS} column names including the 36 inertial "
+            f"columns and 'act'; found {len(names)}"
+            + (f", missing {', '.join(missing[:4])}" if missing else "")
+        )
     try:
-        table = pd.read_csv(path, sep="\t", skiprows=4, header=None, names=names, engine="c", dtype=str)
+        table = pd.read_csv(
+            path, sep="\t", skiprows=4, header=None, names=names, engine="c", dtype=str
+        )
     except pd.errors.ParserError as exc:
         found = re.search(r"Expected (\d+) fields in line (\d+), saw (\d+)", str(exc))
-        where = f"line {found.group(2)}: {found.group(3)} fields, expected {found.group(1)}" if found else str(exc)
+        where = (
+            f"line {found.group(2)}: {found.group(3)} fields, expected {found.group(1)}"
+            if found
+            else str(exc)
+        )
         raise FormatError(f"{path}: {where} (a truncated or garbled file?)") from exc
     values = table.apply(pd.to_numeric, errors="coerce").to_numpy(dtype=float)
     bad = ~np.isfinite(values).all(axis=1)
     if bad.any():
         first = int(np.flatnonzero(bad)[0])
-        raise FormatError(f"{path}: line {first + 5}: {int(bad.sum())} row(s) with missing or non-numeric values "
-                          f"(a truncated or garbled file?)")
+        raise FormatError(
+            f"{path}: line {first + 5}: {int(bad.sum())} row(s) with missing or non-numeric values "
+            f"(a truncated or garbled file?)"
+        )
     if len(values) == 0:
         raise FormatError(f"{path}: no samples after the header")
     inertial = values[:, [names.index(c) for c in EXPECTED]]
-    outside = (inertial < INT16_LIMITS[0]) | (inertial > INT16_LIMITS[1]) | (inertial != np.round(inertial))
+    outside = (
+        (inertial < INT16_LIMITS[0])
+        | (inertial > INT16_LIMITS[1])
+        | (inertial != np.round(inertial))
+    )
     if outside.any():
         first = int(np.flatnonzero(outside.any(axis=1))[0])
         raise FormatError(f"{path}: line {first + 5}: inertial values must be int16 counts")
-    counts = {s: (inertial[:, 6 * k:6 * k + 3], inertial[:, 6 * k + 3:6 * k + 6])
-              for k, s in enumerate(["RF", "RS", "RT", "LF", "LS", "LT"])}
-    return HugadbFile(path, header[2][len("#Date"):].strip(), values[:, names.index("act")].astype(int), counts)
+    counts = {
+        s: (inertial[:, 6 * k : 6 * k + 3], inertial[:, 6 * k + 3 : 6 * k + 6])
+        for k, s in enumerate(["RF", "RS", "RT", "LF", "LS", "LT"])
+    }
+    return HugadbFile(
+        path, header[2][len("#Date") :].strip(), values[:, names.index("act")].astype(int), counts
+    )
 
 
 def gyro_fault(gyr_counts: np.ndarray) -> str:
@@ -159,7 +198,8 @@ def clipped_fraction(counts: np.ndarray) -> float:
 
 def mean_posture(signal: np.ndarray, fs_hz: float = SAMPLING_RATE_HZ) -> np.ndarray:
     """``signal`` (N, 3) low-passed at :data:`MEAN_POSTURE_CUTOFF_HZ` (zero-phase): what stays
-    of a walking bout below the stride frequency."""
+    of a walking bout below the stride frequency.
+    """
     from scipy.signal import butter, sosfiltfilt
 
     return sosfiltfilt(butter(2, MEAN_POSTURE_CUTOFF_HZ, fs=fs_hz, output="sos"), signal, axis=0)
@@ -173,7 +213,9 @@ def _runs(activity: np.ndarray) -> list[tuple[int, int, int]]:
     return [(int(activity[a]), int(a), int(b)) for a, b in zip(starts, stops)]
 
 
-def protocol_ranges(data: HugadbFile, fs_hz: float = SAMPLING_RATE_HZ) -> dict[str, list[tuple[int, int]]]:
+def protocol_ranges(
+    data: HugadbFile, fs_hz: float = SAMPLING_RATE_HZ
+) -> dict[str, list[tuple[int, int]]]:
     """Sample ranges of each test's repetitions in one file (the module's rules)."""
     runs = _runs(data.activity)
     edge, shortest = int(EDGE_S * fs_hz), int(MIN_STANDING_S * fs_hz)
@@ -185,7 +227,7 @@ def protocol_ranges(data: HugadbFile, fs_hz: float = SAMPLING_RATE_HZ) -> dict[s
     for k, (act, start, _) in enumerate(runs):
         if act != STANDING_UP:
             continue
-        following = [r for r in runs[k + 1:k + 3] if r[0] == SITTING_DOWN]
+        following = [r for r in runs[k + 1 : k + 3] if r[0] == SITTING_DOWN]
         if following:
             cycles.append((start, following[0][2]))
     if cycles:
@@ -207,25 +249,46 @@ def import_hugadb(src: str | Path, out: Path) -> ImportReport:
     src = Path(src)
     files = sorted(src.glob("HuGaDB_*.txt"))
     if not files:
-        raise FormatError(f"{src}: no HuGaDB_*.txt files (get HuGaDB from "
-                          "https://github.com/romanchereshnev/HuGaDB and point SRC at its Data folder)")
-    meta = {"name": "hugadb", "description": "HuGaDB (Chereshnev & Kertesz-Farkas 2017), recorded data; "
-            "imported by aceval import hugadb; walking sessions use the flagged T0w fallback for z0",
-            "simulated": False, "sampling_rate_hz": SAMPLING_RATE_HZ, "units": {"acc": "m/s^2", "gyr": "rad/s"},
-            "sensor_sets": ["legs"], "acc_range_g": {"lower_body": 2.0}, "gyr_range_dps": 2000.0}
+        raise FormatError(
+            f"{src}: no HuGaDB_*.txt files (get HuGaDB from "
+            "https://github.com/romanchereshnev/HuGaDB and point SRC at its Data folder)"
+        )
+    meta = {
+        "name": "hugadb",
+        "description": "HuGaDB (Chereshnev & Kertesz-Farkas 2017), recorded data; "
+        "imported by aceval import hugadb; walking sessions use the flagged T0w fallback for z0",
+        "simulated": False,
+        "sampling_rate_hz": SAMPLING_RATE_HZ,
+        "units": {"acc": "m/s^2", "gyr": "rad/s"},
+        "sensor_sets": ["legs"],
+        "acc_range_g": {"lower_body": 2.0},
+        "gyr_range_dps": 2000.0,
+    }
     writer = DatasetWriter(out, meta)
     report = ImportReport()
     subjects, repetitions = [], {}
     for path in files:
         match = _FILE.fullmatch(path.name)
         if not match:
-            report.add(path.name, "", "", "skipped", "file name is not HuGaDB_v<version>_<kind>_<participant>_<counter>.txt")
+            report.add(
+                path.name,
+                "",
+                "",
+                "skipped",
+                "file name is not HuGaDB_v<version>_<kind>_<participant>_<counter>.txt",
+            )
             continue
-        subject = path.name[len("HuGaDB_"):].split("-")[0].removesuffix(".txt")
+        subject = path.name[len("HuGaDB_") :].split("-")[0].removesuffix(".txt")
         data = read_hugadb(path)
         ranges = protocol_ranges(data)
         if not any(test in ranges for test in CALIBRATES):
-            report.add(path.name, subject, "", "skipped", "no standing-up/sitting-down cycle and no walking bout")
+            report.add(
+                path.name,
+                subject,
+                "",
+                "skipped",
+                "no standing-up/sitting-down cycle and no walking bout",
+            )
             continue
         written = 0
         for imu in SENSORS:
@@ -236,31 +299,69 @@ def import_hugadb(src: str | Path, out: Path) -> ImportReport:
                 continue
             clipped = clipped_fraction(acc_counts)
             if clipped > 0:
-                report.add(path.name, subject, imu, "flagged",
-                           f"{clipped:.1%} of samples clipped at +-2 g (left out of Kong's scatter by aceval calibrate)")
+                report.add(
+                    path.name,
+                    subject,
+                    imu,
+                    "flagged",
+                    f"{clipped:.1%} of samples clipped at +-2 g "
+                    "(left out of Kong's scatter by aceval calibrate)",
+                )
             acc, gyr = data.acc(imu), data.gyr(imu)
             for test, spans in ranges.items():
                 if test in CALIBRATES and imu not in CALIBRATES[test]:
                     continue
                 for rep, (a, b) in enumerate(spans, start=1):
                     if test == "T0w":
-                        writer.recording(subject, "legs", test, rep, imu, mean_posture(gyr[a:b]), mean_posture(acc[a:b]))
+                        writer.recording(
+                            subject,
+                            "legs",
+                            test,
+                            rep,
+                            imu,
+                            mean_posture(gyr[a:b]),
+                            mean_posture(acc[a:b]),
+                        )
                     else:
                         writer.recording(subject, "legs", test, rep, imu, gyr[a:b], acc[a:b])
                     repetitions[test] = max(repetitions.get(test, 0), rep)
             written += 1
         if written:
             participant = match.group(3)
-            subjects.append([subject, participant, data.date, path.name, "T0" if "T0" in ranges else "T0w (fallback)"])
-            report.add(path.name, subject, "", "imported",
-                       "; ".join(f"{test} x{len(spans)}" for test, spans in ranges.items()) + f"; {written} of 6 IMUs")
+            subjects.append(
+                [
+                    subject,
+                    participant,
+                    data.date,
+                    path.name,
+                    "T0" if "T0" in ranges else "T0w (fallback)",
+                ]
+            )
+            report.add(
+                path.name,
+                subject,
+                "",
+                "imported",
+                "; ".join(f"{test} x{len(spans)}" for test, spans in ranges.items())
+                + f"; {written} of 6 IMUs",
+            )
         else:
             report.add(path.name, subject, "", "skipped", "no IMU left")
     tests = {t: v for t, v in TESTS.items() if t in repetitions}
     writer.protocol_sheets(tests, repetitions, {t: CALIBRATES[t] for t in CALIBRATES if t in tests})
     writer.close()
-    write_sheet(out / "subjects.tsv", ["subject", "participant", "date", "source_file", "z0_source"], subjects)
-    write_sheet(out / "imus.tsv", ["imu", "segment", "side", "region", "right_axis"],
-                [[imu, segment, side, "lower_body", RIGHT_AXIS] for imu, (segment, side) in SENSORS.items()])
+    write_sheet(
+        out / "subjects.tsv",
+        ["subject", "participant", "date", "source_file", "z0_source"],
+        subjects,
+    )
+    write_sheet(
+        out / "imus.tsv",
+        ["imu", "segment", "side", "region", "right_axis"],
+        [
+            [imu, segment, side, "lower_body", RIGHT_AXIS]
+            for imu, (segment, side) in SENSORS.items()
+        ],
+    )
     report.write(out / "import_report.tsv")
     return report

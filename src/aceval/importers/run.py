@@ -10,8 +10,15 @@ from ..writer import write_sheet
 from .common import FormatError, ImportReport
 
 
-def run_import(out: Path, format: str, src: str, sensors: str | None = None, subject: str = "S01",
-               vicon: str | None = None, name: str | None = None) -> ImportReport:
+def run_import(
+    out: Path,
+    format: str,
+    src: str,
+    sensors: str | None = None,
+    subject: str = "S01",
+    vicon: str | None = None,
+    name: str | None = None,
+) -> ImportReport:
     """Write the dataset of ``src`` (in ``format``) into the empty folder ``out``."""
     if not Path(src).exists():
         raise FormatError(f"{src} does not exist")
@@ -31,10 +38,23 @@ def run_import(out: Path, format: str, src: str, sensors: str | None = None, sub
         imus = pd.read_csv(out / "imus.tsv", sep="\t", dtype=str)
         table = ground_truth_table(read_markers(vicon), imports, imus, subject)
         columns = ["subject", "sensor_set", "imu", *R_COLUMNS]
-        write_sheet(out / "ground_truth.tsv", columns,
-                    [[*row[:3], *(f"{v:.10f}" for v in row[3:])] for row in table[columns].to_numpy().tolist()])
-        table.drop(columns=R_COLUMNS).to_csv(out / "ground_truth_method.tsv", sep="\t", index=False, float_format="%.4g")
-        report.add(Path(vicon).name, subject, "", "ground truth",
-                   f"{len(table)} sensors; split-half {table['split_half_deg'].max():.1f} deg at most "
-                   "(ground_truth_method.tsv)")
+        write_sheet(
+            out / "ground_truth.tsv",
+            columns,
+            [
+                [*row[:3], *(f"{v:.10f}" for v in row[3:])]
+                for row in table[columns].to_numpy().tolist()
+            ],
+        )
+        table.drop(columns=R_COLUMNS).to_csv(
+            out / "ground_truth_method.tsv", sep="\t", index=False, float_format="%.4g"
+        )
+        report.add(
+            Path(vicon).name,
+            subject,
+            "",
+            "ground truth",
+            f"{len(table)} sensors; split-half {table['split_half_deg'].max():.1f} deg at most "
+            "(ground_truth_method.tsv)",
+        )
     return report

@@ -63,8 +63,11 @@ def read_markers(path) -> dict[str, np.ndarray]:
         content = loadmat(path)
     except Exception as exc:  # scipy raises several types for a damaged file
         raise FormatError(f"{path}: cannot be read as a MATLAB file: {exc}") from exc
-    markers = {k: np.asarray(v, float) / 1000.0 for k, v in content.items()
-               if not k.startswith("__") and np.ndim(v) == 2 and np.shape(v)[1] == 3}
+    markers = {
+        k: np.asarray(v, float) / 1000.0
+        for k, v in content.items()
+        if not k.startswith("__") and np.ndim(v) == 2 and np.shape(v)[1] == 3
+    }
     if not markers:
         raise FormatError(f"{path}: no (N, 3) marker arrays")
     return markers
@@ -98,100 +101,142 @@ def optical_angular_velocity(frames: Rotation, fs_hz: float) -> np.ndarray:
 
 def best_lag(optical: np.ndarray, gyr: np.ndarray, span: tuple[int, int], fs_hz: float) -> int:
     """Lag (samples; gyroscope sample ``t + lag`` matches optical ``t``) maximising the correlation
-    of the angular speeds within ``span``."""
+    of the angular speeds within ``span``.
+    """
     a, b = span
     limit = int(MAX_LAG_S * fs_hz)
     speed_opt, speed_gyr = np.linalg.norm(optical, axis=1), np.linalg.norm(gyr, axis=1)
     lags = [lag for lag in range(-limit, limit + 1) if a + lag >= 0 and b + lag <= len(gyr)]
-    scores = [np.corrcoef(speed_opt[a:b], speed_gyr[a + lag:b + lag])[0, 1] for lag in lags]
+    scores = [np.corrcoef(speed_opt[a:b], speed_gyr[a + lag : b + lag])[0, 1] for lag in lags]
     return int(lags[int(np.argmax(scores))])
 
 
-def sensor_to_segment(optical: np.ndarray, gyr: np.ndarray, up: tuple | None = None) -> tuple[Rotation, float]:
+def sensor_to_segment(
+    optical: np.ndarray, gyr: np.ndarray, up: tuple | None = None
+) -> tuple[Rotation, float]:
     """``R_seg_sensor`` mapping gyroscope onto optical angular velocity, and the RMS misfit (rad/s).
-    ``up = (up_segment, up_sensor)``: unit vertical in both frames, matched exactly."""
+    ``up = (up_segment, up_sensor)``: unit vertical in both frames, matched exactly.
+    """
     if up is None:
         rotation, _ = Rotation.align_vectors(optical, gyr)
     else:
         weights = np.concatenate([[np.inf], np.ones(len(gyr))])
-        rotation, _ = Rotation.align_vectors(np.vstack([up[0], optical]), np.vstack([up[1], gyr]), weights)
+        rotation, _ = Rotation.align_vectors(
+            np.vstack([up[0], optical]), np.vstack([up[1], gyr]), weights
+        )
     rms = float(np.sqrt(np.mean(np.sum((optical - rotation.apply(gyr)) ** 2, axis=1))))
     return rotation, rms
 
 
 def body_axes(ml_world: np.ndarray) -> np.ndarray:
     """Rows x, y, z of Kong's body frame in world coordinates (world z up): z down, y the
-    horizontal part of the medial-lateral axis ``ml_world`` (pointing right), x = y x z."""
+    horizontal part of the medial-lateral axis ``ml_world`` (pointing right), x = y x z.
+    """
     z = np.array([0.0, 0.0, -1.0])
     y = ml_world - np.dot(ml_world, z) * z
     y /= np.linalg.norm(y)
     return np.vstack([np.cross(y, z), y, z])
 
 
-def ground_truth(markers: dict, segment: str, side: str, gyr: np.ndarray, acc: np.ndarray,
-                 standing: tuple[int, int], walk: tuple[int, int], fs_hz: float) -> dict:
+def ground_truth(
+    markers: dict,
+    segment: str,
+    side: str,
+    gyr: np.ndarray,
+    acc: np.ndarray,
+    standing: tuple[int, int],
+    walk: tuple[int, int],
+    fs_hz: float,
+) -> dict:
     """The true sensor-to-body rotation of one sensor and its uncertainty (module docstring)."""
     key = (segment, side)
     if key not in SEGMENT_MARKERS:
         raise FormatError(f"no Vicon marker set for segment {segment} ({side})")
     n = len(next(iter(markers.values())))
     if len(gyr) != n:
-        raise FormatError(f"Vicon has {n} frames, the sensor {len(gyr)} samples: not the same trial")
+        raise FormatError(
+            f"Vicon has {n} frames, the sensor {len(gyr)} samples: not the same trial"
+        )
     frames = segment_frames(markers, SEGMENT_MARKERS[key], fs_hz)
     optical = optical_angular_velocity(frames, fs_hz)
-    bias = gyr[standing[0]:standing[1]].mean(axis=0)
+    bias = gyr[standing[0] : standing[1]].mean(axis=0)
     gyr_filtered = _lowpass(gyr - bias, fs_hz)
     lag = best_lag(optical, gyr_filtered, walk, fs_hz)
     a, b = walk
-    shifted = gyr_filtered[a + lag:b + lag]
-    stand_frames = frames[standing[0]:standing[1]].mean()
-    up_sensor = np.median(acc[standing[0]:standing[1]], axis=0)
+    shifted = gyr_filtered[a + lag : b + lag]
+    stand_frames = frames[standing[0] : standing[1]].mean()
+    up_sensor = np.median(acc[standing[0] : standing[1]], axis=0)
     up = (stand_frames.inv().apply([0.0, 0.0, 1.0]), up_sensor / np.linalg.norm(up_sensor))
     rotation, rms = sensor_to_segment(optical[a:b], shifted, up)
     half = (b - a) // 2
-    first, _ = sensor_to_segment(optical[a:a + half], shifted[:half], up)
-    second, _ = sensor_to_segment(optical[a + half:b], shifted[half:], up)
+    first, _ = sensor_to_segment(optical[a : a + half], shifted[:half], up)
+    second, _ = sensor_to_segment(optical[a + half : b], shifted[half:], up)
     gyro_only, _ = sensor_to_segment(optical[a:b], shifted)
-    vertical_check = np.degrees(np.arccos(np.clip(np.dot(gyro_only.inv().apply(up[0]), up[1]), -1.0, 1.0)))
+    vertical_check = np.degrees(
+        np.arccos(np.clip(np.dot(gyro_only.inv().apply(up[0]), up[1]), -1.0, 1.0))
+    )
     R = body_axes(body_ml(markers, standing)) @ (stand_frames * rotation).as_matrix()
-    return {"R": R, "lag_samples": lag, "rms_misfit_deg_s": float(np.degrees(rms)),
-            "split_half_deg": float(np.degrees((first * second.inv()).magnitude())),
-            "vertical_check_deg": float(vertical_check), "n_samples": b - a}
+    return {
+        "R": R,
+        "lag_samples": lag,
+        "rms_misfit_deg_s": float(np.degrees(rms)),
+        "split_half_deg": float(np.degrees((first * second.inv()).magnitude())),
+        "vertical_check_deg": float(vertical_check),
+        "n_samples": b - a,
+    }
 
 
 def forward_check(markers: dict, walk: tuple[int, int]) -> np.ndarray:
     """Unit horizontal walking direction (pelvis centre displacement over ``walk``, the first
-    straight repetition), to check that the body frames' x axes point forward."""
+    straight repetition), to check that the body frames' x axes point forward.
+    """
     centre = sum(markers[m] for m in ("LASI", "RASI", "LPSI", "RPSI")) / 4.0
     step = centre[walk[1] - 1] - centre[walk[0]]
     step[2] = 0.0
     return step / np.linalg.norm(step)
 
 
-def ground_truth_table(markers: dict, imports: dict, imus: pd.DataFrame, subject: str) -> pd.DataFrame:
+def ground_truth_table(
+    markers: dict, imports: dict, imus: pd.DataFrame, subject: str
+) -> pd.DataFrame:
     """One row per sensor: the true R (r11..r33) and the uncertainty columns."""
     spans, fs_hz = imports["spans"], imports["fs_hz"]
     standing = spans["T0"][0]
     walk = (spans["T6"][0][0], spans["T6"][-1][1])
     forward = forward_check(markers, spans["T6"][0])
-    heading_error = float(np.degrees(np.arccos(np.clip(body_axes(body_ml(markers, standing))[0] @ forward, -1, 1))))
+    heading_error = float(
+        np.degrees(np.arccos(np.clip(body_axes(body_ml(markers, standing))[0] @ forward, -1, 1)))
+    )
     if heading_error > 45:
-        raise FormatError(f"the body frame's x axis is {heading_error:.0f} deg from the walking direction: "
-                          f"are the {', '.join(BODY_ML_MARKERS)} markers swapped?")
+        raise FormatError(
+            f"the body frame's x axis is {heading_error:.0f} deg from the walking direction: "
+            f"are the {', '.join(BODY_ML_MARKERS)} markers swapped?"
+        )
     rows = []
     for (sensor_set, imu), (gyr, acc) in imports["signals"].items():
-        segment, side = imus.loc[(imus["sensor_set"] == sensor_set) & (imus["imu"] == imu), ["segment", "side"]].iloc[0]
+        segment, side = imus.loc[
+            (imus["sensor_set"] == sensor_set) & (imus["imu"] == imu), ["segment", "side"]
+        ].iloc[0]
         truth = ground_truth(markers, segment, side, gyr, acc, standing, walk, fs_hz)
         R = truth.pop("R")
-        rows.append({"subject": subject, "sensor_set": sensor_set, "imu": imu,
-                     **{f"r{i + 1}{j + 1}": R[i, j] for i in range(3) for j in range(3)},
-                     "sensor_id": imports["sensor_ids"][(sensor_set, imu)], "segment": segment, "side": side,
-                     **truth, "heading_vs_walk_deg": heading_error})
+        rows.append(
+            {
+                "subject": subject,
+                "sensor_set": sensor_set,
+                "imu": imu,
+                **{f"r{i + 1}{j + 1}": R[i, j] for i in range(3) for j in range(3)},
+                "sensor_id": imports["sensor_ids"][(sensor_set, imu)],
+                "segment": segment,
+                "side": side,
+                **truth,
+                "heading_vs_walk_deg": heading_error,
+            }
+        )
     return pd.DataFrame(rows)
 
 
 def body_ml(markers: dict, standing: tuple[int, int]) -> np.ndarray:
     """Unit medial-lateral axis of the body (world coordinates, pointing right) while standing."""
     left, right = BODY_ML_MARKERS
-    ml = (markers[right] - markers[left])[standing[0]:standing[1]].mean(axis=0)
+    ml = (markers[right] - markers[left])[standing[0] : standing[1]].mean(axis=0)
     return ml / np.linalg.norm(ml)

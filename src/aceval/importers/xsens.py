@@ -30,7 +30,14 @@ import pandas as pd
 
 from ..segmentation import movement_mask
 from ..writer import DatasetWriter, write_sheet
-from .common import FormatError, ImportReport, straight_strides, stride_peaks, stride_spans, walking_bouts
+from .common import (
+    FormatError,
+    ImportReport,
+    straight_strides,
+    stride_peaks,
+    stride_spans,
+    walking_bouts,
+)
 
 REQUIRED = ["PacketCounter", "Acc_X", "Acc_Y", "Acc_Z", "Gyr_X", "Gyr_Y", "Gyr_Z"]
 SHEET_COLUMNS = ["sensor_id", "imu", "sensor_set", "segment", "side", "region", "right_axis"]
@@ -56,31 +63,40 @@ def read_mt_export(path: str | Path) -> tuple[dict, pd.DataFrame]:
             elif line.strip():
                 lines.append((number, line))
     if not lines:
-        raise FormatError(f"{path}: no column header and no samples (is this an MT Manager export?)")
+        raise FormatError(
+            f"{path}: no column header and no samples (is this an MT Manager export?)"
+        )
     columns = [c.strip() for c in lines[0][1].rstrip("\r\n").split(",")]
     missing = [c for c in REQUIRED if c not in columns]
     if missing:
-        raise FormatError(f"{path}: line {lines[0][0]}: missing column(s) {', '.join(missing)} "
-                          f"(an MT Manager export with Acc in m/s^2 and Gyr in rad/s is expected)")
+        raise FormatError(
+            f"{path}: line {lines[0][0]}: missing column(s) {', '.join(missing)} "
+            f"(an MT Manager export with Acc in m/s^2 and Gyr in rad/s is expected)"
+        )
     rows = []
     for number, line in lines[1:]:
         fields = line.rstrip("\r\n").split(",")
         if len(fields) != len(columns):
-            raise FormatError(f"{path}: line {number}: {len(fields)} fields, the header has {len(columns)} "
-                              "(a truncated or garbled file?)")
+            raise FormatError(
+                f"{path}: line {number}: {len(fields)} fields, the header has {len(columns)} "
+                "(a truncated or garbled file?)"
+            )
         rows.append(fields)
     table = pd.DataFrame(rows, columns=columns)
     values = table[REQUIRED].apply(pd.to_numeric, errors="coerce")
     bad = ~np.isfinite(values.to_numpy(dtype=float)).all(axis=1)
     if bad.any():
         first = int(np.flatnonzero(bad)[0])
-        raise FormatError(f"{path}: line {lines[first + 1][0]}: missing or non-numeric values in {', '.join(REQUIRED)}")
+        raise FormatError(
+            f"{path}: line {lines[first + 1][0]}: missing or non-numeric values in {', '.join(REQUIRED)}"
+        )
     if len(values) < 2:
         raise FormatError(f"{path}: fewer than 2 samples")
     return header, values
 
 
 def sampling_rate(header: dict, path) -> float:
+    """Samples per second from the export's ``// Update Rate: <n>Hz`` line."""
     match = re.match(r"([\d.]+)\s*Hz", header.get("Update Rate", ""))
     if not match:
         raise FormatError(f"{path}: no '// Update Rate: <n>Hz' header line")
@@ -88,17 +104,22 @@ def sampling_rate(header: dict, path) -> float:
 
 
 def read_sensor_sheet(path: str | Path) -> pd.DataFrame:
+    """The sensor sheet (``SHEET_COLUMNS``, tab-separated, ``#`` comments)."""
     sheet = pd.read_csv(path, sep="\t", dtype=str, comment="#").apply(lambda c: c.str.strip())
     missing = [c for c in SHEET_COLUMNS if c not in sheet.columns]
     if missing:
-        raise FormatError(f"{path}: missing column(s) {', '.join(missing)} (needs {', '.join(SHEET_COLUMNS)})")
+        raise FormatError(
+            f"{path}: missing column(s) {', '.join(missing)} (needs {', '.join(SHEET_COLUMNS)})"
+        )
     return sheet
 
 
-def trial_spans(gyr_by_imu: dict, stride_imu: str, fs_hz: float, yaw_rate: np.ndarray | None = None
-                ) -> dict[str, list[tuple[int, int]]]:
+def trial_spans(
+    gyr_by_imu: dict, stride_imu: str, fs_hz: float, yaw_rate: np.ndarray | None = None
+) -> dict[str, list[tuple[int, int]]]:
     """T0 and T6 sample ranges of a standing-then-walking trial (the module's rules); ``yaw_rate``
-    (rad/s about the vertical, e.g. of a waist sensor) leaves turning strides out."""
+    (rad/s about the vertical, e.g. of a waist sensor) leaves turning strides out.
+    """
     masks = [movement_mask(gyr, fs_hz) for gyr in gyr_by_imu.values()]
     moving = np.flatnonzero(np.any(masks, axis=0))
     start, stop = int(moving[0]), int(moving[-1]) + 1
@@ -106,7 +127,10 @@ def trial_spans(gyr_by_imu: dict, stride_imu: str, fs_hz: float, yaw_rate: np.nd
     spans = {}
     if standing_end >= MIN_STANDING_S * fs_hz:
         spans["T0"] = [(0, standing_end)]
-    strides = [(start + a, start + b) for a, b in stride_spans(stride_peaks(gyr_by_imu[stride_imu][start:stop], fs_hz))]
+    strides = [
+        (start + a, start + b)
+        for a, b in stride_spans(stride_peaks(gyr_by_imu[stride_imu][start:stop], fs_hz))
+    ]
     if yaw_rate is not None:
         strides = straight_strides(strides, yaw_rate, fs_hz)
     bouts = walking_bouts(strides)
@@ -115,13 +139,20 @@ def trial_spans(gyr_by_imu: dict, stride_imu: str, fs_hz: float, yaw_rate: np.nd
     return spans
 
 
-def import_xsens(src: str | Path, out: Path, sensors: str | Path, subject: str, name: str = "xsens",
-                 description: str = "") -> tuple[ImportReport, dict]:
+def import_xsens(
+    src: str | Path,
+    out: Path,
+    sensors: str | Path,
+    subject: str,
+    name: str = "xsens",
+    description: str = "",
+) -> tuple[ImportReport, dict]:
     """Convert one trial's exports in ``src`` (``*_<sensor id>.txt``) into a dataset at ``out``.
 
     Returns the report and, for callers that add ground truth (:mod:`aceval.importers.vicon`),
     ``{"signals": {(sensor_set, imu): (gyr, acc)}, "spans": {test: ranges}, "fs_hz": ...,
-    "sensor_ids": {(sensor_set, imu): id}}`` (SI units, sample ranges half-open)."""
+    "sensor_ids": {(sensor_set, imu): id}}`` (SI units, sample ranges half-open).
+    """
     src = Path(src)
     sheet = read_sensor_sheet(sensors)
     files = {m.group(1).upper(): p for p in sorted(src.glob("*.txt")) if (m := _ID.search(p.name))}
@@ -132,21 +163,33 @@ def import_xsens(src: str | Path, out: Path, sensors: str | Path, subject: str, 
     for sensor_id, path in files.items():
         if sensor_id in wanted:
             continue
-        twin = next((s for s in wanted if s in files and filecmp.cmp(files[s], path, shallow=False)), None)
-        report.add(path.name, subject, sensor_id, "skipped",
-                   f"byte-identical duplicate of {twin}" if twin else "sensor not in the sensor sheet")
+        twin = next(
+            (s for s in wanted if s in files and filecmp.cmp(files[s], path, shallow=False)), None
+        )
+        report.add(
+            path.name,
+            subject,
+            sensor_id,
+            "skipped",
+            f"byte-identical duplicate of {twin}" if twin else "sensor not in the sensor sheet",
+        )
     absent = [s for s in wanted if s not in files]
     if absent:
         raise FormatError(f"{src}: no export for sensor(s) {', '.join(absent)} of {sensors}")
     tables, rates = {}, set()
-    for sensor_id, row in wanted.items():
+    for sensor_id in wanted:
         header, table = read_mt_export(files[sensor_id])
         rates.add(sampling_rate(header, files[sensor_id]))
         tables[sensor_id] = table
-    counters = {s: (int(t["PacketCounter"].iloc[0]), int(t["PacketCounter"].iloc[-1]), len(t)) for s, t in tables.items()}
+    counters = {
+        s: (int(t["PacketCounter"].iloc[0]), int(t["PacketCounter"].iloc[-1]), len(t))
+        for s, t in tables.items()
+    }
     if len(set(counters.values())) != 1 or len(rates) != 1:
-        raise FormatError(f"{src}: the exports are not one synchronised trial (PacketCounter first, last, "
-                          f"count per sensor: {counters}; rates {sorted(rates)} Hz)")
+        raise FormatError(
+            f"{src}: the exports are not one synchronised trial (PacketCounter first, last, "
+            f"count per sensor: {counters}; rates {sorted(rates)} Hz)"
+        )
     fs_hz = rates.pop()
     gyr = {s: t[["Gyr_X", "Gyr_Y", "Gyr_Z"]].to_numpy(float) for s, t in tables.items()}
     acc = {s: t[["Acc_X", "Acc_Y", "Acc_Z"]].to_numpy(float) for s, t in tables.items()}
@@ -156,31 +199,66 @@ def import_xsens(src: str | Path, out: Path, sensors: str | Path, subject: str, 
     waist = [s for s, row in wanted.items() if row["segment"] == "waist"]
     yaw_rate = None
     if waist:  # vertical from the first second, when the subject stands
-        vertical = acc[waist[0]][:int(fs_hz)].mean(axis=0)
+        vertical = acc[waist[0]][: int(fs_hz)].mean(axis=0)
         yaw_rate = gyr[waist[0]] @ (vertical / np.linalg.norm(vertical))
     spans = trial_spans(gyr, shanks[0], fs_hz, yaw_rate)
     if "T0" not in spans or "T6" not in spans:
-        raise FormatError(f"{src}: expected standing then walking; found {', '.join(spans) or 'neither'}")
+        raise FormatError(
+            f"{src}: expected standing then walking; found {', '.join(spans) or 'neither'}"
+        )
     sensor_sets = list(dict.fromkeys(sheet["sensor_set"]))
-    meta = {"name": name, "description": description or f"Xsens MT Manager exports ({src.name}), imported by aceval import xsens",
-            "simulated": False, "sampling_rate_hz": fs_hz, "units": {"acc": "m/s^2", "gyr": "rad/s"},
-            "sensor_sets": sensor_sets, "acc_range_g": {"upper_body": ACC_RANGE_G, "lower_body": ACC_RANGE_G},
-            "gyr_range_dps": GYR_RANGE_DPS}
+    meta = {
+        "name": name,
+        "description": description
+        or f"Xsens MT Manager exports ({src.name}), imported by aceval import xsens",
+        "simulated": False,
+        "sampling_rate_hz": fs_hz,
+        "units": {"acc": "m/s^2", "gyr": "rad/s"},
+        "sensor_sets": sensor_sets,
+        "acc_range_g": {"upper_body": ACC_RANGE_G, "lower_body": ACC_RANGE_G},
+        "gyr_range_dps": GYR_RANGE_DPS,
+    }
     writer = DatasetWriter(out, meta)
     for sensor_id, row in wanted.items():
         for test, ranges in spans.items():
             for rep, (a, b) in enumerate(ranges, start=1):
-                writer.recording(subject, row["sensor_set"], test, rep, row["imu"], gyr[sensor_id][a:b], acc[sensor_id][a:b])
-        report.add(files[sensor_id].name, subject, row["imu"], "imported",
-                   f"set {row['sensor_set']}; " + "; ".join(f"{t} x{len(r)}" for t, r in spans.items()))
+                writer.recording(
+                    subject,
+                    row["sensor_set"],
+                    test,
+                    rep,
+                    row["imu"],
+                    gyr[sensor_id][a:b],
+                    acc[sensor_id][a:b],
+                )
+        report.add(
+            files[sensor_id].name,
+            subject,
+            row["imu"],
+            "imported",
+            f"set {row['sensor_set']}; " + "; ".join(f"{t} x{len(r)}" for t, r in spans.items()),
+        )
     t6_imus = sorted({row["imu"] for row in wanted.values() if row["segment"] in T6_SEGMENTS})
-    writer.protocol_sheets({"T0": ("static", "quiet standing before the walk"),
-                            "T6": ("motion", "walking, repetitions of equal numbers of whole strides")},
-                           {test: len(r) for test, r in spans.items()}, {"T6": t6_imus})
+    writer.protocol_sheets(
+        {
+            "T0": ("static", "quiet standing before the walk"),
+            "T6": ("motion", "walking, repetitions of equal numbers of whole strides"),
+        },
+        {test: len(r) for test, r in spans.items()},
+        {"T6": t6_imus},
+    )
     writer.close()
     write_sheet(out / "subjects.tsv", ["subject"], [[subject]])
-    write_sheet(out / "imus.tsv", ["imu", "sensor_set", "segment", "side", "region", "right_axis"],
-                sheet[["imu", "sensor_set", "segment", "side", "region", "right_axis"]].to_numpy().tolist())
+    write_sheet(
+        out / "imus.tsv",
+        ["imu", "sensor_set", "segment", "side", "region", "right_axis"],
+        sheet[["imu", "sensor_set", "segment", "side", "region", "right_axis"]].to_numpy().tolist(),
+    )
     report.write(out / "import_report.tsv")
     signals = {(row["sensor_set"], row["imu"]): (gyr[s], acc[s]) for s, row in wanted.items()}
-    return report, {"signals": signals, "spans": spans, "fs_hz": fs_hz, "sensor_ids": {(r["sensor_set"], r["imu"]): s for s, r in wanted.items()}}
+    return report, {
+        "signals": signals,
+        "spans": spans,
+        "fs_hz": fs_hz,
+        "sensor_ids": {(r["sensor_set"], r["imu"]): s for s, r in wanted.items()},
+    }

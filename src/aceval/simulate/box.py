@@ -1,5 +1,6 @@
 """Simulated rigid-box control (Kong Sec. 3, Fig. 7, Tables 4-5): both sets of 9 IMUs on two faces
-of an aluminium box; rotation about one edge and random hand-held rotation, 5 repetitions each."""
+of an aluminium box; rotation about one edge and random hand-held rotation, 5 repetitions each.
+"""
 
 from __future__ import annotations
 
@@ -7,12 +8,12 @@ from pathlib import Path
 
 import numpy as np
 
+from ..writer import DatasetWriter, simulated_meta, write_sheet
 from .body import Placement, random_mount
 from .common import SimOptions, progress, sensor_signals
 from .engine import band_noise, euler_pitch_roll_yaw, fine_time, small_rotations
 from .kong import ACC_RANGE_G, GYR_RANGE_DPS, IMUS, SENSOR_SETS, UNITS
 from .motion import bell
-from ..writer import DatasetWriter, simulated_meta, write_sheet
 
 #: box size (m): Kong does not give it; a hand-held aluminium box of this size is assumed
 BOX = np.array([0.30, 0.20, 0.15])
@@ -21,7 +22,8 @@ MISALIGNMENT_SD_DEG = 2.0  # sensors stuck on a machined flat face
 
 def _placements() -> dict[str, dict[str, Placement]]:
     """3 x 3 grids of IMU1-9 on the front face (frontal set) and the right face (lateral set);
-    box frame origin at the box centre, x forward, y right, z down."""
+    box frame origin at the box centre, x forward, y right, z down.
+    """
     lx, ly, lz = BOX / 2
     grid = [(a, b) for b in (-0.6, 0.0, 0.6) for a in (-0.6, 0.0, 0.6)]
     frontal, lateral = {}, {}
@@ -44,13 +46,20 @@ def _edge_rotation(rng, fs):
 
 def _random_rotation(rng, fs):
     """Hand-held random rotation: +-30 deg RMS about each axis and +-5 cm translation, 0.2-0.8 Hz
-    (voluntary hand rotation rarely exceeds 1 Hz)."""
+    (voluntary hand rotation rarely exceeds 1 Hz).
+    """
     rest, duration = 1.0, rng.uniform(6, 8)
     t = fine_time(2 * rest + duration, fs)
     envelope = np.clip((t - rest) / 0.5, 0, 1) * np.clip((rest + duration - t) / 0.5, 0, 1)
     envelope = envelope**2 * (3 - 2 * envelope)  # smooth on and off
-    rotvec = np.radians(30) * envelope[:, None] * np.column_stack([band_noise(rng, t, 0.2, 0.8) for _ in range(3)])
-    origin = 0.05 * envelope[:, None] * np.column_stack([band_noise(rng, t, 0.2, 0.8) for _ in range(3)])
+    rotvec = (
+        np.radians(30)
+        * envelope[:, None]
+        * np.column_stack([band_noise(rng, t, 0.2, 0.8) for _ in range(3)])
+    )
+    origin = (
+        0.05 * envelope[:, None] * np.column_stack([band_noise(rng, t, 0.2, 0.8) for _ in range(3)])
+    )
     return t, small_rotations(rotvec), origin, envelope
 
 
@@ -66,27 +75,53 @@ TESTS = {
 }
 
 
-def simulate_box(out: Path, seed: int, n_subjects: int = 1, options: SimOptions = SimOptions()) -> Path:
+def simulate_box(
+    out: Path, seed: int, n_subjects: int = 1, options: SimOptions = SimOptions()
+) -> Path:
+    """Write the SIMULATED rigid-box dataset (Kong Sec. 3) into ``out``; returns ``out``."""
     out = Path(out)
-    meta = simulated_meta("box_sim", "the rigid aluminium box of Kong et al. 2016 Sec. 3", "box", seed,
-                          options.fs_hz, units=UNITS, sensor_sets=SENSOR_SETS, acc_range_g=ACC_RANGE_G,
-                          gyr_range_dps=GYR_RANGE_DPS)
+    meta = simulated_meta(
+        "box_sim",
+        "the rigid aluminium box of Kong et al. 2016 Sec. 3",
+        "box",
+        seed,
+        options.fs_hz,
+        units=UNITS,
+        sensor_sets=SENSOR_SETS,
+        acc_range_g=ACC_RANGE_G,
+        gyr_range_dps=GYR_RANGE_DPS,
+    )
     writer = DatasetWriter(out, meta)
     placements = _placements()
     subjects = [f"BOX{k + 1}" for k in range(n_subjects)]
-    write_sheet(out / "subjects.tsv", ["subject", "description"], [[s, "rigid aluminium box"] for s in subjects])
+    write_sheet(
+        out / "subjects.tsv",
+        ["subject", "description"],
+        [[s, "rigid aluminium box"] for s in subjects],
+    )
     repetitions = {test: 1 if test == "T0" else options.repetitions for test in TESTS}
-    writer.protocol_sheets({test: (kind, text) for test, (_, kind, text) in TESTS.items()}, repetitions,
-                           {"EDGE": [imu for imu, *_ in IMUS]})
-    write_sheet(out / "imus.tsv", ["imu", "sensor_set", "segment", "side", "region", "right_axis"],
-                [[imu, sensor_set, "box", "center", region, placements[sensor_set][imu].right_axis()]
-                 for sensor_set in meta["sensor_sets"] for imu, _, _, region in IMUS])
+    writer.protocol_sheets(
+        {test: (kind, text) for test, (_, kind, text) in TESTS.items()},
+        repetitions,
+        {"EDGE": [imu for imu, *_ in IMUS]},
+    )
+    write_sheet(
+        out / "imus.tsv",
+        ["imu", "sensor_set", "segment", "side", "region", "right_axis"],
+        [
+            [imu, sensor_set, "box", "center", region, placements[sensor_set][imu].right_axis()]
+            for sensor_set in meta["sensor_sets"]
+            for imu, _, _, region in IMUS
+        ],
+    )
     for k, subject in enumerate(subjects):
         rng = np.random.default_rng([seed, 1, k])
         mounts = {}
         for sensor_set in meta["sensor_sets"]:
             for imu, *_ in IMUS:
-                mounts[sensor_set, imu] = random_mount(rng, placements[sensor_set][imu], MISALIGNMENT_SD_DEG)
+                mounts[sensor_set, imu] = random_mount(
+                    rng, placements[sensor_set][imu], MISALIGNMENT_SD_DEG
+                )
                 writer.ground_truth(subject, sensor_set, imu, mounts[sensor_set, imu])
         runs = [(test, rep) for test in TESTS for rep in range(1, repetitions[test] + 1)]
         for j, (test, rep) in enumerate(runs):
@@ -94,9 +129,17 @@ def simulate_box(out: Path, seed: int, n_subjects: int = 1, options: SimOptions 
             _, R, origin, envelope = TESTS[test][0](run_rng, options.fs_hz)
             for sensor_set in meta["sensor_sets"]:
                 for imu, _, _, region in IMUS:
-                    gyr, acc = sensor_signals(run_rng, R, origin, mounts[sensor_set, imu],
-                                              placements[sensor_set][imu].position, envelope, 0.0,
-                                              options, ACC_RANGE_G[region])
+                    gyr, acc = sensor_signals(
+                        run_rng,
+                        R,
+                        origin,
+                        mounts[sensor_set, imu],
+                        placements[sensor_set][imu].position,
+                        envelope,
+                        0.0,
+                        options,
+                        ACC_RANGE_G[region],
+                    )
                     writer.recording(subject, sensor_set, test, rep, imu, gyr, acc)
         progress(f"box_sim {out}", k + 1, len(subjects))
     writer.close()

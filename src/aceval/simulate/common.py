@@ -13,7 +13,8 @@ from .engine import OVERSAMPLE, PAD, ImuErrorModel, band_noise, measure, small_r
 @dataclass(frozen=True)
 class SimOptions:
     """Switches of the physical effects (all on by default). ``offplane`` and ``wobble`` scale
-    out-of-sagittal-plane motion and soft-tissue wobble (1 = physiological value, 0 = off)."""
+    out-of-sagittal-plane motion and soft-tissue wobble (1 = physiological value, 0 = off).
+    """
 
     fs_hz: float = 100.0
     noise: bool = True
@@ -23,8 +24,18 @@ class SimOptions:
     repetitions: int = 5
 
 
-def sensor_signals(rng, R_seg, origin, mount, position, envelope, wobble_deg, options, acc_range_g,
-                   error_model=ImuErrorModel()):
+def sensor_signals(
+    rng,
+    R_seg,
+    origin,
+    mount,
+    position,
+    envelope,
+    wobble_deg,
+    options,
+    acc_range_g,
+    error_model=ImuErrorModel(),
+):
     """Measured (gyr rad/s, acc m/s^2) of a sensor mounted with ``mount`` (sensor -> segment) at
     ``position`` (segment frame, m) on a segment with pose ``R_seg``/``origin`` on the fine grid.
 
@@ -45,4 +56,6 @@ def sensor_signals(rng, R_seg, origin, mount, position, envelope, wobble_deg, op
 
 def progress(label: str, done: int, total: int) -> None:
     """One-line progress on stderr for long generations."""
-    print(f"\r{label}: {done}/{total}", end="\n" if done == total else "", file=sys.stderr, flush=True)
+    print(
+        f"\r{label}: {done}/{total}", end="\n" if done == total else "", file=sys.stderr, flush=True
+    )

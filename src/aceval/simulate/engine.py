@@ -20,6 +20,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..dataset import GRAVITY
+
 #: fine grid = OVERSAMPLE x the output rate; with the 5-point (4th-order) central differences
 #: below, 4x differs from a 20x grid by < 1 mg and < 0.05 deg/s (docs/simulation.md)
 OVERSAMPLE = 4
@@ -44,12 +45,17 @@ def measure(R_ws: np.ndarray, p_w: np.ndarray, fs_hz: float) -> tuple[np.ndarray
     # 5-point central differences (error O(dt^4))
     dR = (R_ws[idx - 2] - 8 * R_ws[idx - 1] + 8 * R_ws[idx + 1] - R_ws[idx + 2]) / (12 * dt)
     omega_skew = np.swapaxes(R, 1, 2) @ dR
-    gyr = 0.5 * np.stack([
-        omega_skew[:, 2, 1] - omega_skew[:, 1, 2],
-        omega_skew[:, 0, 2] - omega_skew[:, 2, 0],
-        omega_skew[:, 1, 0] - omega_skew[:, 0, 1],
-    ], axis=1)
-    acc_w = (-p_w[idx - 2] + 16 * p_w[idx - 1] - 30 * p_w[idx] + 16 * p_w[idx + 1] - p_w[idx + 2]) / (12 * dt**2)
+    gyr = 0.5 * np.stack(
+        [
+            omega_skew[:, 2, 1] - omega_skew[:, 1, 2],
+            omega_skew[:, 0, 2] - omega_skew[:, 2, 0],
+            omega_skew[:, 1, 0] - omega_skew[:, 0, 1],
+        ],
+        axis=1,
+    )
+    acc_w = (
+        -p_w[idx - 2] + 16 * p_w[idx - 1] - 30 * p_w[idx] + 16 * p_w[idx + 1] - p_w[idx + 2]
+    ) / (12 * dt**2)
     specific_force_w = acc_w - np.array([0.0, 0.0, GRAVITY])
     acc = np.einsum("nji,nj->ni", R, specific_force_w)
     return gyr, acc
@@ -88,9 +94,12 @@ class ImuErrorModel:
         return np.clip(gyr_out, -gyr_limit, gyr_limit), np.clip(acc_out, -acc_limit, acc_limit)
 
 
-def band_noise(rng, t: np.ndarray, f_low: float, f_high: float, n_components: int = 12) -> np.ndarray:
+def band_noise(
+    rng, t: np.ndarray, f_low: float, f_high: float, n_components: int = 12
+) -> np.ndarray:
     """Smooth random signal with unit RMS and energy between ``f_low`` and ``f_high`` Hz: a sum of
-    sinusoids at random frequencies and phases (differentiable, so the physics stays exact)."""
+    sinusoids at random frequencies and phases (differentiable, so the physics stays exact).
+    """
     freqs = rng.uniform(f_low, f_high, n_components)
     phases = rng.uniform(0, 2 * np.pi, n_components)
     omega = 2 * np.pi * freqs
@@ -104,18 +113,23 @@ def band_noise(rng, t: np.ndarray, f_low: float, f_high: float, n_components: in
         coarse = t[0] + np.arange(-(-len(t) // block))[:, None] * block * steps[0]
         fine = np.arange(block)[:, None] * steps[0]
         a, b = omega * coarse + phases, omega * fine
-        signal = (np.sin(a) @ np.cos(b).T + np.cos(a) @ np.sin(b).T).ravel()[:len(t)]
+        signal = (np.sin(a) @ np.cos(b).T + np.cos(a) @ np.sin(b).T).ravel()[: len(t)]
     return signal * np.sqrt(2.0 / n_components)
 
 
 def euler_pitch_roll_yaw(pitch, roll=0.0, yaw=0.0) -> np.ndarray:
     """Segment -> world rotation matrices from angles (rad): yaw about z, then roll about x, then
-    pitch about y (intrinsic Z-X-Y). Positive pitch tilts the segment's +x up and its +z forward."""
+    pitch about y (intrinsic Z-X-Y). Positive pitch tilts the segment's +x up and its +z forward.
+    """
     pitch = np.atleast_1d(np.asarray(pitch, dtype=float))
     n = pitch.shape[0]
-    angles = np.column_stack([
-        np.broadcast_to(yaw, n), np.broadcast_to(roll, n), pitch,
-    ])
+    angles = np.column_stack(
+        [
+            np.broadcast_to(yaw, n),
+            np.broadcast_to(roll, n),
+            pitch,
+        ]
+    )
     if n > 1 and np.all(angles == angles[0]):  # a held posture: one matrix, repeated (same values)
         return np.broadcast_to(Rotation.from_euler("ZXY", angles[0]).as_matrix(), (n, 3, 3)).copy()
     return Rotation.from_euler("ZXY", angles).as_matrix()

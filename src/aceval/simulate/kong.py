@@ -1,5 +1,6 @@
 """Simulated Kong et al. 2016 dataset: 5 subjects (Kong Table 1), frontal/back and lateral sets of
-9 IMUs, T0 once and T1-T6 x 5 repetitions, written in the dataset contract with ground truth."""
+9 IMUs, T0 once and T1-T6 x 5 repetitions, written in the dataset contract with ground truth.
+"""
 
 from __future__ import annotations
 
@@ -7,12 +8,12 @@ from pathlib import Path
 
 import numpy as np
 
+from ..writer import DatasetWriter, simulated_meta, write_sheet
 from .body import Anthropometry, kong_placements, random_mount
 from .common import SimOptions, progress, sensor_signals
 from .engine import euler_pitch_roll_yaw
 from .kong_protocol import PROTOCOL
 from .motion import segment_poses
-from ..writer import DatasetWriter, simulated_meta, write_sheet
 
 IMUS = [  # Kong Sec. 2.3 and Fig. 4
     ("IMU1", "head", "center", "upper_body"),
@@ -26,14 +27,19 @@ IMUS = [  # Kong Sec. 2.3 and Fig. 4
     ("IMU9", "foot_l", "left", "lower_body"),
 ]
 CALIBRATES = {  # Kong Table 2
-    "T1": ["IMU1", "IMU2", "IMU3"], "T2": ["IMU1", "IMU2", "IMU3"],
+    "T1": ["IMU1", "IMU2", "IMU3"],
+    "T2": ["IMU1", "IMU2", "IMU3"],
     "T3": ["IMU1", "IMU2", "IMU3", "IMU4", "IMU7"],
     "T4": ["IMU5", "IMU6", "IMU8", "IMU9"],
     "T5": ["IMU4", "IMU5", "IMU6", "IMU7", "IMU8", "IMU9"],
     "T6": ["IMU4", "IMU5", "IMU6", "IMU7", "IMU8", "IMU9"],
 }
 SUBJECTS = [  # Kong Table 1
-    ("S1", 27, 174, 90), ("S2", 23, 173, 80), ("S3", 23, 166, 68), ("S4", 22, 169, 56), ("S5", 26, 187, 84),
+    ("S1", 27, 174, 90),
+    ("S2", 23, 173, 80),
+    ("S3", 23, 166, 68),
+    ("S4", 22, 169, 56),
+    ("S5", 26, 187, 84),
 ]
 ACC_RANGE_G = {"upper_body": 4.0, "lower_body": 8.0}  # Kong Sec. 2.3
 GYR_RANGE_DPS = 400.0  # Kong Sec. 2.3
@@ -42,8 +48,12 @@ SENSOR_SETS = ["frontal", "lateral"]
 #: soft-tissue wobble RMS (deg) by segment and set: stiffer over bone (head, shank front, foot
 #: dorsum), larger over fat and muscle (lateral waist, thighs); see docs/simulation.md
 WOBBLE_DEG = {
-    "head": (0.3, 0.3), "chest": (1.0, 1.0), "waist": (1.0, 2.0),
-    "thigh": (1.5, 1.5), "shank": (0.7, 1.0), "foot": (1.0, 1.0),
+    "head": (0.3, 0.3),
+    "chest": (1.0, 1.0),
+    "waist": (1.0, 2.0),
+    "thigh": (1.5, 1.5),
+    "shank": (0.7, 1.0),
+    "foot": (1.0, 1.0),
 }
 FOOT_PROGRESSION_DEG = (7.0, 3.0)  # toe-out mean, SD (Perry & Burnfield 2010)
 LEG_ROTATION_SD_DEG = 3.0  # resting external/internal rotation of the leg
@@ -53,14 +63,17 @@ def _subjects(n: int, rng) -> list[tuple]:
     subjects = list(SUBJECTS[:n])
     for k in range(len(subjects), n):  # beyond Kong's five: heights from Table 1's mean and SD
         height = rng.normal(173.8, 8.0)
-        subjects.append((f"S{k + 1}", int(rng.integers(20, 30)), round(height), round(rng.normal(75.6, 13.6))))
+        subjects.append(
+            (f"S{k + 1}", int(rng.integers(20, 30)), round(height), round(rng.normal(75.6, 13.6)))
+        )
     return subjects
 
 
 def _stance_offsets(rng, offplane: float) -> dict[str, np.ndarray]:
     """Each segment's yaw (rad) in quiet stance relative to the whole-body frame {0}: feet toe out
     and legs rotate a little; trunk segments are aligned. Scaled by ``offplane`` (0: none), since
-    they turn the legs' planes of motion away from the body's sagittal plane."""
+    they turn the legs' planes of motion away from the body's sagittal plane.
+    """
     offsets = {}
     for s, sign in (("r", 1.0), ("l", -1.0)):
         leg = np.radians(rng.normal(0, LEG_ROTATION_SD_DEG))
@@ -70,20 +83,47 @@ def _stance_offsets(rng, offplane: float) -> dict[str, np.ndarray]:
     return offsets
 
 
-def simulate_kong(out: Path, seed: int, n_subjects: int = 5, options: SimOptions = SimOptions()) -> Path:
+def simulate_kong(
+    out: Path, seed: int, n_subjects: int = 5, options: SimOptions = SimOptions()
+) -> Path:
+    """Write the SIMULATED Kong protocol dataset into ``out``; returns ``out``."""
     out = Path(out)
-    meta = simulated_meta("kong_sim", "Kong et al. 2016", "kong", seed, options.fs_hz, units=UNITS,
-                          sensor_sets=SENSOR_SETS, acc_range_g=ACC_RANGE_G, gyr_range_dps=GYR_RANGE_DPS)
+    meta = simulated_meta(
+        "kong_sim",
+        "Kong et al. 2016",
+        "kong",
+        seed,
+        options.fs_hz,
+        units=UNITS,
+        sensor_sets=SENSOR_SETS,
+        acc_range_g=ACC_RANGE_G,
+        gyr_range_dps=GYR_RANGE_DPS,
+    )
     writer = DatasetWriter(out, meta)
     subject_rng = np.random.default_rng([seed, 0])
     subjects = _subjects(n_subjects, subject_rng)
     write_sheet(out / "subjects.tsv", ["subject", "age", "height_cm", "weight_kg"], subjects)
     repetitions = {test: 1 if test == "T0" else options.repetitions for test in PROTOCOL}
-    writer.protocol_sheets({test: (kind, text) for test, (_, kind, text) in PROTOCOL.items()}, repetitions, CALIBRATES)
+    writer.protocol_sheets(
+        {test: (kind, text) for test, (_, kind, text) in PROTOCOL.items()}, repetitions, CALIBRATES
+    )
     probe = kong_placements(Anthropometry(1.75))
-    write_sheet(out / "imus.tsv", ["imu", "sensor_set", "segment", "side", "region", "right_axis"],
-                [[imu, sensor_set, segment.split("_")[0], side, region, probe[sensor_set][segment].right_axis()]
-                 for sensor_set in meta["sensor_sets"] for imu, segment, side, region in IMUS])
+    write_sheet(
+        out / "imus.tsv",
+        ["imu", "sensor_set", "segment", "side", "region", "right_axis"],
+        [
+            [
+                imu,
+                sensor_set,
+                segment.split("_")[0],
+                side,
+                region,
+                probe[sensor_set][segment].right_axis(),
+            ]
+            for sensor_set in meta["sensor_sets"]
+            for imu, segment, side, region in IMUS
+        ],
+    )
 
     runs = [(test, rep) for test in PROTOCOL for rep in range(1, repetitions[test] + 1)]
     for k, (subject, _, height_cm, _) in enumerate(subjects):
@@ -94,7 +134,9 @@ def simulate_kong(out: Path, seed: int, n_subjects: int = 5, options: SimOptions
         mounts = {}
         for sensor_set in meta["sensor_sets"]:
             for imu, segment, _, _ in IMUS:
-                mount = random_mount(rng, placements[sensor_set][segment], options.misalignment_sd_deg)
+                mount = random_mount(
+                    rng, placements[sensor_set][segment], options.misalignment_sd_deg
+                )
                 mounts[sensor_set, imu] = mount
                 stance = euler_pitch_roll_yaw(0.0, 0.0, offsets.get(segment, 0.0))[0]
                 writer.ground_truth(subject, sensor_set, imu, stance @ mount)
@@ -110,11 +152,17 @@ def simulate_kong(out: Path, seed: int, n_subjects: int = 5, options: SimOptions
                     placement = placements[sensor_set][segment]
                     wobble = WOBBLE_DEG[segment.split("_")[0]][sensor_set == "lateral"]
                     gyr, acc = sensor_signals(
-                        run_rng, R_seg[segment], origin[segment], mounts[sensor_set, imu],
-                        placement.position, posture.envelope, wobble, options, ACC_RANGE_G[region],
+                        run_rng,
+                        R_seg[segment],
+                        origin[segment],
+                        mounts[sensor_set, imu],
+                        placement.position,
+                        posture.envelope,
+                        wobble,
+                        options,
+                        ACC_RANGE_G[region],
                     )
                     writer.recording(subject, sensor_set, test, rep, imu, gyr, acc)
         progress(f"kong_sim {out}", k + 1, len(subjects))
     writer.close()
     return out
-

@@ -24,7 +24,8 @@ def _vary(rng, value, cv=0.1):
 
 def _sway(rng, posture, t, offplane):
     """Quiet-stance sway as an inverted pendulum about the ankles: AP pitch RMS 0.3 deg, ML roll RMS
-    0.2 deg, 0.1-0.7 Hz (Winter 1995, Gait Posture 3:193; Prieto et al. 1996)."""
+    0.2 deg, 0.1-0.7 Hz (Winter 1995, Gait Posture 3:193; Prieto et al. 1996).
+    """
     pitch = 0.3 * D2R * band_noise(rng, t, 0.1, 0.7)
     roll = 0.2 * D2R * offplane * band_noise(rng, t, 0.1, 0.7)
     for seg in ("waist", "chest", "head", "thigh_r", "shank_r", "thigh_l", "shank_l"):
@@ -37,6 +38,7 @@ def _sitting(posture):
 
 
 def t0_quiet_standing(rng, body, fs, offplane):
+    """T0: 20 s of quiet standing with postural sway."""
     t = fine_time(20.0, fs)
     posture = Posture(t, envelope=np.zeros_like(t))
     _sway(rng, posture, t, offplane)
@@ -65,16 +67,19 @@ def _bow(rng, body, fs, offplane, amplitude_deg, seated):
 
 
 def t1_bow_standing(rng, body, fs, offplane):
+    """T1: bowing while standing, trunk flexion 60 deg."""
     return _bow(rng, body, fs, offplane, 60.0, seated=False)
 
 
 def t2_bow_sitting(rng, body, fs, offplane):
+    """T2: bowing while sitting, trunk flexion 40 deg."""
     return _bow(rng, body, fs, offplane, 40.0, seated=True)
 
 
 def t3_sit_to_stand(rng, body, fs, offplane):
     """Sit, lean forward, rise, stand, sit down (Schenkman et al. 1990, Phys Ther 70:638: trunk
-    flexion ~40 deg, rise ~1.5 s, knees moving forward ~15 deg over the feet)."""
+    flexion ~40 deg, rise ~1.5 s, knees moving forward ~15 deg over the feet).
+    """
     sit, rise, stand, descend = _vary(rng, 1.0), _vary(rng, 1.6), _vary(rng, 1.5), _vary(rng, 1.9)
     t = fine_time(2 * sit + rise + stand + descend, fs)
     up = step(t, sit, rise) - step(t, sit + rise + stand, descend)
@@ -116,7 +121,8 @@ def t4_shank_lift(rng, body, fs, offplane):
 
 def t5_leg_swing(rng, body, fs, offplane):
     """Standing leg swing, left then right: the leg (thigh, shank, foot rigid) swings ~35 deg
-    forward and ~15 deg back about the hip; pelvis tilts and shifts weight a few degrees."""
+    forward and ~15 deg back about the hip; pelvis tilts and shifts weight a few degrees.
+    """
     rest, swing = _vary(rng, 1.0), _vary(rng, 2.0)
     t = fine_time(3 * rest + 2 * swing, fs)
     # the hip centre stays put: each stance leg is still while the other swings
@@ -131,7 +137,9 @@ def t5_leg_swing(rng, body, fs, offplane):
         for seg in (f"thigh_{s}", f"shank_{s}", f"foot_{s}"):
             posture.add(seg, pitch=pitch, roll=-sign * abduction)
         posture.add(f"shank_{s}", pitch=-0.1 * np.abs(pitch))  # knee not perfectly straight
-        posture.add("waist", pitch=-0.1 * pitch, roll=offplane * sign * 3 * D2R * (forward + backward))
+        posture.add(
+            "waist", pitch=-0.1 * pitch, roll=offplane * sign * 3 * D2R * (forward + backward)
+        )
         posture.envelope = posture.envelope + forward + backward
     return posture, None
 
@@ -139,7 +147,9 @@ def t5_leg_swing(rng, body, fs, offplane):
 def _gait_angles(phase):
     """Sagittal joint angles (rad) over a stride (phase 0-1, heel strike at 0), shaped after the
     normative curves of Winter (2009, Ch. 1; Perry & Burnfield 2010): hip +30 -> -10 deg, knee
-    5-15 deg in stance and 60 deg in swing, ankle -5 / +10 / -15 deg."""
+    5-15 deg in stance and 60 deg in swing, ankle -5 / +10 / -15 deg.
+    """
+
     def bump(center, width):
         # periodic (von Mises) bump, ~Gaussian of SD ``width`` near its centre and smooth where the
         # stride wraps (a wrapped Gaussian steps there, which shows as an acceleration spike)
@@ -153,7 +163,8 @@ def _gait_angles(phase):
 
 def t6_walk(rng, body, fs, offplane):
     """7 m straight walk at preferred speed (1.3 m/s, cadence 110 steps/min; Perry & Burnfield
-    2010), standing 1 s before and after, 0.8 s ramps at start and end."""
+    2010), standing 1 s before and after, 0.8 s ramps at start and end.
+    """
     speed, cadence = _vary(rng, 1.3, 0.08), _vary(rng, 110.0, 0.05)
     stride = 120.0 / cadence
     ramp, pause = 0.8, 1.0
@@ -174,21 +185,31 @@ def t6_walk(rng, body, fs, offplane):
         posture.add(f"foot_{s}", pitch=foot)
         sign = 1.0 if s == "r" else -1.0
         # hip ab/adduction ~ +-5 deg over the stride (Perry & Burnfield 2010)
-        posture.add(f"thigh_{s}", roll=offplane * sign * 5 * D2R * gait * np.sin(2 * np.pi * (phase_r + shift)))
+        posture.add(
+            f"thigh_{s}",
+            roll=offplane * sign * 5 * D2R * gait * np.sin(2 * np.pi * (phase_r + shift)),
+        )
     stride_wave = 2 * np.pi * phase_r
     # pelvis: rotation +-4 deg, obliquity +-3 deg, tilt +-1.5 deg at step frequency (Perry &
     # Burnfield 2010); trunk counter-rotates; COM moves +-2.5 cm vertically and +-2 cm sideways
-    posture.add("waist", pitch=1.5 * D2R * gait * np.sin(2 * stride_wave),
-                roll=offplane * 3 * D2R * gait * np.sin(stride_wave),
-                yaw=offplane * 4 * D2R * gait * np.cos(stride_wave))
-    posture.add("chest", pitch=-3 * D2R * gait, yaw=-offplane * 3 * D2R * gait * np.cos(stride_wave))
+    posture.add(
+        "waist",
+        pitch=1.5 * D2R * gait * np.sin(2 * stride_wave),
+        roll=offplane * 3 * D2R * gait * np.sin(stride_wave),
+        yaw=offplane * 4 * D2R * gait * np.cos(stride_wave),
+    )
+    posture.add(
+        "chest", pitch=-3 * D2R * gait, yaw=-offplane * 3 * D2R * gait * np.cos(stride_wave)
+    )
     posture.add("head", pitch=-3 * D2R * gait)
     base = standing_hip(body)
-    posture.hip = np.column_stack([
-        base[0] + progress,
-        base[1] + offplane * 0.02 * gait * np.sin(stride_wave),
-        base[2] + 0.025 * gait * np.cos(2 * stride_wave),
-    ])
+    posture.hip = np.column_stack(
+        [
+            base[0] + progress,
+            base[1] + offplane * 0.02 * gait * np.sin(stride_wave),
+            base[2] + 0.025 * gait * np.cos(2 * stride_wave),
+        ]
+    )
     return posture, None
 
 

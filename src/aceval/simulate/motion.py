@@ -45,9 +45,11 @@ class Posture:
     envelope: np.ndarray | None = None
 
     def angle(self, segment: str):
+        """(pitch, roll, yaw) of ``segment`` (rad); zeros when it was never moved."""
         return self.angles.get(segment, (0.0, 0.0, 0.0))
 
     def add(self, segment: str, pitch=0.0, roll=0.0, yaw=0.0) -> None:
+        """Add angles (rad, scalars or arrays over the time grid) to ``segment``."""
         p, r, y = self.angle(segment)
         self.angles[segment] = (p + pitch, r + roll, y + yaw)
 
@@ -59,14 +61,24 @@ def segment_poses(posture: Posture, body: Anthropometry, fixed_ankle: str | None
     that ankle held still on the floor, from which the hip centre follows.
     """
     n = len(posture.t)
-    R = {seg: euler_pitch_roll_yaw(*[np.broadcast_to(a, n) for a in posture.angle(seg)]) for seg in SEGMENTS}
+    R = {
+        seg: euler_pitch_roll_yaw(*[np.broadcast_to(a, n) for a in posture.angle(seg)])
+        for seg in SEGMENTS
+    }
     ez = np.array([0.0, 0.0, 1.0])
-    lateral = {"r": np.array([0.0, 0.5 * body.hip_width, 0.0]), "l": np.array([0.0, -0.5 * body.hip_width, 0.0])}
+    lateral = {
+        "r": np.array([0.0, 0.5 * body.hip_width, 0.0]),
+        "l": np.array([0.0, -0.5 * body.hip_width, 0.0]),
+    }
     if fixed_ankle is not None:
         s = fixed_ankle
         ankle = np.array([0.0, lateral[s][1], -body.ankle_height])
-        hip = (ankle - R[f"shank_{s}"] @ (ez * body.shank) - R[f"thigh_{s}"] @ (ez * body.thigh)
-               - R["waist"] @ lateral[s])
+        hip = (
+            ankle
+            - R[f"shank_{s}"] @ (ez * body.shank)
+            - R[f"thigh_{s}"] @ (ez * body.thigh)
+            - R["waist"] @ lateral[s]
+        )
     else:
         hip = np.broadcast_to(posture.hip, (n, 3))
     origins = {"waist": hip}
@@ -80,6 +92,7 @@ def segment_poses(posture: Posture, body: Anthropometry, fixed_ankle: str | None
 
 
 def standing_hip(body: Anthropometry) -> np.ndarray:
+    """Hip centre (world, m) when standing upright with the ankles on the floor."""
     return np.array([0.0, 0.0, -(body.ankle_height + body.shank + body.thigh)])
 
 

@@ -14,16 +14,19 @@ from pathlib import Path
 
 import numpy as np
 
+from ..writer import DatasetWriter, simulated_meta, write_sheet
 from .body import Placement, random_mount
 from .common import SimOptions, progress, sensor_signals
 from .engine import ImuErrorModel, band_noise, euler_pitch_roll_yaw, fine_time, small_rotations
 from .motion import bell
-from ..writer import DatasetWriter, simulated_meta, write_sheet
 
 SEGMENTS = ["thorax", "upper_arm_r", "upper_arm_l", "forearm_r", "forearm_l"]
 IMUS = [  # Ricci Fig. 2: 1 thorax, 2/3 right/left upper arm, 4/5 right/left forearm
-    ("SU1", "thorax", "center"), ("SU2", "upper_arm", "right"), ("SU3", "upper_arm", "left"),
-    ("SU4", "forearm", "right"), ("SU5", "forearm", "left"),
+    ("SU1", "thorax", "center"),
+    ("SU2", "upper_arm", "right"),
+    ("SU3", "upper_arm", "left"),
+    ("SU4", "forearm", "right"),
+    ("SU5", "forearm", "left"),
 ]
 D2R = np.pi / 180
 #: off-axis share of each movement (amplitude of the rotation about the two other axes relative to
@@ -32,7 +35,14 @@ D2R = np.pi / 180
 OFF_AXIS = {"free": 0.20, "bar": 0.10}
 MOVEMENTS = {
     # test: (description, moving segments, axis name, amplitude deg, there-and-back duration s, support)
-    "TR": ("thorax rotation on the transverse plane, holding a bar", "thorax", "z", 30.0, 2.5, "free"),
+    "TR": (
+        "thorax rotation on the transverse plane, holding a bar",
+        "thorax",
+        "z",
+        30.0,
+        2.5,
+        "free",
+    ),
     "TFE": ("thorax flexion-extension", "thorax", "y", -45.0, 3.0, "free"),
     "AA": ("upper arm ab-adduction", "arms", "x", 80.0, 3.0, "free"),
     "FE": ("upper arm flexion-extension", "arms", "y", 110.0, 3.0, "free"),
@@ -44,9 +54,13 @@ TRIALS = 3  # Ricci Sec. 2.2.1: the complete protocol is 3 trials
 ACC_RANGE_G, GYR_RANGE_DPS = 8.0, 1000.0  # assumption: Ricci does not give the ranges
 WOBBLE_DEG = 1.0  # soft-tissue wobble RMS on thorax and arms (as Kong's chest; docs/simulation.md)
 CALIBRATES = {
-    "TR": ["SU1"], "TFE": ["SU1"],
-    "AA": ["SU2", "SU3", "SU4", "SU5"], "FE": ["SU2", "SU3", "SU4", "SU5"], "FEB": ["SU2", "SU3", "SU4", "SU5"],
-    "PS": ["SU2", "SU3", "SU4", "SU5"], "FFEB": ["SU4", "SU5"],
+    "TR": ["SU1"],
+    "TFE": ["SU1"],
+    "AA": ["SU2", "SU3", "SU4", "SU5"],
+    "FE": ["SU2", "SU3", "SU4", "SU5"],
+    "FEB": ["SU2", "SU3", "SU4", "SU5"],
+    "PS": ["SU2", "SU3", "SU4", "SU5"],
+    "FFEB": ["SU4", "SU5"],
 }
 
 
@@ -61,6 +75,7 @@ class Child:
         self.shoulder_drop = 0.15 * height_m  # mid-thorax to shoulder joint height
 
     def placements(self) -> dict[str, Placement]:
+        """Where each unit sits on this child (segment frame, m) and its nominal axes."""
         up = (0.0, 0.0, -1.0)
         return {
             "SU1": Placement("thorax", (0.08, 0.0, -0.5 * self.shoulder_drop), (1, 0, 0), up),
@@ -79,7 +94,8 @@ def _axis_rotvec(axis: str, angle):
 
 def _poses(child: Child, relative: dict, base: np.ndarray):
     """Chain thorax -> upper arms -> forearms. ``relative[seg]`` (M, 3, 3) rotates each segment
-    relative to its parent (thorax relative to the world ``base``)."""
+    relative to its parent (thorax relative to the world ``base``).
+    """
     R = {"thorax": base @ relative["thorax"]}
     origin = {"thorax": np.zeros((len(base), 3))}
     for s, sign in (("r", 1.0), ("l", -1.0)):
@@ -87,7 +103,9 @@ def _poses(child: Child, relative: dict, base: np.ndarray):
         R[f"upper_arm_{s}"] = R["thorax"] @ relative[f"upper_arm_{s}"]
         origin[f"upper_arm_{s}"] = origin["thorax"] + R["thorax"] @ shoulder
         R[f"forearm_{s}"] = R[f"upper_arm_{s}"] @ relative[f"forearm_{s}"]
-        origin[f"forearm_{s}"] = origin[f"upper_arm_{s}"] + R[f"upper_arm_{s}"] @ np.array([0, 0, child.upper_arm])
+        origin[f"forearm_{s}"] = origin[f"upper_arm_{s}"] + R[f"upper_arm_{s}"] @ np.array(
+            [0, 0, child.upper_arm]
+        )
     return R, origin
 
 
@@ -117,7 +135,10 @@ def _trial(rng, child, test, fs, offplane):
     other = [a for a in "xyz" if a != axis]
 
     def movement(sign=1.0):
-        off = sum(_axis_rotvec(a, share * abs(amplitude) * D2R * profile * band_noise(rng, t, 0.3, 1.5)) for a in other)
+        off = sum(
+            _axis_rotvec(a, share * abs(amplitude) * D2R * profile * band_noise(rng, t, 0.3, 1.5))
+            for a in other
+        )
         return small_rotations(sign * (main + off))
 
     identity = np.tile(np.eye(3), (len(t), 1, 1))
@@ -137,7 +158,8 @@ def _trial(rng, child, test, fs, offplane):
     elif moving == "forearms_twist":
         for s, sign in (("r", 1.0), ("l", -1.0)):
             relative[f"upper_arm_{s}"] = arms_forward @ small_rotations(
-                _axis_rotvec("z", sign * 0.15 * amplitude * D2R * profile))  # shoulder rotation coupling
+                _axis_rotvec("z", sign * 0.15 * amplitude * D2R * profile)
+            )  # shoulder rotation coupling
             relative[f"forearm_{s}"] = movement()
     base = np.tile(np.eye(3), (len(t), 1, 1))
     R, origin = _poses(child, relative, base)
@@ -146,7 +168,8 @@ def _trial(rng, child, test, fs, offplane):
 
 def _side_sign(test: str, side_sign: float) -> float:
     """Direction of ``test``'s rotation for one side (+1 right, -1 left): abduction lifts the right
-    arm about -x and the left about +x; every other movement turns the same way on both sides."""
+    arm about -x and the left about +x; every other movement turns the same way on both sides.
+    """
     return -side_sign if MOVEMENTS[test][2] == "x" and MOVEMENTS[test][1] == "arms" else 1.0
 
 
@@ -158,34 +181,73 @@ def functional_axes() -> list[list[str]]:
     right, -y left). Movements: the axis of the first phase of each repetition (right-hand rule),
     e.g. thorax flexion first is a rotation about -y. ``<segment>_r|l`` rows are side-specific.
     """
-    rows = [["S", "thorax", "+x"], ["S", "upper_arm", "+x"], ["S", "forearm_r", "+y"], ["S", "forearm_l", "-y"]]
+    rows = [
+        ["S", "thorax", "+x"],
+        ["S", "upper_arm", "+x"],
+        ["S", "forearm_r", "+y"],
+        ["S", "forearm_l", "-y"],
+    ]
     for test, (_, moving, axis, amplitude, *_rest) in MOVEMENTS.items():
-        segment = {"thorax": "thorax", "arms": "upper_arm", "forearms": "forearm", "forearms_twist": "forearm"}[moving]
-        signs = {side: np.sign(amplitude) * _side_sign(test, side_sign) for side, side_sign in (("r", 1.0), ("l", -1.0))}
+        segment = {
+            "thorax": "thorax",
+            "arms": "upper_arm",
+            "forearms": "forearm",
+            "forearms_twist": "forearm",
+        }[moving]
+        signs = {
+            side: np.sign(amplitude) * _side_sign(test, side_sign)
+            for side, side_sign in (("r", 1.0), ("l", -1.0))
+        }
         if signs["r"] == signs["l"]:
             rows.append([test, segment, f"{'+' if signs['r'] > 0 else '-'}{axis}"])
         else:
-            rows += [[test, f"{segment}_{side}", f"{'+' if sign > 0 else '-'}{axis}"] for side, sign in signs.items()]
+            rows += [
+                [test, f"{segment}_{side}", f"{'+' if sign > 0 else '-'}{axis}"]
+                for side, sign in signs.items()
+            ]
     return rows
 
 
-def simulate_ricci(out: Path, seed: int, n_subjects: int = 40, options: SimOptions = SimOptions()) -> Path:
+def simulate_ricci(
+    out: Path, seed: int, n_subjects: int = 40, options: SimOptions = SimOptions()
+) -> Path:
+    """Write the SIMULATED Ricci et al. 2014 dataset (children) into ``out``; returns ``out``."""
     out = Path(out)
-    meta = simulated_meta("ricci_sim", "Ricci et al. 2014", "ricci", seed, options.fs_hz,
-                          units={"acc": "m/s^2", "gyr": "rad/s"}, sensor_sets=["main"],
-                          acc_range_g={"upper_body": ACC_RANGE_G}, gyr_range_dps=GYR_RANGE_DPS)
+    meta = simulated_meta(
+        "ricci_sim",
+        "Ricci et al. 2014",
+        "ricci",
+        seed,
+        options.fs_hz,
+        units={"acc": "m/s^2", "gyr": "rad/s"},
+        sensor_sets=["main"],
+        acc_range_g={"upper_body": ACC_RANGE_G},
+        gyr_range_dps=GYR_RANGE_DPS,
+    )
     writer = DatasetWriter(out, meta)
     rng0 = np.random.default_rng([seed, 0])
     subjects = []
     for k in range(n_subjects):  # 6-8 years (Ricci Sec. 2.1); height ~122 +- 5 cm at age 7 (WHO)
-        subjects.append([f"C{k + 1:02d}", round(float(rng0.uniform(6.0, 8.0)), 1), round(float(rng0.normal(122, 5)))])
+        subjects.append(
+            [
+                f"C{k + 1:02d}",
+                round(float(rng0.uniform(6.0, 8.0)), 1),
+                round(float(rng0.normal(122, 5))),
+            ]
+        )
     write_sheet(out / "subjects.tsv", ["subject", "age", "height_cm"], subjects)
     tests = {"S": ("static", "supine, arms alongside the body, palms down, 5 s")}
     tests.update({test: ("motion", m[0]) for test, m in MOVEMENTS.items()})
     writer.protocol_sheets(tests, {test: TRIALS for test in tests}, CALIBRATES)
     probe = Child(1.22).placements()
-    write_sheet(out / "imus.tsv", ["imu", "segment", "side", "region", "right_axis"],
-                [[imu, segment, side, "upper_body", probe[imu].right_axis()] for imu, segment, side in IMUS])
+    write_sheet(
+        out / "imus.tsv",
+        ["imu", "segment", "side", "region", "right_axis"],
+        [
+            [imu, segment, side, "upper_body", probe[imu].right_axis()]
+            for imu, segment, side in IMUS
+        ],
+    )
     write_sheet(out / "functional_axes.tsv", ["test", "segment", "axis"], functional_axes())
     error_model = ImuErrorModel(gyr_range_dps=GYR_RANGE_DPS)
     runs = [(test, trial) for test in tests for trial in range(1, TRIALS + 1)]
@@ -193,7 +255,9 @@ def simulate_ricci(out: Path, seed: int, n_subjects: int = 40, options: SimOptio
         rng = np.random.default_rng([seed, 1, k])
         child = Child(height_cm / 100.0)
         placements = child.placements()
-        mounts = {imu: random_mount(rng, placements[imu], options.misalignment_sd_deg) for imu, *_ in IMUS}
+        mounts = {
+            imu: random_mount(rng, placements[imu], options.misalignment_sd_deg) for imu, *_ in IMUS
+        }
         for imu, *_ in IMUS:
             writer.ground_truth(subject, "main", imu, mounts[imu])
         for j, (test, trial) in enumerate(runs):
@@ -201,8 +265,18 @@ def simulate_ricci(out: Path, seed: int, n_subjects: int = 40, options: SimOptio
             _, R, origin, envelope = _trial(run_rng, child, test, options.fs_hz, options.offplane)
             for imu, *_ in IMUS:
                 placement = placements[imu]
-                gyr, acc = sensor_signals(run_rng, R[placement.segment], origin[placement.segment], mounts[imu],
-                                          placement.position, envelope, WOBBLE_DEG, options, ACC_RANGE_G, error_model)
+                gyr, acc = sensor_signals(
+                    run_rng,
+                    R[placement.segment],
+                    origin[placement.segment],
+                    mounts[imu],
+                    placement.position,
+                    envelope,
+                    WOBBLE_DEG,
+                    options,
+                    ACC_RANGE_G,
+                    error_model,
+                )
                 writer.recording(subject, "main", test, trial, imu, gyr, acc)
         progress(f"ricci_sim {out}", k + 1, len(subjects))
     writer.close()
