@@ -13,7 +13,13 @@ pytestmark = pytest.mark.slow  # regenerates every committed result from clean
 
 DATA = REPO.parent / "shared" / "data"
 
-COMMITTED = ["*/SUMMARY.md", "*/validation.txt", "*/tables/*.csv", "*/tables/*.md", "*/figures/*.png"]
+COMMITTED = [
+    "*/SUMMARY.md",
+    "*/validation.txt",
+    "*/tables/*.csv",
+    "*/tables/*.md",
+    "*/figures/*.png",
+]
 
 
 def files(root: Path, config: str) -> dict[str, bytes]:
