@@ -47,9 +47,44 @@ def yaw(deg):
 @pytest.mark.parametrize("mode", objectives.CORRELATION_MODES)
 def test_identical_signals_correlate_perfectly_and_opposite_ones_negatively(mode, rng):
     signal = rng.normal(size=(200, 3))
-    assert objectives.correlation_3d(signal, signal, mode) == pytest.approx(1.0)
-    assert objectives.correlation_3d(signal, 2 * signal + 0.5, mode) == pytest.approx(1.0)
-    assert objectives.correlation_3d(signal, -signal, mode) == pytest.approx(-1.0)
+    moving = np.arange(200) % 3 > 0
+    assert objectives.correlation_3d(signal, signal, mode, moving) == pytest.approx(1.0)
+    assert objectives.correlation_3d(signal, 2 * signal + 0.5, mode, moving) == pytest.approx(1.0)
+    assert objectives.correlation_3d(signal, -signal, mode, moving) == pytest.approx(-1.0)
+
+
+def test_moving_correlation_ignores_rest_and_sees_a_heading_error(rng):
+    """Rest at a shared gravity level inflates the concatenated correlation; over the moving samples
+    a 15 deg heading error lowers the per-axis correlation far more than the concatenated one."""
+    t = np.linspace(0, 8, 800)
+    motion = np.column_stack([3 * np.sin(2 * t), 0.6 * np.sin(3 * t + 1), 2 * np.cos(2 * t)])
+    rest = np.zeros((800, 3))
+    moving = np.r_[np.zeros(800, bool), np.ones(800, bool)]
+    a = np.vstack([rest, motion]) + [0.0, 0.0, -9.81] + rng.normal(0, 0.05, (1600, 3))
+    b = a + rng.normal(0, 0.05, a.shape)
+    turned = b @ yaw(15).T
+    drop = {m: objectives.correlation_3d(a, b, m, moving) - objectives.correlation_3d(a, turned, m, moving)
+            for m in objectives.CORRELATION_MODES}  # fmt: skip
+    assert drop["per_axis_moving"] > 5 * drop["concatenated"] > 0
+    with pytest.raises(ValueError, match="moving"):
+        objectives.correlation_3d(a, b, "per_axis_moving")
+
+
+@pytest.mark.parametrize("shift", [-7, 0, 12])
+def test_best_lag_recovers_a_known_shift(shift, rng):
+    """Two sensors sampled with a known offset: the cross-correlation of the acceleration
+    magnitudes finds it, and the aligned overlap pairs the same instants."""
+    n = 600
+    truth = np.column_stack(
+        [np.sin(np.linspace(0, 20, n + 40)) * k for k in (1.0, 2.0, 0.5)]
+    ) + rng.normal(0, 0.05, (n + 40, 3))
+    a = truth[20 + shift : 20 + shift + n]  # a[t] = truth[t + 20 + shift]
+    b = truth[20 : 20 + n] + rng.normal(0, 0.05, (n, 3))  # b[t] = truth[t + 20]
+    lag = objectives.best_lag(a, b, max_lag=25)
+    assert lag == -shift  # a[t + lag] = truth[t + 20] = b[t]
+    part_a, part_b = objectives.aligned(len(a), len(b), lag)
+    assert np.allclose(a[part_a], truth[20 : 20 + n][part_b])
+    assert objectives.best_lag(a, b, max_lag=0) == 0  # the window limits the search
 
 
 def test_concatenated_correlation_counts_axis_levels_per_axis_does_not(rng):

@@ -74,6 +74,12 @@ def test_lm_and_residual_tables():
             "method": "ricci_lm",
             "segment": ["thorax", "thorax", "forearm"],
             "n_iterations": [4, 6, 7],
+            "n_rejected": [0, 1, 2],
+            "cost": [0.01, 0.02, 0.03],
+            "optimum_distance_deg": [0.0, 0.001, 0.5],
+            "fixed_n_iterations": [4, 5, 100],
+            "fixed_cost": [0.01, 0.02, 0.05],
+            "fixed_optimum_distance_deg": [0.0, 0.001, 3.0],
             "converged": [True, True, False],
             "random_starts": 5,
             "random_starts_optimum": [5, 4, 5],
@@ -85,6 +91,8 @@ def test_lm_and_residual_tables():
     assert lm.loc["thorax", "mean"] == 5 and lm.loc["thorax", "published_mean"] == 6.34
     assert lm.loc["thorax", "random_starts_optimum_share"] == pytest.approx(0.9)
     assert lm.loc["forearm", "converged_share"] == 0
+    assert lm.loc["thorax", "fixed_mean"] == 4.5 and lm.loc["forearm", "rejected_mean"] == 2
+    assert lm.loc["forearm", "fixed_optimum_distance_deg_median"] == 3.0
     axes = pd.DataFrame(
         {
             "segment": "thorax",
@@ -181,19 +189,28 @@ def test_named_tables_render_and_refuse_unknown_names():
 
 
 def test_ricci_claims_from_known_tables():
+    """The supported-vs-unsupported claim is judged on the paper's reading (FEB vs FE, the same
+    movement) with raw p; the elbow movement FFEB is a second reading that does not decide it."""
     ttest = pd.DataFrame(
         {
-            "segment": ["upper_arm_r"],
-            "supported": ["FEB"],
-            "unsupported": ["FE"],
-            "n": [40],
-            "mean_difference": [0.05],
-            "p_holm": [0.001],
+            "reading": [reliability.PRIMARY_READING] * 2
+            + ["elbow vs shoulder movement (FFEB vs FE)"],
+            "segment": ["upper_arm_r", "forearm_r", "forearm_r"],
+            "supported": ["FEB", "FEB", "FFEB"],
+            "unsupported": ["FE", "FE", "FE"],
+            "n": [40, 40, 40],
+            "mean_difference": [0.05, 0.04, -0.02],
+            "p": [0.001, 0.02, 0.3],
+            "p_holm": [0.002, 0.02, 0.3],
         }
     )
-    found = {c.claim: c.verdict for c in summary.ricci_claims({"ricci_ttest": ttest})}
-    assert found[next(k for k in found if k.startswith("Supported"))] == summary.HOLDS
-    ttest["p_holm"] = 0.2
-    found = {c.claim: c.verdict for c in summary.ricci_claims({"ricci_ttest": ttest})}
-    assert found[next(k for k in found if k.startswith("Supported"))] == summary.FAILS
+
+    def verdict():
+        found = {c.claim: c.verdict for c in summary.ricci_claims({"ricci_ttest": ttest})}
+        return found[next(k for k in found if k.startswith("Supported"))], found
+
+    holds, found = verdict()
+    assert holds == summary.HOLDS  # the second reading's negative row does not decide
+    ttest.loc[1, "p"] = 0.06  # raw p, as the paper quotes it
+    assert verdict()[0] == summary.FAILS
     assert found[next(k for k in found if k.startswith("Static"))] == summary.UNTESTABLE

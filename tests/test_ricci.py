@@ -155,3 +155,47 @@ def test_triad_bad_input():
         triad([[0, 0, 1.0]], [[0, 0, 1.0]])
     with pytest.raises(AlignedAxesError, match="deg apart"):
         triad([[0, 0, 1.0], [0, 1.0, 0]], [[0, 0, 1.0], [0, 0.01, 1.0]])
+
+
+def test_adaptive_damping_follows_hartley_zisserman_worked_by_hand():
+    """Two nearly parallel measured axes from a far start: the Gauss-Newton step overshoots. Each
+    trial is recomputed here from Eq. 5-10 with a finite-difference Jacobian: a step that lowers
+    the cost is taken and lambda divided by 10, one that raises it is refused (the estimate stays)
+    and lambda multiplied by 10 (Hartley & Zisserman, App. A6)."""
+    v_ref = np.array([[0.213, 0.783, -1.343], [-0.431, 0.261, -0.018]])
+    v_est = np.array([[-0.192, -0.666, -0.258], [-0.774, -2.422, -1.195]])
+    weights, q0 = np.array([0.668, 0.625]), np.array([0.262, 0.85, -0.201, 0.41])
+    fit = lm_fit(v_ref, v_est, weights, q0_wxyz=q0)
+
+    unit_ref = v_ref / np.linalg.norm(v_ref, axis=1, keepdims=True)
+    unit_est = v_est / np.linalg.norm(v_est, axis=1, keepdims=True)
+    W = np.repeat(weights, 3)
+
+    def residual(q):
+        return (unit_ref - unit_est @ quaternion_matrix(q).T).ravel()
+
+    def cost(q):
+        return residual(q) @ (W * residual(q))
+
+    def trial_step(q, lam):
+        J = np.column_stack([(residual(q + h) - residual(q - h)) / 2e-7 for h in 1e-7 * np.eye(4)])
+        JtWJ = (J.T * W) @ J
+        new = q - np.linalg.solve(JtWJ + lam * np.diag(np.diag(JtWJ)), (J.T * W) @ residual(q))
+        return new / np.linalg.norm(new)
+
+    q, lam, expected = q0 / np.linalg.norm(q0), 1e-3, []
+    for _ in range(6):
+        candidate = trial_step(q, lam)
+        accepted = cost(candidate) <= cost(q)
+        expected.append((lam, accepted))
+        q, lam = (candidate, lam / 10) if accepted else (q, lam * 10)
+    assert [a for _, a in expected] == [True, True, False, False, False, True]
+    np.testing.assert_allclose(fit.damping_history[:6], [lam for lam, _ in expected])
+    assert list(fit.trial_accepted[:6]) == [a for _, a in expected]
+    assert np.all(np.diff(fit.cost_history) <= 0)  # a refused step never moves the estimate
+    assert fit.converged and fit.n_rejected > 0
+
+    fixed = lm_fit(v_ref, v_est, weights, q0_wxyz=q0, adaptive=False)
+    assert fixed.trial_accepted.all() and set(fixed.damping_history) == {1e-3}
+    optimum = cost(wahba_fit(v_ref, v_est, weights).as_quat(scalar_first=True))
+    assert optimum <= fit.cost < fixed.cost  # the fixed rule, taking every step, stalls higher

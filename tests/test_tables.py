@@ -97,10 +97,98 @@ def test_table8_names_the_set_with_the_smaller_angle():
         {"frontal": [1.0, 2.0, 3.5], "lateral": [0.4, 0.6, 0.9]}, comparison="incremental"
     )
     table = tables.build(8, None, angles, ["frontal", "lateral"])
-    head = table[table["segment"] == "head"].iloc[0]
-    assert head["smaller"] == "lateral" and head["published_smaller"] == "frontal"
+    head = table[(table["segment"] == "head") & (table["test"] == "paper")].iloc[0]
+    assert head["better"] == "lateral" and head["published_better"] == "frontal"
     assert head["n"] == 3 and head["p_holm"] == pytest.approx(head["p"])  # one testable row
     assert "paper frontal" in tables.to_markdown(table, 8, "demo", simulated=False)
+
+
+def test_independent_units_and_mixed_model_on_a_known_table():
+    """5 subjects x 20 pooled angles per set: the paper-style test pairs 100 dependent angles; the
+    test on independent units pairs the 5 subject means (checked against scipy on means computed
+    here); the mixed model's contrast is the difference of the means (balanced design)."""
+    from scipy import stats
+
+    rng = np.random.default_rng(3)
+    effect = np.array(
+        [0.3, -0.2, 0.25, 0.1, -0.05]
+    )  # a set effect that changes sign across subjects
+    parts = []
+    for s, e in enumerate(effect):
+        base = 1.0 + s / 5
+        for sensor_set, shift in (("frontal", e), ("lateral", 0.0)):
+            rows = angle_rows(
+                {sensor_set: base + shift + rng.normal(0, 0.05, 20)}, comparison="incremental"
+            )
+            parts.append(rows.assign(subject=f"S{s}"))
+    angles = pd.concat(parts, ignore_index=True)
+    table = (
+        tables.build(8, None, angles, ["frontal", "lateral"])
+        .set_index(["segment", "test"])
+        .loc["head"]
+    )
+    paper, units, mixed = table.loc["paper"], table.loc["units"], table.loc["mixed"]
+    assert paper["n"] == 100 and paper["p"] < 1e-4  # pooled: many dependent pairs, tiny p
+    means = angles.groupby(["subject", "sensor_set"])["error_angle_deg"].mean().unstack()
+    by_hand = stats.ttest_rel(means["frontal"], means["lateral"])
+    assert (
+        units["n"] == 5
+        and units["p"] == pytest.approx(by_hand.pvalue, abs=1e-3)
+        and units["p"] > 0.05
+    )
+    assert mixed["mean_difference"] == pytest.approx(
+        means["frontal"].mean() - means["lateral"].mean(), abs=1e-4
+    )
+    assert mixed["n"] == 200 and mixed["n_groups"] == 5
+    markdown = tables.to_markdown(
+        tables.build(8, None, angles, ["frontal", "lateral"]), 8, "demo", False
+    )
+    assert "independent units" in markdown and "random intercept per subject" in markdown
+
+
+def _claim(claims, start):
+    return next(c for c in claims if c.claim.startswith(start))
+
+
+def test_claim_rules_hold_and_fail_on_built_tables():
+    # Obj 1-2: T_ex unrelated, T_ap and segment related
+    factors = pd.DataFrame({"objective": "Obj 1", "factor": ["t_ex", "t_ap", "segment"],
+                            "eta_squared": [0.01, 0.3, 0.2], "n": 120})  # fmt: skip
+    assert summary.factor_claim(factors).verdict == summary.HOLDS
+    assert (
+        summary.factor_claim(factors.assign(eta_squared=[0.08, 0.3, 0.2])).verdict == summary.FAILS
+    )
+    # Obj 5: the recommended tests agree with the designed ones within about 5 deg (Table 11)
+    table11 = pd.DataFrame({"t_ex_pair": ["T1-T3", "T2-T3", "T5-T6", "T4-T6"],
+                            "segment": ["head", "chest", "thigh", "shank"], "mean": [3.0, 5.2, 4.4, 3.7],
+                            "n": 4})  # fmt: skip
+    assert summary.recommendation_claim(table11).verdict == summary.HOLDS
+    assert (
+        summary.recommendation_claim(table11.assign(mean=[3.0, 6.1, 4.4, 3.7])).verdict
+        == summary.FAILS
+    )
+    # set preference, judged on the independent units with the paper's raw p < 0.001
+    rows = pd.DataFrame({"segment": ["head", "thigh"], "test": "units", "set_a": "frontal",
+                         "set_b": "lateral", "better": ["frontal", "lateral"], "p": [1e-4, 5e-4],
+                         "n": 10})  # fmt: skip
+    assert summary._set_preference(rows, "Obj 3", "x").verdict == summary.HOLDS
+    assert (
+        summary._set_preference(rows.assign(p=[1e-4, 0.01]), "Obj 3", "x").verdict == summary.FAILS
+    )
+    pooled = rows.assign(test="paper")  # the pooled test is not what the claim is judged on
+    assert summary._set_preference(pooled, "Obj 3", "x").verdict == summary.UNTESTABLE
+    # Obj 2 (Table 7), raw p on independent units
+    t6 = pd.DataFrame({"pair": ["head-chest"], "t_ap": ["T1"], "mean": [0.97], "n": [5]})
+    t7 = pd.DataFrame({"pair": ["head-chest", "thighs-shanks"], "test": "units", "mean_a": [0.96, 0.97],
+                       "mean_b": [0.97, 0.97], "p": [0.005, 0.6], "n": 5})  # fmt: skip
+    verdict = _claim(summary.obj2_claims(t6, t7), "Paired t-test").verdict
+    assert verdict == summary.HOLDS
+    t7.loc[0, "p"] = 0.02
+    assert _claim(summary.obj2_claims(t6, t7), "Paired t-test").verdict == summary.FAILS
+    # the z0 check is reported as a check of the code, not as a claim
+    angles = angle_rows({"frontal": [1.0, 2.0]})
+    assert [c.section for c in summary.code_checks(angles)] == [summary.CODE]
+    assert all(c.section == summary.PAPER for c in summary.obj5_claims(table11))
 
 
 def test_tables_refuse_numbers_the_paper_does_not_have():

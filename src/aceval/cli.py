@@ -132,12 +132,10 @@ def _progress(done: int, total: int, what: str) -> None:
 
 
 def _calibrate(args) -> int:
-    import numpy as np
     import pandas as pd
 
     from .dataset import DatasetError, load_dataset
     from .pipeline import AXES_COLUMNS, CALIBRATION_COLUMNS, calibrate, summarise_recordings
-    from .segmentation import TrimParams
     from .summary import calibration_screen
 
     try:  # the workflow has validated the files already (validation.txt); a user's call checks them
@@ -158,12 +156,7 @@ def _calibrate(args) -> int:
             file=sys.stderr,
         )
         return 2
-    trim = TrimParams(
-        threshold=args.trim_threshold,
-        closing_s=args.closing_s,
-        window_s=args.window_s,
-        min_peak_rad_s=np.radians(args.min_peak_deg_s),
-    )
+    trim = _trim(args)
     subjects = [args.subject] if args.subject is not None else list(dataset.subjects.index)
     parts = []
     for done, subject in enumerate(subjects, start=1):
@@ -204,6 +197,36 @@ def _calibrate(args) -> int:
         _write_csv(args.axes_out, axes)
     print(calibration_screen(calibrations, len(unusable), args.out), file=sys.stderr)
     return 0
+
+
+def _add_trim_options(command) -> None:
+    """The movement trimmer's parameters (Kong Fig. 5) as options."""
+    command.add_argument(
+        "--trim-threshold", type=float, default=0.1, help="Kong Fig. 5 threshold (0.1)"
+    )
+    command.add_argument(
+        "--closing-s", type=float, default=1.0, help="morphological closing length, s (1.0)"
+    )
+    command.add_argument("--window-s", type=float, default=0.5, help="moving-SD window, s (0.5)")
+    command.add_argument(
+        "--min-peak-deg-s",
+        type=float,
+        default=20.0,
+        help="a 'motion' whose peak |gyro| is below this (deg/s) is refused (20)",
+    )
+
+
+def _trim(args):
+    import numpy as np
+
+    from .segmentation import TrimParams
+
+    return TrimParams(
+        threshold=args.trim_threshold,
+        closing_s=args.closing_s,
+        window_s=args.window_s,
+        min_peak_rad_s=np.radians(args.min_peak_deg_s),
+    )
 
 
 def _apply(args) -> int:
@@ -257,7 +280,12 @@ def _correlate(args) -> int:
 
     dataset = load_dataset(args.dataset)
     table = correlations(
-        dataset, _read_csvs([args.calibrations]), args.mode, json.loads(args.pairs)
+        dataset,
+        _read_csvs([args.calibrations]),
+        args.mode,
+        json.loads(args.pairs),
+        _trim(args),
+        args.max_lag_s,
     )
     _write_csv(args.out, table)
     return 0
@@ -290,6 +318,7 @@ def _table(args) -> int:
             _optional_csvs(args.calibrations),
             _optional_csvs([args.angles] if args.angles else []),
             names,
+            _optional_csvs(args.correlations),
         )
         _write_csv(args.csv, table)
         _write_text(
@@ -337,6 +366,7 @@ def _figure(args) -> int:
             axes=_optional_csvs(args.axes),
             calibrations=_optional_csvs(args.calibrations),
             angles=_optional_csvs([args.angles] if args.angles else []),
+            correlations=_optional_csvs(args.correlations),
             paper_names=names,
         )
         _atomic(args.out, lambda tmp: figures.plot_named(args.number, data, tmp, title))
@@ -484,19 +514,7 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="skip the recording-file checks (the workflow has run `aceval validate`)",
     )
-    calibrate.add_argument(
-        "--trim-threshold", type=float, default=0.1, help="Kong Fig. 5 threshold (0.1)"
-    )
-    calibrate.add_argument(
-        "--closing-s", type=float, default=1.0, help="morphological closing length, s (1.0)"
-    )
-    calibrate.add_argument("--window-s", type=float, default=0.5, help="moving-SD window, s (0.5)")
-    calibrate.add_argument(
-        "--min-peak-deg-s",
-        type=float,
-        default=20.0,
-        help="a 'motion' whose peak |gyro| is below this (deg/s) is refused (20)",
-    )
+    _add_trim_options(calibrate)
     calibrate.set_defaults(run=_calibrate)
 
     apply = commands.add_parser(
@@ -520,7 +538,17 @@ def main(argv: list[str] | None = None) -> int:
     correlate.add_argument("dataset")
     correlate.add_argument("--calibrations", required=True)
     correlate.add_argument("--out", required=True)
-    correlate.add_argument("--mode", choices=["concatenated", "per_axis"], default="concatenated")
+    correlate.add_argument(
+        "--mode", choices=["concatenated", "per_axis", "per_axis_moving"], default="concatenated"
+    )
+    correlate.add_argument(
+        "--max-lag-s",
+        type=float,
+        default=0.5,
+        help="the two recordings of a pair are aligned by the lag, within this (s), that best "
+        "correlates their acceleration magnitudes (Kong Sec. 2.3) (0.5)",
+    )
+    _add_trim_options(correlate)
     correlate.add_argument(
         "--pairs",
         default="{}",

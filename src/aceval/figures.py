@@ -118,6 +118,9 @@ def plot(
 
 
 NAMED_FIGURES = {
+    "obj1_sensitivity": "What Kong's Obj 1 can detect: frontal vs lateral acceleration correlation "
+    "against a heading error imposed on the lateral calibration, per correlation mode (mean and SD "
+    "over Table 3's units)",
     "ricci_figure4": "Ricci Fig. 4 in spirit: the LM fit of one thorax frame per iteration (quaternion, "
     "roll/pitch/yaw, residual vector, cost), and the cost from 10 random starts",
     "ricci_figure5": "Ricci Fig. 5 in spirit: residual angle between each reference axis and its estimate "
@@ -201,6 +204,22 @@ def plot_named(name: str, data: dict, out: Path, title: str) -> None:
     from . import comparison, reliability
 
     sns.set_theme(style="whitegrid", context="paper")
+    if name == "obj1_sensitivity":
+        from .tables import correlation_sensitivity
+
+        curve = correlation_sensitivity(data.get("correlations"))
+        if curve.empty:
+            return _not_testable(out, f"Obj 1 sensitivity, {title}: needs two sensor sets")
+        figure, panel = plt.subplots(figsize=(5.5, 3.6))
+        for mode, group in curve.groupby("mode", sort=False):
+            panel.errorbar(group["heading_error_deg"], group["mean"], yerr=group["sd"], marker="o", ms=3,
+                           capsize=2, label=mode)  # fmt: skip
+        panel.set(xlabel="heading error imposed on the lateral calibration (deg)",
+                  ylabel="acceleration correlation (Obj 1)")  # fmt: skip
+        panel.legend(title="correlation", fontsize=7)
+        figure.suptitle(f"What Kong's Obj 1 can detect, {title}", fontsize=9)
+        figure.tight_layout()
+        return _save(figure, out)
     if name == "ricci_figure4":
         return _lm_example(data["axes"], title, out)
     if name == "ricci_figure5":

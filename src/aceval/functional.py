@@ -38,7 +38,7 @@ from .calibration.ricci import (
 )
 from .calibration.triad import triad
 from .errors import CalibrationError
-from .rotations import axis_vector
+from .rotations import axis_vector, error_angle_deg
 
 SUM_COLUMNS = ["m_x", "m_y", "m_z"]
 SCATTER_COLUMNS = [f"u{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
@@ -99,6 +99,11 @@ def _seed(*key) -> int:
     return zlib.crc32("|".join(map(str, key)).encode())
 
 
+def _distance_deg(R: np.ndarray, optimum: np.ndarray | None) -> float:
+    """Angle (deg) between a fitted rotation and the closed-form optimum (NaN without one)."""
+    return float("nan") if optimum is None else float(error_angle_deg(R, optimum))
+
+
 def _failed(exc: Exception) -> dict:
     """A method's entry when it could not calibrate: no R, the error's code as flag, its message."""
     return {"R": None, "flag": getattr(exc, "code", "calibration_error"), "message": str(exc)}
@@ -116,8 +121,10 @@ def fit_axes(
 
     ``rho`` weights the axes (Ricci Eq. 7); ``triad_pair`` = (primary, secondary) row indices.
     Each method's entry: ``R`` (or None) and ``flag``/``message`` when it failed. The LM entry
-    adds its iterations, convergence, final cost, residual angles (deg) before/after and, with
-    ``random_starts``, how many random starts reach the closed-form optimum and their iterations.
+    (adaptive damping) adds its accepted and rejected steps, convergence, final cost, distance to
+    the closed-form optimum (deg), the same three for the fixed-damping LM (``fixed_*``), residual
+    angles (deg) before/after and, with ``random_starts``, how many random starts reach the
+    closed-form optimum and their iterations.
     """
     out: dict[str, dict] = {}
     try:
@@ -127,23 +134,27 @@ def fit_axes(
         optimum = None
         out["align_vectors"] = _failed(exc)
     try:
-        fit = lm_fit(v_ref, v_est, rho)
+        fit = lm_fit(v_ref, v_est, rho)  # Hartley & Zisserman's adaptive damping, as Ricci cites
+        fixed = lm_fit(
+            v_ref, v_est, rho, adaptive=False
+        )  # lambda fixed at 1e-3: Eq. 9-10 read literally
         entry = {
             "R": fit.R,
             "n_iterations": fit.n_iterations,
+            "n_rejected": fit.n_rejected,
             "converged": fit.converged,
-            "cost": float(fit.cost_history[-1]),
+            "cost": fit.cost,
+            "optimum_distance_deg": _distance_deg(fit.R, optimum),
+            "fixed_n_iterations": fixed.n_iterations,
+            "fixed_cost": fixed.cost,
+            "fixed_optimum_distance_deg": _distance_deg(fixed.R, optimum),
             "residual_before_deg": fit.residual_angle_before_deg,
             "residual_after_deg": fit.residual_angle_after_deg,
         }
         if random_starts and optimum is not None:
             starts = Rotation.random(random_starts, random_state=seed).as_quat(scalar_first=True)
             runs = [lm_fit(v_ref, v_est, rho, q0_wxyz=q) for q in starts]
-            reached = [
-                float(np.degrees((r.rotation * Rotation.from_matrix(optimum).inv()).magnitude()))
-                <= SAME_SOLUTION_DEG
-                for r in runs
-            ]
+            reached = [_distance_deg(r.R, optimum) <= SAME_SOLUTION_DEG for r in runs]
             entry.update(
                 random_starts=random_starts,
                 random_starts_optimum=int(np.sum(reached)),

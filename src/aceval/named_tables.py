@@ -10,10 +10,25 @@ from __future__ import annotations
 
 import pandas as pd
 
-from . import comparison, reliability
+from . import comparison, reliability, tables
 from .tables import _fmt, _fmt_p, rounded
 
 TABLES = {
+    "correlation_factors": dict(
+        needs="correlations",
+        title="Kong et al. 2016, Obj 1-2: share of the variance of the correlations explained by the "
+        "test the matrix comes from (T_ex), the test it is applied to (T_ap) and the segment",
+        unit="Obj 1: subject x IMU x T_ex x T_ap (Table 3's units); Obj 2: subject x set x side x pair x "
+        "T_ex x T_ap (Table 6's); eta squared from type II sums of squares of an additive model",
+        build=lambda d: tables.correlation_factors(d["correlations"]),
+    ),
+    "obj1_sensitivity": dict(
+        needs="correlations",
+        title="What Kong's Obj 1 correlation can detect: the frontal vs lateral acceleration correlation "
+        "when the lateral calibration is turned by a known heading error, per correlation mode",
+        unit="subject x IMU x T_ex x T_ap (Table 3's units), each averaged over the repetitions",
+        build=lambda d: tables.correlation_sensitivity(d["correlations"]),
+    ),
     "ricci_table1": dict(
         needs="axes",
         title="Ricci et al. 2014, Table 1: reliability index rho per movement and segment",
@@ -24,7 +39,7 @@ TABLES = {
         needs="axes",
         title="Ricci et al. 2014: paired t-test of rho, supported (bar) vs unsupported movement",
         unit="children, one pair per child and side (rho pooled over the 3 trials); sides tested separately; "
-        "Holm's correction across the rows; the paper reports only p < 0.05 for each frame",
+        "p raw and Holm-corrected within each reading; the paper reports only p < 0.05 for each frame",
         build=lambda d: reliability.supported_ttest(d["axes"]),
     ),
     "ricci_lm": dict(
@@ -77,14 +92,22 @@ TABLES = {
 }
 
 
-def build(name: str, axes=None, calibrations=None, angles=None, paper_names=None) -> pd.DataFrame:
+def build(
+    name: str, axes=None, calibrations=None, angles=None, paper_names=None, correlations=None
+) -> pd.DataFrame:
     """Table ``name`` (a key of ``TABLES``) as a tidy frame, floats rounded to 4 decimals."""
     if name not in TABLES:
         raise ValueError(
             f"unknown table {name!r}: one of {', '.join(TABLES)} or a Kong table number"
         )
     table = TABLES[name]["build"](
-        dict(axes=axes, calibrations=calibrations, angles=angles, paper_names=paper_names or {})
+        dict(
+            axes=axes,
+            calibrations=calibrations,
+            angles=angles,
+            correlations=correlations,
+            paper_names=paper_names or {},
+        )
     )
     return rounded(table.reset_index(drop=True))
 

@@ -24,7 +24,7 @@ import pandas as pd
 from .dataset import R_COLUMNS
 from .rotations import error_angle_deg, vertical_share
 
-CORRELATION_MODES = ("concatenated", "per_axis")
+CORRELATION_MODES = ("concatenated", "per_axis", "per_axis_moving")
 CALIBRATION_KEY = ["subject", "sensor_set", "imu", "test"]
 #: columns of every angle row
 ANGLE_COLUMNS = [
@@ -43,13 +43,18 @@ ANGLE_COLUMNS = [
 ]
 
 
-def correlation_3d(a: np.ndarray, b: np.ndarray, mode: str = "concatenated") -> float:
+def correlation_3d(
+    a: np.ndarray, b: np.ndarray, mode: str = "concatenated", moving: np.ndarray | None = None
+) -> float:
     """Pearson correlation of two 3-axis signals of shape (N, 3) (Kong Eq. 8 and 10).
 
     ``concatenated``: r of the 3N values (x_1..x_N, y_1..y_N, z_1..z_N) of each signal, so the
     different mean levels of the axes (gravity) count as shared variation. ``per_axis``: the mean
     of the x, y and z correlations; an axis that is constant in either signal has no correlation
-    and is left out (NaN if all are).
+    and is left out (NaN if all are). ``per_axis_moving``: ``per_axis`` over the moving samples
+    only (``moving``, a boolean (N,) mask, e.g. the trimmer's): rest periods are left out and each
+    axis's mean, the gravity it carries, is removed by the correlation itself, so what remains is
+    the motion (the most sensitive to a heading error: docs/objectives.md).
     """
     a, b = np.asarray(a, float), np.asarray(b, float)
     if a.shape != b.shape or a.ndim != 2 or a.shape[1] != 3:
@@ -61,14 +66,43 @@ def correlation_3d(a: np.ndarray, b: np.ndarray, mode: str = "concatenated") -> 
         if np.std(x) == 0 or np.std(y) == 0:
             return float("nan")
         return float(np.corrcoef(x, y)[0, 1])
+    if mode == "per_axis_moving":
+        if moving is None:
+            raise ValueError("correlation mode per_axis_moving needs the moving samples (moving=)")
+        a, b = a[moving], b[moving]
+        mode = "per_axis"
     if mode == "per_axis":
         values = [
             np.corrcoef(a[:, k], b[:, k])[0, 1]
             for k in range(3)
-            if np.std(a[:, k]) > 0 and np.std(b[:, k]) > 0
+            if len(a) > 1 and np.std(a[:, k]) > 0 and np.std(b[:, k]) > 0
         ]
         return float(np.mean(values)) if values else float("nan")
     raise ValueError(f"correlation mode {mode!r} is not one of {', '.join(CORRELATION_MODES)}")
+
+
+def best_lag(a: np.ndarray, b: np.ndarray, max_lag: int) -> int:
+    """Kong Sec. 2.3: "the data from the two sets were aligned by removing the offset estimated
+    from the cross correlation of the acceleration". The lag L (samples, |L| <= ``max_lag``) that
+    maximises the cross-correlation of the two recordings' acceleration magnitudes (demeaned; the
+    magnitude needs no calibration), such that ``a[t + L]`` matches ``b[t]``.
+    """
+    from scipy.signal import correlate, correlation_lags
+
+    x = np.linalg.norm(np.asarray(a, float), axis=1)
+    y = np.linalg.norm(np.asarray(b, float), axis=1)
+    x, y = x - x.mean(), y - y.mean()
+    cross = correlate(x, y, mode="full", method="auto")
+    lags = correlation_lags(len(x), len(y), mode="full")
+    window = np.abs(lags) <= max_lag
+    return int(lags[window][np.argmax(cross[window])]) if window.any() else 0
+
+
+def aligned(n_a: int, n_b: int, lag: int) -> tuple[slice, slice]:
+    """The overlapping samples of two recordings when ``a[t + lag]`` matches ``b[t]``."""
+    start_b = max(0, -lag)
+    stop_b = min(n_b, n_a - lag)
+    return slice(start_b + lag, stop_b + lag), slice(start_b, max(start_b, stop_b))
 
 
 def parse_subset(label: str) -> tuple[int, ...]:

@@ -11,6 +11,7 @@ import itertools
 
 import numpy as np
 import pandas as pd
+from scipy.spatial.transform import Rotation
 
 from .calibration.kong import KongLimits, kong_from_scatters, scatter, vertical_axis
 from .checks import (
@@ -40,6 +41,9 @@ from .functional import (
     SCATTER_COLUMNS as UNIT_SCATTER_COLUMNS,
 )
 from .objectives import (
+    CORRELATION_MODES,
+    aligned,
+    best_lag,
     correlation_3d,
     frontal_lateral_plan,
     full_sets,
@@ -214,6 +218,11 @@ def _method_rows(base: dict, fits: dict, truth) -> list[dict]:
 
 LM_COLUMNS = [
     "n_iterations",
+    "n_rejected",
+    "optimum_distance_deg",
+    "fixed_n_iterations",
+    "fixed_cost",
+    "fixed_optimum_distance_deg",
     "converged",
     "cost",
     "random_starts",
@@ -565,9 +574,18 @@ CORRELATION_COLUMNS = [
     "t_ap",
     "rep",
     "signal",
+    "mode",
+    "heading_error_deg",
+    "lag_samples",
+    "n_samples",
     "correlation",
     "flag",
 ]
+#: heading errors (deg, about body z, imposed on the second set's calibration) at which the Obj 1
+#: correlation is also computed, for every mode: how large an error the correlation can detect
+SENSITIVITY_HEADINGS_DEG = (0.0, 1.0, 2.0, 5.0, 10.0, 15.0, 20.0, 30.0)
+#: an aligned pair sharing fewer than this share of the shorter recording is not correlated
+MIN_OVERLAP = 0.5
 
 
 def correlations(
@@ -575,15 +593,26 @@ def correlations(
     calibrations: pd.DataFrame,
     mode: str = "concatenated",
     segment_pairs: dict | None = None,
+    trim: TrimParams = TrimParams(),
+    max_lag_s: float = 0.5,
+    headings_deg: tuple = SENSITIVITY_HEADINGS_DEG,
 ) -> pd.DataFrame:
     """Kong Obj 1 and 2 (Eq. 7-10) for the subjects in ``calibrations``: full-set calibrations
-    applied to every repetition of every motion test (T_ap), correlation per recording.
+    applied to every repetition of every motion test (T_ap), correlation per recording pair.
 
     Obj 1 (``objective='frontal_lateral'``, needs two sensor sets): the same IMU in both sets,
     ``sensor_set`` = 'set_a|set_b'; acceleration and angular velocity (``signal``). Obj 2
     (``'segment_pair'``): two segments of one set calibrated from the same T_ex, on the tests that
-    ``segment_pairs`` names; acceleration. Recordings of different length are not correlated (they
-    cannot be aligned sample by sample): such rows get ``flag='lengths_differ'``.
+    ``segment_pairs`` names; acceleration. The two recordings are first aligned in time by the lag
+    (within ``max_lag_s``) that maximises the cross-correlation of their acceleration magnitudes
+    (Kong Sec. 2.3; ``lag_samples``) and correlated over their overlap; a pair overlapping less
+    than half the shorter recording is flagged ``no_overlap``. ``mode`` as in
+    :func:`aceval.objectives.correlation_3d` (``per_axis_moving``: over the samples either sensor's
+    trimmer keeps as movement).
+
+    Also, for Obj 1's acceleration (``objective='frontal_lateral_sensitivity'``): the correlation in
+    every mode with the second set's calibration turned by each heading error in ``headings_deg``
+    about body z, to measure what size of calibration error the correlation can detect.
     """
     if calibrations.empty:
         return pd.DataFrame(columns=CORRELATION_COLUMNS)
@@ -596,25 +625,46 @@ def correlations(
     for subject, sensor_set, test, rep, imu in paths:
         reps.setdefault((subject, sensor_set, test, imu), []).append(rep)
     cache: dict = {}
+    max_lag = int(round(max_lag_s * dataset.fs_hz))
+    turns = {h: Rotation.from_euler("z", h, degrees=True).as_matrix() for h in headings_deg}
 
     def signals(key):
         if key not in cache:
-            cache[key] = dataset.read_recording(paths[key]) if key in paths else None
+            try:
+                cache[key] = dataset.read_recording(paths[key]) if key in paths else None
+            except RecordingError:  # validated before; a file broken since is left out
+                cache[key] = None
         return cache[key]
 
-    def correlate(base: dict, key_a, key_b, R_a, R_b, which):
+    def moving_mask(recording):
+        try:
+            return movement_mask(recording.gyr, dataset.fs_hz, trim)
+        except CalibrationError:
+            return np.zeros(len(recording.t), dtype=bool)
+
+    def correlate(base: dict, key_a, key_b, R_a, R_b, which, sensitivity=False):
         a, b = signals(key_a), signals(key_b)
         if a is None or b is None:
             return
+        lag = best_lag(a.acc, b.acc, max_lag)
+        part_a, part_b = aligned(len(a.t), len(b.t), lag)
+        n = part_b.stop - part_b.start
+        common = {**base, "rep": key_a[3], "lag_samples": lag, "n_samples": n, "flag": ""}
+        if n < MIN_OVERLAP * min(len(a.t), len(b.t)):
+            rows.extend({**common, "signal": s, "mode": mode, "heading_error_deg": 0.0,
+                         "correlation": np.nan, "flag": "no_overlap"} for s in which)  # fmt: skip
+            return
+        moving = moving_mask(a)[part_a] | moving_mask(b)[part_b]
         for signal in which:
-            row = {**base, "rep": key_a[3], "signal": signal, "flag": ""}
-            if len(a.t) != len(b.t):
-                row.update(correlation=np.nan, flag="lengths_differ")
-            else:
-                row["correlation"] = correlation_3d(
-                    getattr(a, signal) @ R_a.T, getattr(b, signal) @ R_b.T, mode
-                )
-            rows.append(row)
+            x, y = getattr(a, signal)[part_a] @ R_a.T, getattr(b, signal)[part_b] @ R_b.T
+            rows.append({**common, "signal": signal, "mode": mode, "heading_error_deg": 0.0,
+                         "correlation": correlation_3d(x, y, mode, moving)})  # fmt: skip
+            if sensitivity and signal == "acc":
+                for heading, turn in turns.items():
+                    for m in CORRELATION_MODES:
+                        rows.append({**common, "objective": "frontal_lateral_sensitivity", "signal": signal,
+                                     "mode": m, "heading_error_deg": heading,
+                                     "correlation": correlation_3d(x, y @ turn.T, m, moving)})  # fmt: skip
 
     rows: list[dict] = []
     sensor_sets = list(dataset.meta["sensor_sets"])
@@ -640,6 +690,7 @@ def correlations(
                         plan["R_a"],
                         plan["R_b"],
                         ("acc", "gyr"),
+                        sensitivity=bool(headings_deg),
                     )
     if segment_pairs and len(full):
         for plan in segment_pair_plan(full, segment_pairs).to_dict("records"):

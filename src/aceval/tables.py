@@ -59,7 +59,9 @@ TABLES = {
         reference="table7_ttest_segment_pair_correlation",
         objective="Obj 2",
         title="Paired t-test, segment-pair correlation, first vs second sensor set",
-        unit="pairs matched on subject, side, T_ex, T_ap and repetition",
+        kind_of_value="correlation",
+        unit="pairs matched on subject, side, T_ex, T_ap and repetition (paper-style); "
+        "subject x side (independent units)",
         row="pair",
         kind="ttest",
     ),
@@ -67,7 +69,9 @@ TABLES = {
         reference="table8_ttest_incremental_angle",
         objective="Obj 3",
         title="Paired t-test, 'incremental' error angle (deg), first vs second sensor set",
-        unit="pairs matched on subject, IMU, T_ex and the two subsets compared",
+        kind_of_value="angle",
+        unit="pairs matched on subject, IMU, T_ex and the two subsets compared (paper-style); "
+        "subject x IMU (independent units)",
         row="segment",
         kind="ttest",
     ),
@@ -85,7 +89,9 @@ TABLES = {
         reference="table10_ttest_test_retest_angle",
         objective="Obj 4",
         title="Paired t-test, test-retest error angle (deg), first vs second sensor set",
-        unit="pairs matched on subject, IMU, T_ex and the two subsets compared",
+        kind_of_value="angle",
+        unit="pairs matched on subject, IMU, T_ex and the two subsets compared (paper-style); "
+        "subject x IMU (independent units)",
         row="segment",
         kind="ttest",
     ),
@@ -176,6 +182,76 @@ def table6(correlations: pd.DataFrame, paper_names: dict) -> pd.DataFrame:
     return _flag_low(_compare(result, reference(6), ["pair", "t_ap"], ["mean", "sd"]))
 
 
+def correlation_factors(correlations: pd.DataFrame | None) -> pd.DataFrame:
+    """Kong Obj 1-2, "not related with T_ex but highly related with T_ap and body segment": the
+    share of variance (eta squared, :func:`aceval.stats.variance_shares`) of the correlations of
+    Table 3's units (factors T_ex, T_ap, segment) and Table 6's (T_ex, T_ap, pair).
+    """
+    from .stats import variance_shares
+
+    columns = ["objective", "factor", "eta_squared", "n"]
+    if correlations is None or correlations.empty:
+        return pd.DataFrame(columns=columns)
+    rows = []
+    obj1 = _frontal_lateral_units(correlations, "acc")
+    pairs = correlations[(correlations["objective"] == "segment_pair") & unflagged(correlations)]
+    obj2 = pairs.groupby(["subject", "sensor_set", "side", "pair", "t_ex", "t_ap"], as_index=False)[
+        "correlation"
+    ].mean()
+    for objective, units, factors in (
+        ("Obj 1", obj1, ["t_ex", "t_ap", "segment"]),
+        ("Obj 2", obj2, ["t_ex", "t_ap", "pair"]),
+    ):
+        if units.empty:
+            continue
+        shares = variance_shares(units, "correlation", factors)
+        rows += [
+            {"objective": objective, "factor": f, "eta_squared": shares[f], "n": len(units)}
+            for f in factors
+        ]
+    return pd.DataFrame(rows, columns=columns)
+
+
+def correlation_sensitivity(correlations: pd.DataFrame | None) -> pd.DataFrame:
+    """How the Obj 1 acceleration correlation falls when the second set's calibration is turned by
+    a known heading error about body z, per correlation mode: mean, SD and n over Table 3's units
+    (subject x IMU x T_ex x T_ap, each averaged over the repetitions), the drop from no error, and
+    that drop in units of the SD between units at no error (``drop_over_sd``: the error is visible
+    against the spread of correct calibrations when it is well above 1), and the share of units
+    whose correlation falls below the 5th percentile of the units without error
+    (``detected_share``: 0.05 is chance).
+    """
+    columns = [
+        "mode",
+        "heading_error_deg",
+        "mean",
+        "sd",
+        "n",
+        "drop",
+        "drop_over_sd",
+        "detected_share",
+    ]
+    if correlations is None or correlations.empty:
+        return pd.DataFrame(columns=columns)
+    data = correlations[
+        (correlations["objective"] == "frontal_lateral_sensitivity") & unflagged(correlations)
+    ]
+    units = data.groupby(
+        ["subject", "imu", "t_ex", "t_ap", "mode", "heading_error_deg"], as_index=False
+    )["correlation"].mean()
+    table = _summary(units, ["mode", "heading_error_deg"], "correlation")
+    at_zero = table[table["heading_error_deg"] == 0].set_index("mode")
+    table["drop"] = table["mode"].map(at_zero["mean"]) - table["mean"]
+    table["drop_over_sd"] = table["drop"] / table["mode"].map(at_zero["sd"])
+    correct = units[units["heading_error_deg"] == 0].groupby("mode")["correlation"].quantile(0.05)
+    below = units["correlation"] < units["mode"].map(correct)
+    detected = (
+        below.groupby([units["mode"], units["heading_error_deg"]]).mean().rename("detected_share")
+    )
+    table = table.merge(detected.reset_index(), on=["mode", "heading_error_deg"], how="left")
+    return table[columns]
+
+
 def _flag_low(table: pd.DataFrame) -> pd.DataFrame:
     table["flag"] = np.where(table["mean"] <= CORRELATION_FLAG, "<=0.95", "")
     table["published_flag"] = np.where(table["published_mean"] <= CORRELATION_FLAG, "<=0.95", "")
@@ -202,60 +278,70 @@ def angle_table(number: int, angles: pd.DataFrame, paper_names: dict) -> pd.Data
 # --- paired t-tests (7, 8, 10) ----------------------------------------------------------------
 
 
+#: the tests of a set comparison, in the order they are shown (Tables 7, 8, 10)
+SET_TESTS = {
+    "paper": "paper-style paired t-test on pooled dependent units",
+    "units": "paired t-test on independent units (per-subject x IMU means)",
+    "mixed": "mixed model, random intercept per subject",
+    "mixed_slope": "mixed model, random intercept and set effect per subject",
+}
+#: the test on which set-preference claims are judged
+DEFENSIBLE_TEST = "units"
+TTEST_TABLE_COLUMNS = [
+    "test", "mean_a", "sd_a", "mean_b", "sd_b", "mean_difference", "ci95_low", "ci95_high",
+    "cohens_dz", "n", "n_groups", "t", "z", "p", "note",
+]  # fmt: skip
+
+
 def ttest_table(
     number: int,
     correlations: pd.DataFrame | None,
     angles: pd.DataFrame | None,
     sensor_sets: list[str],
 ) -> pd.DataFrame:
-    """First vs second sensor set of the dataset (the paper's frontal/back vs lateral), one test
-    per row, Holm-corrected within the table.
+    """First vs second sensor set of the dataset (the paper's frontal/back vs lateral): per row of
+    the paper's table, four tests of the same contrast (:data:`SET_TESTS`): the paper-style paired
+    t-test on pooled units (what the paper did: repetitions, subsets and T_ex are not independent,
+    so its p is optimistic), a paired t-test on per-subject x IMU (Table 7: x side) means, and two
+    mixed models. ``p_holm`` corrects each test's p within the table (one family per test).
     """
-    from .stats import (
-        holm,
-        paired_by_set,
-    )  # scipy.stats and statsmodels: only these tables need them
+    from .stats import holm, mixed_model_by_set, paired_by_set, unit_means_by_set
 
-    set_a, set_b = (list(sensor_sets) + ["(no second set)"] * 2)[
-        :2
-    ]  # one set: nothing is paired, n = 0
+    set_a, set_b = (list(sensor_sets) + ["(no second set)"] * 2)[:2]  # one set: n = 0
+    sets = [set_a, set_b]
     if number == 7:
         data = correlations[(correlations["objective"] == "segment_pair") & unflagged(correlations)]
-        rows, value, pair_on = "pair", "correlation", ["subject", "side", "t_ex", "t_ap", "rep"]
+        rows, value = "pair", "correlation"
+        pair_on, unit = ["subject", "side", "t_ex", "t_ap", "rep"], ["subject", "side"]
     else:
         comparison = "incremental" if number == 8 else "test_retest"
         data = angles[angles["comparison"] == comparison]
-        rows, value, pair_on = (
-            "segment",
-            "error_angle_deg",
-            ["subject", "imu", "test", "calibration_a", "calibration_b"],
-        )
+        rows, value = "segment", "error_angle_deg"
+        pair_on = ["subject", "imu", "test", "calibration_a", "calibration_b"]
+        unit = ["subject", "imu"]
     results = []
     for key, group in data.groupby(rows, sort=False):
-        results.append({rows: key, **paired_by_set(group, value, pair_on, [set_a, set_b])})
-    result = pd.DataFrame(
-        results,
-        columns=[
-            rows,
-            "mean_a",
-            "sd_a",
-            "mean_b",
-            "sd_b",
-            "mean_difference",
-            "ci95_low",
-            "ci95_high",
-            "cohens_dz",
-            "n",
-            "t",
-            "p",
-        ],
+        for test in SET_TESTS:
+            if test == "paper":
+                result = paired_by_set(group, value, pair_on, sets)
+            elif test == "units":
+                result = unit_means_by_set(group, value, unit, sets)
+            else:
+                result = mixed_model_by_set(group, value, sets, random_slope=test == "mixed_slope")
+            results.append({rows: key, "test": test, **result})
+    result = pd.DataFrame(results, columns=[rows, *TTEST_TABLE_COLUMNS])
+    result["p_holm"] = np.nan
+    for _, index in result.groupby("test", sort=False).groups.items():
+        result.loc[index, "p_holm"] = holm(result.loc[index, "p"])
+    # for an angle the smaller set is the better one (the paper's grey cells); for a correlation
+    # the larger one (Table 7 marks none)
+    better_a = (
+        result["mean_a"] > result["mean_b"] if number == 7 else result["mean_a"] < result["mean_b"]
     )
-    result["p_holm"] = holm(result["p"])
-    result["smaller"] = np.where(
-        result["mean_a"] < result["mean_b"],
-        set_a,
-        np.where(result["mean_b"] < result["mean_a"], set_b, ""),
+    better_b = (
+        result["mean_b"] > result["mean_a"] if number == 7 else result["mean_b"] < result["mean_a"]
     )
+    result["better"] = np.where(better_a, set_a, np.where(better_b, set_b, ""))
     published = reference(number)
     suffix = "" if number == 7 else "_deg"
     published = published.rename(
@@ -268,11 +354,21 @@ def ttest_table(
         }
     )
     merged = result.merge(published, on=rows, how="outer")
-    merged["published_smaller"] = np.where(
-        merged["published_mean_a"] < merged["published_mean_b"],
-        "frontal",
-        np.where(merged["published_mean_b"] < merged["published_mean_a"], "lateral", ""),
+    high, low = ("frontal", "lateral")
+    published_a_better = (
+        merged["published_mean_a"] > merged["published_mean_b"]
+        if number == 7
+        else merged["published_mean_a"] < merged["published_mean_b"]
     )
+    published_b_better = (
+        merged["published_mean_b"] > merged["published_mean_a"]
+        if number == 7
+        else merged["published_mean_b"] < merged["published_mean_a"]
+    )
+    merged["published_better"] = np.where(
+        published_a_better, high, np.where(published_b_better, low, "")
+    )
+    merged["test"] = merged["test"].fillna("paper")
     merged.insert(1, "set_a", set_a)
     merged.insert(2, "set_b", set_b)
     return merged
@@ -310,7 +406,7 @@ def build(
 def _tidy(table: pd.DataFrame, number: int) -> pd.DataFrame:
     spec = TABLES[number]
     keys = [k for k in (spec["row"], spec.get("column")) if k]
-    table = table.sort_values(keys, key=_sort_key).reset_index(drop=True)
+    table = table.sort_values(keys, key=_sort_key, kind="stable").reset_index(drop=True)
     if "n" in table.columns:
         table["n"] = table["n"].fillna(0).astype(int)
     return rounded(table)
@@ -420,6 +516,7 @@ def _ttest_markdown(table: pd.DataFrame, spec: dict) -> list[str]:
     row = spec["row"]
     set_a, set_b = table["set_a"].iloc[0], table["set_b"].iloc[0]
     has_sd = "published_sd_a" in table.columns
+    correlation = spec["kind_of_value"] == "correlation"
 
     def published(r, side):
         value = r[f"published_mean_{side}"]
@@ -427,41 +524,62 @@ def _ttest_markdown(table: pd.DataFrame, spec: dict) -> list[str]:
             return "not in the paper"
         return _fmt(value) + (f" ± {_fmt(r[f'published_sd_{side}'])}" if has_sd else "")
 
+    def spread(r, side):
+        sd = r[f"sd_{side}"]
+        return _fmt(r[f"mean_{side}"]) + (f" ± {_fmt(sd)}" if np.isfinite(sd) else "")
+
+    def units(r):
+        if r["test"] in ("mixed", "mixed_slope"):
+            return f"{int(r['n'])} rows, {int(r['n_groups'])} subjects" if r["n"] else "0"
+        return str(int(r["n"]))
+
+    is_paper = table["test"] == "paper"
     long = pd.DataFrame(
         {
-            row: table[row],
-            f"{set_a} (mean ± SD)": [
-                f"{_fmt(r['mean_a'])} ± {_fmt(r['sd_a'])}" if r["n"] else ""
-                for _, r in table.iterrows()
-            ],
-            f"{set_b} (mean ± SD)": [
-                f"{_fmt(r['mean_b'])} ± {_fmt(r['sd_b'])}" if r["n"] else ""
-                for _, r in table.iterrows()
-            ],
+            row: np.where(is_paper, table[row], ""),
+            "test": [SET_TESTS.get(t, t) for t in table["test"]],
+            f"{set_a} (mean ± SD)": [spread(r, "a") if r["n"] else "" for _, r in table.iterrows()],
+            f"{set_b} (mean ± SD)": [spread(r, "b") if r["n"] else "" for _, r in table.iterrows()],
             "difference [95% CI]": [
                 f"{_fmt(r['mean_difference'])} [{_fmt(r['ci95_low'])}, {_fmt(r['ci95_high'])}]"
-                if r["n"]
+                if np.isfinite(r["mean_difference"])
                 else ""
                 for _, r in table.iterrows()
             ],
             "d_z": [_fmt(v, 2) for v in table["cohens_dz"]],
-            "n": table["n"],
+            "n": [units(r) for _, r in table.iterrows()],
             "p": [_fmt_p(v) for v in table["p"]],
             "p (Holm)": [_fmt_p(v) for v in table["p_holm"]],
-            "smaller": table["smaller"],
-            "paper frontal": [published(r, "a") for _, r in table.iterrows()],
-            "paper lateral": [published(r, "b") for _, r in table.iterrows()],
-            "paper p": table["published_p"].fillna(""),
-            "paper smaller": table["published_smaller"],
+            "better": table["better"],
+            "paper frontal": [
+                published(r, "a") if p else "" for p, (_, r) in zip(is_paper, table.iterrows())
+            ],
+            "paper lateral": [
+                published(r, "b") if p else "" for p, (_, r) in zip(is_paper, table.iterrows())
+            ],
+            "paper p": np.where(is_paper, table["published_p"].fillna(""), ""),
+            "paper better": np.where(is_paper, table["published_better"], ""),
         }
     )
+    better = (
+        "'better' is the set with the larger mean correlation (Table 7 marks no cell)"
+        if correlation
+        else "'better' is the set with the smaller mean angle (the paper's grey cells)"
+    )
+    notes = [note for note in table.get("note", pd.Series(dtype=str)).dropna().unique() if note]
     return [
-        f"Two-sided paired t-test of {set_a} vs {set_b} (compared with the paper's frontal/back and "
-        f"lateral sets); difference = {set_a} - {set_b}; d_z = mean difference / SD of the "
-        "differences; Holm's correction across the rows of this table. 'smaller' is the set "
-        "with the smaller mean (the paper's grey cells).",
+        f"{set_a} vs {set_b} (compared with the paper's frontal/back and lateral sets); difference = "
+        f"{set_a} - {set_b}. Four tests of the same contrast per row: the paper's paired t-test on "
+        "pooled units (repetitions, subsets and T_ex of one subject are not independent, so its p is "
+        "optimistic: it is shown because it is what the paper did); a paired t-test on independent "
+        "units (each subject x IMU's mean per set; Table 7: subject x side), on which aceval judges "
+        "the paper's set-preference claims; a linear mixed model with a random intercept per subject "
+        "(statsmodels MixedLM, Wald z), and one with the set effect varying by subject too (with 5 "
+        "subjects its Wald z is still optimistic). d_z = mean difference / SD of the differences. "
+        f"p is raw; p (Holm) corrects each test's p across the rows of this table. {better}.",
         "",
         long.to_markdown(index=False, disable_numparse=True),
+        *([""] + [f"Mixed model notes: {', '.join(notes)}."] if notes else []),
     ]
 
 

@@ -20,12 +20,7 @@ rule calibrate:
     params:
         root=lambda w: dataset_dir(w.dataset),
         subject=lambda w: [] if w.subject == ALL_UNITS else ["--subject", w.subject],
-        trim=[
-            f"--trim-threshold={config['calibration']['trim']['threshold']}",
-            f"--closing-s={config['calibration']['trim']['closing_s']}",
-            f"--window-s={config['calibration']['trim']['window_s']}",
-            f"--min-peak-deg-s={config['calibration']['trim']['min_peak_deg_s']}",
-        ],
+        trim=trim_options(),
     shell:
         "python -m aceval calibrate {params.root:q} {params.subject:q} --validated --allow-empty "
         "--out {output.calibrations:q} --recordings-out {output.recordings:q} --axes-out {output.axes:q} "
@@ -45,7 +40,10 @@ rule correlate:
     params:
         root=lambda w: dataset_dir(w.dataset),
         mode=config["objectives"]["correlation"],
+        max_lag=config["objectives"]["max_lag_s"],
         pairs=json.dumps(config["objectives"]["segment_pairs"]),
+        trim=trim_options(),
     shell:
         "python -m aceval correlate {params.root:q} --calibrations {input.calibrations:q} --out {output:q} "
-        "--mode {params.mode:q} --pairs {params.pairs:q} 2> {log:q}"
+        "--mode {params.mode:q} --max-lag-s {params.max_lag:q} --pairs {params.pairs:q} {params.trim:q} "
+        "2> {log:q}"

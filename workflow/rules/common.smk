@@ -72,10 +72,12 @@ ANALYSES = {
             "table9",
             "table10",
             "table11",
+            "correlation_factors",
+            "obj1_sensitivity",
             "reliability",
             "reliability_retest",
         ],
-        "figures": ["figure6", "figure8", "figure9", "figure10", "reliability"],
+        "figures": ["figure6", "figure8", "figure9", "figure10", "obj1_sensitivity", "reliability"],
     },
     "box": {"tables": ["table4", "table5"], "figures": []},
     "ricci": {
@@ -88,6 +90,8 @@ ANALYSES = {
 INPUTS = {
     **{f"table{n}": ["correlations"] for n in (3, 4, 5, 6, 7)},
     **{f"table{n}": ["angles"] for n in (8, 9, 10, 11)},
+    "correlation_factors": ["correlations"],
+    "obj1_sensitivity": ["correlations"],
     "figure6": ["correlations"],
     "figure8": ["correlations"],
     "figure9": ["angles"],
@@ -207,6 +211,17 @@ def tables_of(dataset):
 
 def figures_of(dataset):
     return sorted({n for a in analyses(dataset) for n in ANALYSES[a]["figures"]})
+
+
+def trim_options():
+    """The trimmer's parameters (config ``calibration.trim``) as options of calibrate/correlate."""
+    trim = config["calibration"]["trim"]
+    return [
+        f"--trim-threshold={trim['threshold']}",
+        f"--closing-s={trim['closing_s']}",
+        f"--window-s={trim['window_s']}",
+        f"--min-peak-deg-s={trim['min_peak_deg_s']}",
+    ]
 
 
 def paper_names(dataset):

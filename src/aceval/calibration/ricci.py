@@ -4,8 +4,9 @@
   vector as the axis and ``rho = s1 / (s1 + s2 + s3)`` as its reliability (Eq. 1-2).
 * :func:`lm_fit`: the rotation ``R`` (sensor frame -> functional/body frame) that minimises the
   weighted cost ``C = e^T W e`` with ``e = v_ref - Q(R) v_est`` (Eq. 3-7), by Levenberg-Marquardt on
-  a quaternion (Eq. 8-11): Marquardt's diagonal damping, q0 = identity, lambda = 1e-3, stop when the
-  relative cost change is below 1e-4, renormalise q after each step.
+  a quaternion (Eq. 8-11): Marquardt's diagonal damping, q0 = identity, lambda = 1e-3 as the start
+  of Hartley & Zisserman's adaptive rule (App. A6, which Ricci cites; lambda fixed as an option),
+  stop when the relative cost change is below 1e-4, renormalise q after each step.
 * :func:`wahba_fit`: the closed-form optimum of the same cost (``Rotation.align_vectors``), the
   cross-check of the LM and a method of its own in the comparisons.
 """
@@ -101,7 +102,13 @@ def first_phase_sign(gyr, axis, fs_hz: float) -> float:
 
 @dataclass
 class LMResult:
-    """Outcome of the rho-weighted LM fit (Ricci Eq. 3-11)."""
+    """Outcome of the rho-weighted LM fit (Ricci Eq. 3-11).
+
+    ``n_iterations`` counts the accepted steps (k of Eq. 9-11); ``n_rejected`` the trial steps that
+    raised the cost and were re-solved with more damping (adaptive rule only). ``cost_history`` and
+    ``quaternion_history`` hold the start and every accepted step; ``damping_history`` and
+    ``trial_accepted`` every trial step.
+    """
 
     rotation: Rotation
     quaternion_wxyz: np.ndarray
@@ -111,11 +118,19 @@ class LMResult:
     quaternion_history: np.ndarray
     residual_angle_before_deg: np.ndarray
     residual_angle_after_deg: np.ndarray
+    n_rejected: int = 0
+    damping_history: np.ndarray | None = None
+    trial_accepted: np.ndarray | None = None
 
     @property
     def R(self) -> np.ndarray:
         """The fitted rotation as a 3x3 matrix (sensor -> functional frame)."""
         return self.rotation.as_matrix()
+
+    @property
+    def cost(self) -> float:
+        """The final cost C (Eq. 6)."""
+        return float(self.cost_history[-1])
 
 
 def quaternion_matrix(q_wxyz: np.ndarray) -> np.ndarray:
@@ -191,14 +206,28 @@ def lm_fit(
     rel_tol: float = 1e-4,
     max_iter: int = 100,
     abs_tol: float = 1e-15,
+    adaptive: bool = True,
+    max_rejections: int = 20,
 ) -> LMResult:
     """Rotation R (sensor -> functional frame) with ``v_ref ~ R v_est``, by Ricci's LM (Eq. 3-11).
 
-    v_ref, v_est: (N, 3) axes (unit-normalised here), N >= 2; weights: (N,) rho of each axis
-    (Eq. 7; default 1). Each iteration: ``F = J^T W J + lambda diag(J^T W J)``,
-    ``Delta = F^-1 J^T W e``, ``q* = q - Delta``, ``q = q*/|q*|`` (Eq. 9-10); stop when
-    ``|C_k - C_k+1| / C_k < rel_tol`` (Eq. 11) or the cost is below ``abs_tol`` (an exact fit, where
-    the relative change is undefined). ``n_iterations`` counts the steps taken.
+    Parameters
+    ----------
+    v_ref, v_est : (N, 3) axes (unit-normalised here), N >= 2.
+    weights : (N,) rho of each axis (Eq. 7); default 1.
+    q0_wxyz : starting quaternion (Ricci: the identity).
+    damping : lambda of Eq. 10 (Ricci: 1e-3, "typical" after Hartley & Zisserman, App. A6).
+    rel_tol : stop when ``|C_k - C_k+1| / C_k < rel_tol`` (Eq. 11; Ricci: 1e-4), or when the cost
+        is below ``abs_tol`` (an exact fit, where the relative change is undefined).
+    adaptive : Hartley & Zisserman's rule (App. A6), which Ricci cites: lambda starts at
+        ``damping``; a step that lowers the cost is accepted and lambda divided by 10, a step that
+        raises it is rejected and re-solved with lambda multiplied by 10. ``False``: lambda stays
+        fixed and every step is taken (the literal reading of Eq. 9-10).
+    max_rejections : stop after this many rejections in a row (no step lowers the cost any more:
+        a minimum within rounding); counted as converged.
+
+    Each trial: ``F = J^T W J + lambda diag(J^T W J)``, ``Delta = F^-1 J^T W e``,
+    ``q* = q - Delta``, ``q = q*/|q*|`` (Eq. 9-10).
     """
     v_ref, v_est, weights = _check_axes(v_ref, v_est, weights)
     W = np.repeat(weights, 3)
@@ -210,24 +239,39 @@ def lm_fit(
 
     e = residual(q)
     cost = float(e @ (W * e))
-    costs, quaternions = [cost], [q.copy()]
+    costs, quaternions, dampings, accepted = [cost], [q.copy()], [], []
     converged = cost < abs_tol
-    n_iter = 0
+    n_iter = n_rejected = rejected_in_a_row = 0
+    lam = damping
+    J = None
     while not converged and n_iter < max_iter:
-        J = _residual_jacobian(q, v_est)
-        JtW = J.T * W
-        JtWJ = JtW @ J
-        F = JtWJ + damping * np.diag(np.diag(JtWJ))
+        if J is None:  # the Jacobian at the current estimate
+            J = _residual_jacobian(q, v_est)
+            JtW = J.T * W
+            JtWJ = JtW @ J
+        F = JtWJ + lam * np.diag(np.diag(JtWJ))
         step = np.linalg.solve(F, JtW @ e)
-        q_new = q - step
-        q = q_new / np.linalg.norm(q_new)
+        trial = q - step
+        trial = trial / np.linalg.norm(trial)
+        trial_e = residual(trial)
+        trial_cost = float(trial_e @ (W * trial_e))
+        dampings.append(lam)
+        if adaptive and trial_cost > cost:  # rejected: more damping, solve again from the same q
+            accepted.append(False)
+            n_rejected += 1
+            rejected_in_a_row += 1
+            lam *= 10.0
+            converged = rejected_in_a_row >= max_rejections
+            continue
+        accepted.append(True)
+        rejected_in_a_row = 0
         n_iter += 1
-        e = residual(q)
-        new_cost = float(e @ (W * e))
-        costs.append(new_cost)
+        converged = abs(cost - trial_cost) / cost < rel_tol or trial_cost < abs_tol
+        q, e, cost, J = trial, trial_e, trial_cost, None
+        costs.append(cost)
         quaternions.append(q.copy())
-        converged = abs(cost - new_cost) / cost < rel_tol or new_cost < abs_tol
-        cost = new_cost
+        if adaptive:
+            lam /= 10.0
 
     if q[0] < 0:  # same rotation, canonical sign
         q = -q
@@ -243,6 +287,9 @@ def lm_fit(
             v_ref, v_est, quaternion_matrix(np.asarray(q0_wxyz, float) / np.linalg.norm(q0_wxyz))
         ),
         residual_angle_after_deg=_residual_angles_deg(v_ref, v_est, rotation.as_matrix()),
+        n_rejected=n_rejected,
+        damping_history=np.array(dampings),
+        trial_accepted=np.array(accepted, dtype=bool),
     )
 
 
