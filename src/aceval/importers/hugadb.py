@@ -363,5 +363,4 @@ def import_hugadb(src: str | Path, out: Path) -> ImportReport:
             for imu, (segment, side) in SENSORS.items()
         ],
     )
-    report.write(out / "import_report.tsv")
     return report

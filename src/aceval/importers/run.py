@@ -19,42 +19,81 @@ def run_import(
     vicon: str | None = None,
     name: str | None = None,
 ) -> ImportReport:
-    """Write the dataset of ``src`` (in ``format``) into the empty folder ``out``."""
+    """Write the dataset of ``src`` (in ``format``) into the empty folder ``out``, with its
+    ``import_report.tsv``; returns the report.
+    """
+    report = _convert(out, format, src, sensors, subject, vicon, name)
+    report.write(out / "import_report.tsv")
+    return report
+
+
+def _convert(
+    out: Path,
+    format: str,
+    src: str,
+    sensors: str | None = None,
+    subject: str = "S01",
+    vicon: str | None = None,
+    name: str | None = None,
+) -> ImportReport:
+    """Write the dataset of ``src`` (in ``format``) into the empty folder ``out``; the report."""
     if not Path(src).exists():
         raise FormatError(f"{src} does not exist")
     if format == "hugadb":
         from .hugadb import import_hugadb
 
         return import_hugadb(src, out)
+    if format == "qmt":
+        from .qmt import import_qmt
+
+        if not sensors:
+            raise FormatError(
+                "qmt needs --sensors, a sheet naming the struct of each IMU (config/real/qmt_sensors.tsv)"
+            )
+        return import_qmt(src, out, sensors, subject, name or "qmt")
+    if format == "gaitmap":
+        from .gaitmap import import_gaitmap
+
+        if not sensors:
+            raise FormatError("gaitmap needs --sensors (config/real/gaitmap_feet_sensors.tsv)")
+        report, truth = import_gaitmap(src, out, sensors, subject, name or "gaitmap")
+        return _with_truth(out, report, truth, "mocap_sample.csv", subject)
     from .xsens import import_xsens
 
     if not sensors:
         raise FormatError("xsens needs --sensors, a sheet mapping sensor IDs to IMUs and segments")
     report, imports = import_xsens(src, out, sensors, subject, name or "xsens")
     if vicon:
-        from ..dataset import R_COLUMNS
         from .vicon import ground_truth_table, read_markers
 
         imus = pd.read_csv(out / "imus.tsv", sep="\t", dtype=str)
         table = ground_truth_table(read_markers(vicon), imports, imus, subject)
-        columns = ["subject", "sensor_set", "imu", *R_COLUMNS]
-        write_sheet(
-            out / "ground_truth.tsv",
-            columns,
-            [
-                [*row[:3], *(f"{v:.10f}" for v in row[3:])]
-                for row in table[columns].to_numpy().tolist()
-            ],
-        )
-        table.drop(columns=R_COLUMNS).to_csv(
-            out / "ground_truth_method.tsv", sep="\t", index=False, float_format="%.4g"
-        )
-        report.add(
-            Path(vicon).name,
-            subject,
-            "",
-            "ground truth",
-            f"{len(table)} sensors; split-half {table['split_half_deg'].max():.1f} deg at most "
-            "(ground_truth_method.tsv)",
-        )
+        return _with_truth(out, report, table, Path(vicon).name, subject)
+    return report
+
+
+def _with_truth(
+    out: Path, report: ImportReport, table: pd.DataFrame, source: str, subject: str
+) -> ImportReport:
+    """Write ground_truth.tsv (R) and ground_truth_method.tsv (how it was made, its uncertainty)."""
+    from ..dataset import R_COLUMNS
+
+    columns = ["subject", "sensor_set", "imu", *R_COLUMNS]
+    write_sheet(
+        out / "ground_truth.tsv",
+        columns,
+        [[*row[:3], *(f"{v:.10f}" for v in row[3:])] for row in table[columns].to_numpy().tolist()],
+    )
+    table.drop(columns=R_COLUMNS).to_csv(
+        out / "ground_truth_method.tsv", sep="\t", index=False, float_format="%.4g"
+    )
+    flagged = table[table["flag"] != ""]
+    report.add(
+        source,
+        subject,
+        "",
+        "ground truth",
+        f"{len(table)} sensors; split-half {table['split_half_deg'].max():.1f} deg at most; "
+        f"{len(flagged)} with the two methods more than 5 deg apart (ground_truth_method.tsv)",
+    )
     return report

@@ -1,31 +1,33 @@
-"""Ground truth from Vicon markers: each sensor's rotation to Kong's body frame.
+"""Ground truth from optical markers: each sensor's rotation to Kong's body frame, by two methods.
 
-Method (documented in config/README.md "Real datasets", with its uncertainty):
+:func:`truth_rows` gives both for every sensor (documented in config/README.md "Real datasets"):
+the optical point acceleration method (:func:`aceval.truth.acceleration_truth`: the truth), and
+the marker-frame method of this module (:func:`ground_truth`, the second estimate):
 
 1. Segment frames from markers (low-passed at 6 Hz, zero phase): three points rigid with each
    segment (:data:`SEGMENT_MARKERS`) give an orthonormal frame ``R_world_seg(t)``.
 2. Optical angular velocity in the segment frame from consecutive frames (central difference of
    ``R(t-1)^T R(t+1)``); the gyroscope is low-passed alike and its bias (mean while standing) removed.
 3. Time alignment: the lag (within +-0.3 s) that maximises the correlation of the two angular
-   speeds during the walk.
+   speeds during the walk (used by both methods).
 4. ``R_seg_sensor`` = the rotation that maps the accelerometer's vertical while standing exactly
    onto the Vicon vertical in the segment frame, and best maps gyroscope onto optical angular
    velocity over the walk about it (Wahba problem with one exact pair,
-   ``scipy.spatial.transform.Rotation.align_vectors`` with an infinite weight). Quiet standing
-   gives the vertical to better than a degree; walking, mostly about one axis, gives the rest.
+   ``scipy.spatial.transform.Rotation.align_vectors`` with an infinite weight). This assumes the
+   marker frame stays rigid with the sensor while walking; where it twists about the segment's
+   long axis (the NeuRA shanks: 6-10 deg on average), the fit inherits the twist.
 5. Kong's whole-body frame while standing (what Kong's calibration estimates for every IMU): z
    down (world vertical), y the body's medial-lateral axis (:data:`BODY_ML_MARKERS`, pointing
-   right) made horizontal, x = y x z. ``R_true = B @ R_world_seg(standing) @ R_seg_sensor``. A
-   segment whose own flexion axis is turned from the body's (toe-out of the feet, tibial torsion)
-   is therefore a real error of Kong's plane, not of the truth.
+   right) made horizontal, x = y x z. A segment whose own flexion axis is turned from the body's
+   (toe-out of the feet, tibial torsion) is therefore a real error of Kong's plane, not of the
+   truth.
 
-Uncertainty reported per sensor: the lag, the RMS misfit of the angular velocities, the angle
-between the fits on the first and second half of the walk (``split_half_deg``), and
-``vertical_check_deg``: the tilt between the accelerometer's vertical and the one a fit of the
-angular velocities alone (without step 4's exact pair) carries into the sensor frame, an
-independent check of the optical-inertial alignment. Because the vertical is the accelerometer's,
-Kong's z0 agrees with the truth by construction: the error against it is the heading (the
-medial-lateral axis), the part Kong's PCA estimates.
+Uncertainty reported per sensor: the split-half of each method, their difference, the marker
+frame's twist, the lever arm, the pair consistency of two sensors on one segment, and for the
+marker frame the RMS misfit of the angular velocities and ``vertical_check_deg`` (the tilt between
+the accelerometer's vertical and the one a fit of the angular velocities alone gives). Because the
+vertical is the accelerometer's in both, Kong's z0 agrees with the truth by construction: the error
+against it is the heading (the medial-lateral axis), the part Kong's PCA estimates.
 """
 
 from __future__ import annotations
@@ -140,24 +142,23 @@ def body_axes(ml_world: np.ndarray) -> np.ndarray:
 
 def ground_truth(
     markers: dict,
-    segment: str,
-    side: str,
+    names: tuple[str, str, str],
     gyr: np.ndarray,
     acc: np.ndarray,
     standing: tuple[int, int],
     walk: tuple[int, int],
     fs_hz: float,
 ) -> dict:
-    """The true sensor-to-body rotation of one sensor and its uncertainty (module docstring)."""
-    key = (segment, side)
-    if key not in SEGMENT_MARKERS:
-        raise FormatError(f"no Vicon marker set for segment {segment} ({side})")
+    """The marker-frame method (module docstring): the sensor's orientation while standing,
+    ``R_ws0`` (Rotation, sensor -> world), from the segment frame of the three points ``names``,
+    with its uncertainty.
+    """
     n = len(next(iter(markers.values())))
     if len(gyr) != n:
         raise FormatError(
             f"Vicon has {n} frames, the sensor {len(gyr)} samples: not the same trial"
         )
-    frames = segment_frames(markers, SEGMENT_MARKERS[key], fs_hz)
+    frames = segment_frames(markers, names, fs_hz)
     optical = optical_angular_velocity(frames, fs_hz)
     bias = gyr[standing[0] : standing[1]].mean(axis=0)
     gyr_filtered = _lowpass(gyr - bias, fs_hz)
@@ -175,9 +176,9 @@ def ground_truth(
     vertical_check = np.degrees(
         np.arccos(np.clip(np.dot(gyro_only.inv().apply(up[0]), up[1]), -1.0, 1.0))
     )
-    R = body_axes(body_ml(markers, standing)) @ (stand_frames * rotation).as_matrix()
     return {
-        "R": R,
+        "R_ws0": stand_frames * rotation,
+        "frames": frames,
         "lag_samples": lag,
         "rms_misfit_deg_s": float(np.degrees(rms)),
         "split_half_deg": float(np.degrees((first * second.inv()).magnitude())),
@@ -196,43 +197,155 @@ def forward_check(markers: dict, walk: tuple[int, int]) -> np.ndarray:
     return step / np.linalg.norm(step)
 
 
+#: a point rigid with each segment whose optical acceleration the sensor's is matched to
+#: (:func:`aceval.truth.acceleration_truth`): the pelvis centre, the joint centre at the distal
+#: end of the thigh and shank (on the long axis, so a twist about it does not move the point), the
+#: heel marker of the foot
+SEGMENT_POINTS = {
+    ("waist", "center"): ("LASI", "RASI", "LPSI", "RPSI"),
+    ("thigh", "right"): ("RKJC",),
+    ("thigh", "left"): ("LKJC",),
+    ("shank", "right"): ("RAJC",),
+    ("shank", "left"): ("LAJC",),
+    ("foot", "right"): ("RHEE",),
+    ("foot", "left"): ("LHEE",),
+}
+#: two truths of one sensor farther apart than this (deg) are flagged ``methods_differ``; a truth
+#: whose fits on the two halves of the bout are farther apart is flagged ``truth_unstable``
+MAX_METHOD_DIFFERENCE_DEG = 5.0
+
+
+def segment_point(markers: dict, segment: str, side: str) -> np.ndarray:
+    """The world trajectory (N, 3, m) of the segment's point of :data:`SEGMENT_POINTS`."""
+    names = SEGMENT_POINTS.get((segment, side))
+    if names is None or any(n not in markers for n in names):
+        raise FormatError(f"no Vicon point for segment {segment} ({side}): needs {names}")
+    return sum(markers[n] for n in names) / len(names)
+
+
 def ground_truth_table(
     markers: dict, imports: dict, imus: pd.DataFrame, subject: str
 ) -> pd.DataFrame:
-    """One row per sensor: the true R (r11..r33) and the uncertainty columns."""
+    """One row per sensor of a NeuRA-style trial (:func:`truth_rows`), the body frame from the
+    anterior superior iliac spines while standing.
+    """
     spans, fs_hz = imports["spans"], imports["fs_hz"]
     standing = spans["T0"][0]
-    walk = (spans["T6"][0][0], spans["T6"][-1][1])
     forward = forward_check(markers, spans["T6"][0])
-    heading_error = float(
-        np.degrees(np.arccos(np.clip(body_axes(body_ml(markers, standing))[0] @ forward, -1, 1)))
-    )
+    B = body_axes(body_ml(markers, standing))
+    heading_error = float(np.degrees(np.arccos(np.clip(B[0] @ forward, -1, 1))))
     if heading_error > 45:
         raise FormatError(
             f"the body frame's x axis is {heading_error:.0f} deg from the walking direction: "
             f"are the {', '.join(BODY_ML_MARKERS)} markers swapped?"
         )
-    rows = []
-    for (sensor_set, imu), (gyr, acc) in imports["signals"].items():
+    sensors = {}
+    for key, (gyr, acc) in imports["signals"].items():
         segment, side = imus.loc[
-            (imus["sensor_set"] == sensor_set) & (imus["imu"] == imu), ["segment", "side"]
+            (imus["sensor_set"] == key[0]) & (imus["imu"] == key[1]), ["segment", "side"]
         ].iloc[0]
-        truth = ground_truth(markers, segment, side, gyr, acc, standing, walk, fs_hz)
-        R = truth.pop("R")
+        if (segment, side) not in SEGMENT_MARKERS:
+            raise FormatError(f"no Vicon marker set for segment {segment} ({side})")
+        sensors[key] = dict(
+            segment=segment,
+            side=side,
+            gyr=gyr,
+            acc=acc,
+            frame=SEGMENT_MARKERS[(segment, side)],
+            point=segment_point(markers, segment, side),
+            sensor_id=imports["sensor_ids"][key],
+        )
+    table = truth_rows(markers, sensors, spans, fs_hz, B)
+    table.insert(0, "subject", subject)
+    table["heading_vs_walk_deg"] = heading_error
+    return table
+
+
+def truth_rows(
+    markers: dict, sensors: dict, spans: dict, fs_hz: float, B: np.ndarray
+) -> pd.DataFrame:
+    """Both truths of every sensor and their checks (Kong's body frame ``B``: rows x, y, z in
+    world coordinates).
+
+    ``sensors``: ``{(sensor_set, imu): {segment, side, gyr, acc, frame, point, sensor_id}}`` with
+    ``frame`` the three marker names of the segment frame and ``point`` the world trajectory of a
+    point rigid with the segment. The true R (r11..r33) is the optical point acceleration method
+    (:func:`aceval.truth.acceleration_truth`, from the end of quiet standing to the end of the first
+    straight stretch), beside the marker-frame method (:func:`ground_truth`, ``marker_frame_*``);
+    ``methods_differ_deg``; ``flag`` names what exceeds :data:`MAX_METHOD_DIFFERENCE_DEG` (the
+    truths' difference, the truth's split-half), joined by ';'; the marker frame's
+    twist relative to the sensor during the walk (``twist_*_deg``, about the segment's long axis,
+    since standing); the lever arm from the point to the sensor; for two sensors on one segment,
+    their gyroscopes' relative rotation against their truths' (``pair_consistency_deg``).
+    """
+    from ..rotations import error_angle_deg
+    from ..truth import acceleration_truth, pair_consistency_deg, twist_about_axis
+
+    standing = spans["T0"][0]
+    walk = (spans["T6"][0][0], spans["T6"][-1][1])
+    # from the end of quiet standing (gait initiation included) to the end of the first straight stretch
+    bout = (standing[1], spans.get("first_straight", spans["T6"][:1])[0][1])
+    rows, kept = [], {}
+    for (sensor_set, imu), sensor in sensors.items():
+        gyr, acc = sensor["gyr"], sensor["acc"]
+        old = ground_truth(markers, sensor["frame"], gyr, acc, standing, walk, fs_hz)
+        new = acceleration_truth(
+            acc, gyr, sensor["point"], standing, bout, fs_hz, old["lag_samples"]
+        )
+        R, R_marker = B @ new["R_ws0"].as_matrix(), B @ old.pop("R_ws0").as_matrix()
+        frames = old.pop("frames")[new["start"] : bout[1]]
+        twist = twist_about_axis(frames, new["orientation"], [1.0, 0.0, 0.0], 0)[
+            bout[0] - new["start"] :
+        ]
+        difference = float(error_angle_deg(R, R_marker))
+        kept[(sensor_set, imu)] = ((sensor["segment"], sensor["side"]), gyr[walk[0] : walk[1]], R)
         rows.append(
             {
-                "subject": subject,
                 "sensor_set": sensor_set,
                 "imu": imu,
                 **{f"r{i + 1}{j + 1}": R[i, j] for i in range(3) for j in range(3)},
-                "sensor_id": imports["sensor_ids"][(sensor_set, imu)],
-                "segment": segment,
-                "side": side,
-                **truth,
-                "heading_vs_walk_deg": heading_error,
+                "sensor_id": sensor["sensor_id"],
+                "segment": sensor["segment"],
+                "side": sensor["side"],
+                "method": "optical point acceleration, from standing to the end of the first straight walk",
+                "lag_samples": old["lag_samples"],
+                "rms_misfit_m_s2": new["rms_misfit_m_s2"],
+                "split_half_deg": new["split_half_deg"],
+                "n_samples": new["n_samples"],
+                "lever_arm_x_m": new["lever_arm_m"][0],
+                "lever_arm_y_m": new["lever_arm_m"][1],
+                "lever_arm_z_m": new["lever_arm_m"][2],
+                "lever_arm_m": float(np.linalg.norm(new["lever_arm_m"])),
+                **{f"marker_frame_{k}": v for k, v in old.items() if k != "lag_samples"},
+                **{
+                    f"marker_frame_r{i + 1}{j + 1}": R_marker[i, j]
+                    for i in range(3)
+                    for j in range(3)
+                },
+                "methods_differ_deg": difference,
+                "twist_mean_deg": float(np.mean(twist)),
+                "twist_p5_deg": float(np.percentile(twist, 5)),
+                "twist_p95_deg": float(np.percentile(twist, 95)),
+                "flag": ";".join(
+                    name
+                    for name, raised in (
+                        ("methods_differ", difference > MAX_METHOD_DIFFERENCE_DEG),
+                        ("truth_unstable", new["split_half_deg"] > MAX_METHOD_DIFFERENCE_DEG),
+                    )
+                    if raised
+                ),
             }
         )
-    return pd.DataFrame(rows)
+    table = pd.DataFrame(rows)
+    table["pair_consistency_deg"] = np.nan
+    for key_a, (segment_a, gyr_a, R_a) in kept.items():
+        for key_b, (segment_b, gyr_b, R_b) in kept.items():
+            if segment_a == segment_b and key_a[0] < key_b[0]:
+                value = pair_consistency_deg(gyr_a, gyr_b, R_a, R_b)
+                for key in (key_a, key_b):
+                    same = (table["sensor_set"] == key[0]) & (table["imu"] == key[1])
+                    table.loc[same, "pair_consistency_deg"] = value
+    return table
 
 
 def body_ml(markers: dict, standing: tuple[int, int]) -> np.ndarray:

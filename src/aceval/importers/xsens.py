@@ -136,6 +136,12 @@ def trial_spans(
     bouts = walking_bouts(strides)
     if bouts:
         spans["T6"] = bouts
+        first = strides[:1]  # the first straight stretch: strides up to the first gap (a turn)
+        for stride in strides[1:]:
+            if stride[0] != first[-1][1]:
+                break
+            first.append(stride)
+        spans["first_straight"] = [(first[0][0], first[-1][1])]
     return spans
 
 
@@ -220,7 +226,7 @@ def import_xsens(
     }
     writer = DatasetWriter(out, meta)
     for sensor_id, row in wanted.items():
-        for test, ranges in spans.items():
+        for test, ranges in ((t, r) for t, r in spans.items() if t in ("T0", "T6")):
             for rep, (a, b) in enumerate(ranges, start=1):
                 writer.recording(
                     subject,
@@ -236,7 +242,7 @@ def import_xsens(
             subject,
             row["imu"],
             "imported",
-            f"set {row['sensor_set']}; " + "; ".join(f"{t} x{len(r)}" for t, r in spans.items()),
+            f"set {row['sensor_set']}; " + "; ".join(f"{t} x{len(spans[t])}" for t in ("T0", "T6")),
         )
     t6_imus = sorted({row["imu"] for row in wanted.values() if row["segment"] in T6_SEGMENTS})
     writer.protocol_sheets(
@@ -254,7 +260,6 @@ def import_xsens(
         ["imu", "sensor_set", "segment", "side", "region", "right_axis"],
         sheet[["imu", "sensor_set", "segment", "side", "region", "right_axis"]].to_numpy().tolist(),
     )
-    report.write(out / "import_report.tsv")
     signals = {(row["sensor_set"], row["imu"]): (gyr[s], acc[s]) for s, row in wanted.items()}
     return report, {
         "signals": signals,
