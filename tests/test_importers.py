@@ -114,11 +114,26 @@ def test_neura_import_with_ground_truth(tmp_path):
         report.loc[report["imu"] == "00B40C49", "cause"].item()
         == "byte-identical duplicate of 00B40C44"
     )
-    method = pd.read_csv(out / "ground_truth_method.tsv", sep="\t")
+    method = pd.read_csv(out / "ground_truth_method.tsv", sep="\t").set_index(["sensor_set", "imu"])
+    method["flag"] = method["flag"].fillna("")
     assert (method["heading_vs_walk_deg"] < 10).all()
-    assert (
-        method["split_half_deg"] < 10
-    ).all()  # the truth is stable between the halves of the walk
+    # the two truths: the optical point acceleration and the marker frame agree for the pelvis and
+    # thighs; the shanks' marker frame twists about the long axis while walking, 17-24 deg apart
+    shanks = method[method["segment"] == "shank"]
+    assert len(shanks) == 4 and (shanks["methods_differ_deg"] > 12).all()
+    assert shanks["flag"].str.contains("methods_differ").all()
+    assert (shanks["twist_mean_deg"].abs() > 4).all()
+    # a truth whose two half-walk fits differ by more than 5 deg says so
+    unstable = method["flag"].str.contains("truth_unstable")
+    assert (unstable == (method["split_half_deg"] > 5)).all() and unstable.any()
+    assert "ground truth" in set(
+        pd.read_csv(out / "import_report.tsv", sep="\t", dtype=str)["status"]
+    )
+    assert method.loc[("main", "pelvis"), "methods_differ_deg"] < 5
+    # where the sensors sit: the main shank sensors near the ankle, the second ones higher up
+    assert (method.loc[("main", ["shank_r", "shank_l"]), "lever_arm_m"] < 0.15).all()
+    assert (method.loc[("shank2", ["shank_r", "shank_l"]), "lever_arm_m"] > 0.2).all()
+    assert (shanks["pair_consistency_deg"] < 10).all()
     # the sheet's right_axis is the sensor axis nearest the true body y
     for (_, sensor_set, imu), row in dataset.ground_truth.iterrows():
         y = row[[f"r2{j}" for j in (1, 2, 3)]].to_numpy(float)
@@ -254,3 +269,63 @@ def test_calibrate_command_options_and_apply(tmp_path):
     result = run("calibrate", tmp_path / "bad", "--out", tmp_path / "x.csv")
     assert result.returncode == 1 and "dataset.yaml" in result.stderr
     assert not (tmp_path / "x.csv").exists()
+
+
+QMT, GAITMAP = DATA / "qmt_fullbody", DATA / "gaitmap_feet"
+
+
+@needs_data
+def test_qmt_import_standing_transitions_and_walking(tmp_path):
+    out = tmp_path / "qmt"
+    result = run(
+        "import", "qmt", QMT, "--sensors", REPO / "config/real/qmt_sensors.tsv", "--out", out
+    )
+    assert result.returncode == 0, result.stderr
+    dataset, validation = validate(out)
+    assert validation.ok, validation.format()
+    reps = dataset.recordings.groupby("test")["rep"].max().to_dict()
+    assert reps["T0"] == 1 and reps["T3"] == 2 and 3 <= reps["T6"] <= 5
+    assert dataset.first_phase("T3") == "" and dataset.first_phase("T6") == "gait"
+    standing = dataset.read_recording(
+        dataset.recordings.query("test == 'T0' and imu == 'pelvis'")["path"].item()
+    )
+    assert standing.t[-1] > 3.0 and np.linalg.norm(
+        np.median(standing.acc, axis=0)
+    ) == pytest.approx(9.81, rel=0.03)
+    # the two transitions: the right thigh goes from vertical to seated and back
+    thigh = dataset.recordings.query("test == 'T3' and imu == 'thigh_r'").sort_values("rep")["path"]
+    first, last = (dataset.read_recording(p).acc for p in thigh)
+    angle = lambda a, b: np.degrees(np.arccos(a @ b / np.linalg.norm(a) / np.linalg.norm(b)))  # noqa: E731
+    assert angle(first[:20].mean(0), first[-20:].mean(0)) > 60  # stand-to-sit
+    assert angle(last[:20].mean(0), last[-20:].mean(0)) > 60  # sit-to-stand
+    report = pd.read_csv(out / "import_report.tsv", sep="\t", dtype=str)
+    assert set(report.loc[report["status"] == "skipped", "imu"]) >= {"hand_left", "forearm_right"}
+    # the hand-tuned reference, read as segment-to-sensor, puts each segment's up near gravity
+    loose = pd.read_csv(out / "loose_reference.tsv", sep="\t")
+    assert len(loose) == 10 and (loose["standing_up_angle_deg"] < 10).all()
+    assert dataset.ground_truth is None  # a loose reference is never a truth
+
+
+@needs_data
+def test_gaitmap_import_with_two_truths_that_agree(tmp_path):
+    out = tmp_path / "feet"
+    result = run("import", "gaitmap", GAITMAP, "--sensors", REPO / "config/real/gaitmap_feet_sensors.tsv",
+                 "--out", out)  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    dataset, validation = validate(out)
+    assert validation.ok, validation.format()
+    assert (
+        dataset.fs_hz == 204.8
+        and dataset.ground_truth is not None
+        and len(dataset.ground_truth) == 2
+    )
+    assert dataset.recordings.groupby("test")["rep"].max().to_dict()["T6"] >= 3
+    method = pd.read_csv(out / "ground_truth_method.tsv", sep="\t")
+    # the feet's two truths agree (no soft tissue between heel, toe and fifth metatarsal markers)
+    assert (method["methods_differ_deg"] < 5).all() and (method["split_half_deg"] < 3).all()
+    assert (method["lever_arm_m"].between(0.03, 0.25)).all()
+    # the sheet's right_axis is the sensor axis nearest the true body y
+    for (_, sensor_set, imu), row in dataset.ground_truth.iterrows():
+        y = row[[f"r2{j}" for j in (1, 2, 3)]].to_numpy(float)
+        axis = int(np.argmax(np.abs(y)))
+        assert dataset.right_axis(sensor_set, imu) == ("+" if y[axis] > 0 else "-") + "xyz"[axis]

@@ -319,6 +319,8 @@ def _table(args) -> int:
             _optional_csvs([args.angles] if args.angles else []),
             names,
             _optional_csvs(args.correlations),
+            _dataset_sheet(args.dataset, "ground_truth_method.tsv"),
+            _dataset_sheet(args.dataset, "loose_reference.tsv"),
         )
         _write_csv(args.csv, table)
         _write_text(
@@ -347,6 +349,16 @@ def _table(args) -> int:
         tables.to_markdown(table, number, meta.get("name", ""), bool(meta.get("simulated"))),
     )
     return 0
+
+
+def _dataset_sheet(root, name):
+    """An importer's extra sheet in the dataset folder, or None: ``ground_truth_method.tsv`` (how
+    a marker-based ground truth was made), ``loose_reference.tsv`` (a hand-set reference).
+    """
+    import pandas as pd
+
+    path = Path(root) / name
+    return pd.read_csv(path, sep="\t", dtype={"flag": str}) if path.is_file() else None
 
 
 def _optional_csvs(paths):
@@ -416,7 +428,10 @@ def _summary(args) -> int:
         meta.get("description", ""),
         bool(meta.get("simulated")),
         notes,
-        summary.methods_section(tables),
+        summary.methods_section(tables)
+        + summary.conditioning_section(tables)
+        + summary.truth_section(tables)
+        + summary.loose_reference_section(tables),
     )
     _write_text(args.out, text)
     return 0
@@ -450,7 +465,7 @@ def main(argv: list[str] | None = None) -> int:
         help="convert recordings in a foreign format into a dataset folder "
         "(with import_report.tsv: what was imported, flagged or left out, and why)",
     )
-    importer.add_argument("format", choices=["hugadb", "xsens"])
+    importer.add_argument("format", choices=["hugadb", "xsens", "qmt", "gaitmap"])
     importer.add_argument(
         "src", help="hugadb: the folder of HuGaDB_*.txt; xsens: the folder of MT Manager exports"
     )

@@ -33,7 +33,8 @@ for _name in IMPORTED:
         raise WorkflowError(
             f"dataset {_name}: the real recordings are not at {import_source(_name)}. They are public data "
             f"this project does not ship (../shared/data/README.md says where each comes from: HuGaDB from "
-            f"github.com/romanchereshnev/HuGaDB, the NeuRA trial from the NeuRA gait toolbox repository). "
+            f"github.com/romanchereshnev/HuGaDB, the NeuRA trial from the NeuRA gait toolbox repository, "
+            f"the full-body example from the qmt toolbox, the feet from gaitmap's example data). "
             f"Put them there or pass --config data_root=/path/to/data."
         )
 
@@ -76,6 +77,7 @@ ANALYSES = {
             "obj1_sensitivity",
             "reliability",
             "reliability_retest",
+            "conditioning",
         ],
         "figures": ["figure6", "figure8", "figure9", "figure10", "obj1_sensitivity", "reliability"],
     },
@@ -85,6 +87,8 @@ ANALYSES = {
         "figures": ["ricci_figure4", "ricci_figure5"],
     },
     "methods": {"tables": ["methods", "methods_best"], "figures": ["methods"]},
+    "truth": {"tables": ["truth_errors"], "figures": []},
+    "loose_reference": {"tables": ["loose_reference"], "figures": []},
 }
 #: the inputs of each table and figure (Kong's by number: correlations or error angles)
 INPUTS = {
@@ -106,6 +110,9 @@ INPUTS = {
     "reliability_retest": ["axes", "calibrations", "angles"],
     "methods": ["calibrations"],
     "methods_best": ["calibrations"],
+    "truth_errors": ["calibrations"],
+    "conditioning": ["calibrations"],
+    "loose_reference": ["calibrations"],
 }
 ALL_UNITS = "_all"  # the calibration "unit" of a dataset calibrated in one job
 
@@ -191,17 +198,32 @@ def subject_recordings(wildcards):
     return _recording_paths(root, chosen)
 
 
+def has_truth_method(dataset):
+    """An imported dataset whose ground truth comes from markers (ground_truth_method.tsv)."""
+    spec = DATASETS[dataset].get("import", {})
+    return "vicon" in spec or spec.get("format") == "gaitmap"
+
+
+def has_loose_reference(dataset):
+    """An imported dataset with a hand-set reference (loose_reference.tsv, not a truth)."""
+    return DATASETS[dataset].get("import", {}).get("format") == "qmt"
+
+
 def has_ground_truth(dataset):
     if dataset in IMPORTED:
-        return "vicon" in DATASETS[dataset]["import"]
+        return has_truth_method(dataset)
     return dataset in SIMULATED or os.path.exists(
         os.path.join(dataset_dir(dataset), "ground_truth.tsv")
     )
 
 
 def analyses(dataset):
-    return DATASETS[dataset].get("analyses", []) + (
-        ["methods"] if has_ground_truth(dataset) else []
+    extra = ["methods"] if has_ground_truth(dataset) else []
+    return (
+        DATASETS[dataset].get("analyses", [])
+        + extra
+        + (["truth"] if has_truth_method(dataset) else [])
+        + (["loose_reference"] if has_loose_reference(dataset) else [])
     )
 
 
