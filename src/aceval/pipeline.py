@@ -16,7 +16,6 @@ from scipy.spatial.transform import Rotation
 from .calibration.kong import KongLimits, kong_from_scatters, scatter, vertical_axis
 from .checks import (
     AGREEMENT_COLUMNS,
-    MAX_NORMAL_GYRO_ANGLE_DEG,
     THIRD_MOMENT_COLUMNS,
     agreement_moments,
     direction_checks,
@@ -114,8 +113,8 @@ def summarise_recordings(
                 row.update(recording_moments(data.acc, dataset.fs_hz, motion=False))
             else:
                 row.update(agreement_moments(data.acc, data.gyr, dataset.fs_hz))
-                row["gyro_p995_deg_s"] = float(
-                    np.degrees(np.percentile(np.linalg.norm(data.gyr, axis=1), 99.5))
+                row["gyro_p90_deg_s"] = float(
+                    np.degrees(np.percentile(np.linalg.norm(data.gyr, axis=1), 90))
                 )
                 mask = movement_mask(data.gyr, dataset.fs_hz, trim)
                 limit = dataset.acc_limit(rec["sensor_set"], rec["imu"])
@@ -258,7 +257,7 @@ def imu_checks(dataset: Dataset, summaries: pd.DataFrame) -> dict[tuple, dict]:
     for key, group in motion.groupby(KEY, sort=False):
         summed = group.loc[~gait[group.index], AGREEMENT_COLUMNS].sum().to_numpy(float)
         verdict = sensor_problem(
-            summed, float(group["gyro_p995_deg_s"].max()), dataset.meta["units"]["gyr"]
+            summed, float(group["gyro_p90_deg_s"].max()), dataset.meta["units"]["gyr"]
         )
         if verdict["message"]:
             verdict["message"] = f"{' '.join(key)}: {verdict['message']}"
@@ -385,12 +384,7 @@ def calibrate_sagittal(
                     "first_phase_agreement": direction["first_phase_agreement"][k],
                     "right_axis_angle_deg": direction["right_axis_angle_deg"][k],
                     **sensor_columns,
-                    "flag": _first_flag(
-                        sensor["flag"],
-                        result.flag[k],
-                        "normal_gyro_disagree" if gyro_angle[k] > MAX_NORMAL_GYRO_ANGLE_DEG else "",
-                        direction["flag"][k],
-                    ),
+                    "flag": _first_flag(sensor["flag"], result.flag[k], direction["flag"][k]),
                     **{name: values[k] for name, values in errors.items()},
                 }
             )
