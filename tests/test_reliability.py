@@ -214,3 +214,84 @@ def test_ricci_claims_from_known_tables():
     ttest.loc[1, "p"] = 0.06  # raw p, as the paper quotes it
     assert verdict()[0] == summary.FAILS
     assert found[next(k for k in found if k.startswith("Static"))] == summary.UNTESTABLE
+
+
+def test_conditioning_keeps_flagged_full_sets_and_says_when_the_heading_is_undetermined():
+    base = {"subject": "S1", "sensor_set": "main", "segment": "thigh", "side": "right"}
+    rows = [
+        # one repetition (left out: not the full set), then all three: determined
+        {**base, "imu": "a", "test": "T6", "n_reps": 1, "method": "kong", "normal_ratio": 0.9,
+         "planarity": 0.02, "flag": ""},
+        {**base, "imu": "a", "test": "T6", "n_reps": 3, "method": "kong", "normal_ratio": 0.3,
+         "planarity": 0.02, "flag": ""},
+        # a flagged full set stays, as undetermined; another method's row is not Kong's
+        {**base, "imu": "b", "test": "T6", "n_reps": 3, "method": "kong", "normal_ratio": 0.7,
+         "planarity": 0.06, "flag": "not_planar"},
+        {**base, "imu": "b", "test": "T6", "n_reps": 3, "method": "triad", "normal_ratio": np.nan,
+         "planarity": np.nan, "flag": ""},
+    ]  # fmt: skip
+    table = reliability.conditioning_table(pd.DataFrame(rows))
+    assert list(table["imu"]) == ["a", "b"] and list(table["n_reps"]) == [3, 3]
+    assert list(table["heading"]) == ["determined", "undetermined"]
+    assert list(table["flag"]) == ["", "not_planar"]
+    lines = summary.conditioning_section({"conditioning": table})
+    assert "| T6     | thigh     |   2 |                      1 |" in "\n".join(lines)
+
+
+def test_truth_errors_measure_against_both_truths_and_carry_the_truths_flag():
+    from scipy.spatial.transform import Rotation
+
+    from aceval.dataset import R_COLUMNS
+
+    estimate = Rotation.from_euler("z", 10, degrees=True).as_matrix().ravel()
+    marker_frame = Rotation.from_euler("z", 25, degrees=True).as_matrix().ravel()
+    key = {"subject": "S1", "sensor_set": "main", "imu": "shank_r"}
+    calibrations = pd.DataFrame(
+        [
+            {**key, "segment": "shank", "side": "right", "test": "T6", "n_reps": n,
+             "method": "kong", "error_deg": 10.0 + n, "normal_ratio": 0.2, "planarity": 0.03,
+             "flag": "", **dict(zip(R_COLUMNS, estimate))}
+            for n in (1, 3)
+        ]
+    )  # fmt: skip
+    sheet = pd.DataFrame(
+        [
+            {**key, "split_half_deg": 7.0, "flag": "methods_differ;truth_unstable",
+             "marker_frame_split_half_deg": 1.0, "methods_differ_deg": 25.0,
+             "twist_mean_deg": 8.0, "lever_arm_m": 0.09, "pair_consistency_deg": 6.0,
+             **{f"marker_frame_{c}": v for c, v in zip(R_COLUMNS, marker_frame)}}
+        ]
+    )  # fmt: skip
+    table = comparison.truth_errors(calibrations, sheet)
+    assert len(table) == 1  # the calibration of all repetitions only
+    row = table.iloc[0]
+    assert row["error_deg"] == 13.0 and row["error_marker_frame_deg"] == pytest.approx(15.0)
+    assert row["truth_flag"] == "methods_differ;truth_unstable" and row["heading"] == "determined"
+    text = "\n".join(summary.truth_section({"truth_errors": table}))
+    assert (
+        "13.0 deg (truth +- 7.0)" in text and "truth flagged methods_differ;truth_unstable" in text
+    )
+
+
+def test_loose_reference_angles_between_right_axes_and_verticals():
+    from scipy.spatial.transform import Rotation
+
+    from aceval.dataset import R_COLUMNS
+
+    key = {"subject": "S1", "sensor_set": "main", "imu": "thigh_r"}
+    # Kong's R maps sensor to body: turned 30 deg about the vertical from the identity
+    turned = Rotation.from_euler("z", 30, degrees=True).as_matrix().ravel()
+    calibrations = pd.DataFrame(
+        [{**key, "segment": "thigh", "side": "right", "test": "T6", "n_reps": 3, "method": "kong",
+          "flag": np.nan, **dict(zip(R_COLUMNS, turned))}]
+    )  # fmt: skip
+    # the reference: the sensor's y is the segment's right, the sensor's -z its up
+    reference = pd.DataFrame(
+        [{**key, "right_x": 0.0, "right_y": 1.0, "right_z": 0.0, "up_x": 0.0, "up_y": 0.0,
+          "up_z": -1.0, "standing_up_angle_deg": 3.0}]
+    )  # fmt: skip
+    row = comparison.loose_reference_angles(calibrations, reference).iloc[0]
+    assert row["right_axis_angle_deg"] == pytest.approx(30.0)
+    assert row["vertical_angle_deg"] == pytest.approx(0.0, abs=1e-6) and row["flag"] == ""
+    text = "\n".join(summary.loose_reference_section({"loose_reference": pd.DataFrame([row])}))
+    assert "NOT a ground truth" in text and "kong: median 30.0 deg over 1 calibrations" in text

@@ -124,3 +124,90 @@ def truth_warning(calibrations: pd.DataFrame) -> str:
         f"is more than {SUSPECT_TRUTH_DEG:g} deg from ground_truth.tsv: is the truth transposed (R must "
         f"map sensor to body, d_body = R d_sensor) or given to the wrong IMUs?"
     )
+
+
+def truth_errors(calibrations: pd.DataFrame, method_sheet: pd.DataFrame | None) -> pd.DataFrame:
+    """Real recordings with a marker-based ground truth (``ground_truth_method.tsv``): per sensor,
+    test and method (each from all repetitions), the error against the truth beside the truth's
+    own uncertainty (the split-half of its fit) and flag, the error against the second, marker-frame truth
+    and the two truths' difference, the marker frame's twist, where the sensor sits (lever arm
+    from the segment's point) and the method's conditioning (Kong: the smallest/middle eigenvalue
+    ratio and the planarity; ``heading`` says 'undetermined' when the ratio is above Kong's 0.5).
+    """
+    columns = [
+        "subject", "sensor_set", "imu", "segment", "side", "test", "method", "flag", "error_deg",
+        "truth_split_half_deg", "truth_flag", "error_marker_frame_deg",
+        "marker_frame_split_half_deg", "methods_differ_deg",
+        "twist_mean_deg", "lever_arm_m", "pair_consistency_deg", "normal_ratio", "planarity", "heading",
+    ]  # fmt: skip
+    if method_sheet is None or calibrations.empty or "error_deg" not in calibrations:
+        return pd.DataFrame(columns=columns)
+    from .dataset import R_COLUMNS
+    from .reliability import heading_status
+    from .rotations import error_angle_deg
+
+    key = ["subject", "sensor_set", "imu"]
+    full = calibrations[
+        calibrations["n_reps"]
+        == calibrations.groupby(key + ["test", "method"])["n_reps"].transform("max")
+    ]
+    sheet = method_sheet.astype({"subject": str})
+    data = full.merge(sheet, on=key, how="inner", suffixes=("", "_truth"))
+    marker = data[[f"marker_frame_{c}" for c in R_COLUMNS]].to_numpy(float).reshape(-1, 3, 3)
+    R = data[R_COLUMNS].to_numpy(float).reshape(-1, 3, 3)
+    valid = np.isfinite(R).all(axis=(1, 2))
+    data["error_marker_frame_deg"] = np.nan
+    data.loc[valid, "error_marker_frame_deg"] = error_angle_deg(R[valid], marker[valid])
+    data["truth_split_half_deg"] = data["split_half_deg"]
+    data["truth_flag"] = data["flag_truth"].astype(object).fillna("")
+    data["flag"] = data["flag"].astype(object).fillna("")
+    if "normal_ratio" not in data:
+        data["normal_ratio"] = np.nan
+    data["heading"] = heading_status(data["normal_ratio"])
+    for column in columns:
+        if column not in data:
+            data[column] = np.nan
+    data["method_rank"] = data["method"].map({m: i for i, m in enumerate(METHOD_ORDER)})
+    return data.sort_values(["sensor_set", "imu", "test", "method_rank"])[columns].reset_index(
+        drop=True
+    )
+
+
+def loose_reference_angles(
+    calibrations: pd.DataFrame, reference: pd.DataFrame | None
+) -> pd.DataFrame:
+    """Orders of magnitude against a loose reference (``loose_reference.tsv``: a segment's right
+    and up axes in sensor coordinates set by hand, not measured): per sensor, test and method (all
+    repetitions, flagged ones included), the angle (deg) between the calibration's body y (row 2
+    of R) and the reference's right axis, and between its body z (down) and the reference's down,
+    beside the reference's own standing check (``standing_up_angle_deg``).
+    """
+    columns = [
+        "subject", "sensor_set", "imu", "segment", "side", "test", "method", "flag",
+        "right_axis_angle_deg", "vertical_angle_deg", "reference_standing_up_angle_deg",
+    ]  # fmt: skip
+    if reference is None or calibrations.empty:
+        return pd.DataFrame(columns=columns)
+    from .dataset import R_COLUMNS
+
+    key = ["subject", "sensor_set", "imu"]
+    full = calibrations[
+        calibrations["n_reps"]
+        == calibrations.groupby(key + ["test", "method"])["n_reps"].transform("max")
+    ]
+    data = full.merge(reference.astype({"subject": str}), on=key, how="inner")
+    R = data[R_COLUMNS].to_numpy(float).reshape(-1, 3, 3)
+    right = data[["right_x", "right_y", "right_z"]].to_numpy(float)
+    up = data[["up_x", "up_y", "up_z"]].to_numpy(float)
+    data["right_axis_angle_deg"] = np.degrees(
+        np.arccos(np.clip(np.einsum("ki,ki->k", R[:, 1], right), -1.0, 1.0))
+    )
+    data["vertical_angle_deg"] = np.degrees(
+        np.arccos(np.clip(np.einsum("ki,ki->k", R[:, 2], -up), -1.0, 1.0))
+    )
+    data["reference_standing_up_angle_deg"] = data["standing_up_angle_deg"]
+    data["flag"] = data["flag"].astype(object).fillna("")
+    data["method_rank"] = data["method"].map({m: i for i, m in enumerate(METHOD_ORDER)})
+    return data.sort_values(["sensor_set", "imu", "test", "method_rank"])[columns].reset_index(
+        drop=True
+    )

@@ -22,6 +22,30 @@ TABLES = {
         "T_ex x T_ap (Table 6's); eta squared from type II sums of squares of an additive model",
         build=lambda d: tables.correlation_factors(d["correlations"]),
     ),
+    "truth_errors": dict(
+        needs="calibrations",
+        title="Against a marker-based ground truth: each method's error beside the truth's own "
+        "uncertainty, the second (marker-frame) truth, and the method's conditioning",
+        unit="one row per sensor, test and method (all repetitions); the truths and their checks are in "
+        "the dataset's ground_truth_method.tsv",
+        build=lambda d: comparison.truth_errors(d["calibrations"], d["truth_method"]),
+    ),
+    "conditioning": dict(
+        needs="calibrations",
+        title="How well each test determines each IMU's heading by Kong's plane: eigenvalue ratio "
+        "(smallest/middle; above 0.5 undetermined) and planarity, flagged calibrations included",
+        unit="subject x sensor set x IMU x test (the calibration from all repetitions)",
+        build=lambda d: reliability.conditioning_table(d["calibrations"]),
+    ),
+    "loose_reference": dict(
+        needs="calibrations",
+        title="Orders of magnitude against a loose reference (hand-tuned segment axes, NOT a ground "
+        "truth): angle between each calibration's right axis and the reference's, and between the "
+        "verticals (deg)",
+        unit="one row per sensor, test and method (all repetitions, flagged calibrations included); "
+        "the reference and its standing check are in the dataset's loose_reference.tsv",
+        build=lambda d: comparison.loose_reference_angles(d["calibrations"], d["loose_reference"]),
+    ),
     "obj1_sensitivity": dict(
         needs="correlations",
         title="What Kong's Obj 1 correlation can detect: the frontal vs lateral acceleration correlation "
@@ -93,7 +117,14 @@ TABLES = {
 
 
 def build(
-    name: str, axes=None, calibrations=None, angles=None, paper_names=None, correlations=None
+    name: str,
+    axes=None,
+    calibrations=None,
+    angles=None,
+    paper_names=None,
+    correlations=None,
+    truth_method=None,
+    loose_reference=None,
 ) -> pd.DataFrame:
     """Table ``name`` (a key of ``TABLES``) as a tidy frame, floats rounded to 4 decimals."""
     if name not in TABLES:
@@ -106,6 +137,8 @@ def build(
             calibrations=calibrations,
             angles=angles,
             correlations=correlations,
+            truth_method=truth_method,
+            loose_reference=loose_reference,
             paper_names=paper_names or {},
         )
     )

@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .objectives import full_sets
+from .calibration.kong import KongLimits
+from .objectives import CALIBRATION_KEY, full_sets, kong_rows
 from .stats import TTEST_COLUMNS, holm, paired_ttest
 
 REFERENCE = Path(__file__).parent / "reference" / "ricci2014"
@@ -254,6 +255,40 @@ def kong_reliability_table(units: pd.DataFrame) -> pd.DataFrame:
         .agg(mean="mean", sd="std", n="count")
         .reset_index()
     )
+
+
+def heading_status(normal_ratio: pd.Series) -> pd.Series:
+    """'determined' where Kong's smallest/middle eigenvalue ratio is at most
+    :attr:`KongLimits.max_normal_ratio` (0.5), 'undetermined' above (the plane's normal cannot be
+    told from the in-plane axis), '' where there is no ratio.
+    """
+    limit = KongLimits().max_normal_ratio
+    return pd.Series(
+        np.where(
+            normal_ratio > limit,
+            "undetermined",
+            np.where(normal_ratio.notna(), "determined", ""),
+        ),
+        index=normal_ratio.index,
+    )
+
+
+def conditioning_table(calibrations: pd.DataFrame) -> pd.DataFrame:
+    """How well each test determines each IMU's heading by Kong's plane: per (subject, set, IMU,
+    test), from the calibration of all repetitions, flagged ones included, the eigenvalue ratio
+    (smallest/middle; above 0.5 the heading is 'undetermined'), the planarity (smallest/largest)
+    and the calibration's flag.
+    """
+    columns = CALIBRATION_KEY + [
+        "segment", "side", "n_reps", "normal_ratio", "planarity", "heading", "flag",
+    ]  # fmt: skip
+    kong = kong_rows(calibrations)
+    if kong.empty or "normal_ratio" not in kong:
+        return pd.DataFrame(columns=columns)
+    full = kong[kong["n_reps"] == kong.groupby(CALIBRATION_KEY)["n_reps"].transform("max")].copy()
+    full["heading"] = heading_status(full["normal_ratio"])
+    full["flag"] = full["flag"].astype(object).fillna("")
+    return full.sort_values(CALIBRATION_KEY)[columns].reset_index(drop=True)
 
 
 def reliability_vs_retest(units: pd.DataFrame) -> pd.DataFrame:

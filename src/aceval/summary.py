@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from .calibration.kong import KongLimits
 from .objectives import kong_rows, unflagged
 
 HOLDS, FAILS, UNTESTABLE = "holds", "does not hold", "not testable on this dataset"
@@ -756,6 +757,110 @@ def _claims_table(found: list[Claim]) -> list[str]:
         ]
     )
     return [table.to_markdown(index=False), ""]
+
+
+def conditioning_section(tables: dict) -> list[str]:
+    """Table ``conditioning``: per test and segment, how many IMUs' headings Kong's plane leaves
+    undetermined (eigenvalue ratio above 0.5), beside the median ratio.
+    """
+    table = tables.get("conditioning")
+    if table is None or table.empty:
+        return []
+    limits = KongLimits()
+    counts = (
+        table.assign(
+            undetermined=table["normal_ratio"] > limits.max_normal_ratio,
+            not_plane=table["planarity"] > limits.max_planarity,
+        )
+        .groupby(["test", "segment"], sort=True)
+        .agg(
+            n=("heading", "size"),
+            heading_undetermined=("undetermined", "sum"),
+            median_ratio=("normal_ratio", "median"),
+            largest_ratio=("normal_ratio", "max"),
+            not_a_plane=("not_plane", "sum"),
+            largest_planarity=("planarity", "max"),
+        )
+        .reset_index()
+    )
+    return [
+        "## How well each test determines the heading (conditioning of Kong's plane)",
+        "",
+        "Kong's medial-lateral axis is the normal of the plane of accelerations. When the smallest "
+        f"and middle eigenvalues are close (ratio above {limits.max_normal_ratio}) the normal, so "
+        "the heading, is undetermined; when the smallest is not small against the largest "
+        f"(planarity above {limits.max_planarity}) the accelerations do not lie in a plane. Either "
+        "flags the calibration `not_planar`. Per test and segment, from each IMU's calibration of "
+        "all repetitions (table `conditioning` has every IMU):",
+        "",
+        counts.round({"median_ratio": 2, "largest_ratio": 2, "largest_planarity": 3}).to_markdown(
+            index=False
+        ),
+        "",
+    ]
+
+
+def loose_reference_section(tables: dict) -> list[str]:
+    """Table ``loose_reference``: each method's right axis against a hand-set reference, as orders
+    of magnitude (the reference is not a measurement).
+    """
+    table = tables.get("loose_reference")
+    if table is None or table.empty:
+        return []
+    check = table["reference_standing_up_angle_deg"]
+    lines = [
+        "## Orders of magnitude against a loose reference (NOT a ground truth)",
+        "",
+        "The publishers' hand-tuned segment axes (set by eye for a visualisation) beside each "
+        "calibration of all repetitions: the angle between the two right axes. The reference's own "
+        f"up is {check.min():.0f}-{check.max():.0f} deg from the accelerometer's vertical while "
+        "standing, so differences of that size say nothing. Table `loose_reference` has every "
+        "method and the verticals.",
+        "",
+    ]
+    for method, group in table.groupby("method", sort=False):
+        kept = group[group["flag"].fillna("") == ""]
+        lines.append(
+            f"- {method}: median {group['right_axis_angle_deg'].median():.1f} deg over "
+            f"{len(group)} calibrations (range {group['right_axis_angle_deg'].min():.1f}-"
+            f"{group['right_axis_angle_deg'].max():.1f}); unflagged only: median "
+            f"{kept['right_axis_angle_deg'].median():.1f} deg over {len(kept)}"
+        )
+    return lines + [""]
+
+
+def truth_section(tables: dict) -> list[str]:
+    """Real recordings with a marker-based truth (table ``truth_errors``): Kong's error per sensor
+    beside the truth's own uncertainty, the second truth, and the conditioning.
+    """
+    table = tables.get("truth_errors")
+    if table is None or table.empty:
+        return []
+    kong = table[table["method"] == "kong"]
+    lines = [
+        "## What Kong's method measures on this person (against the marker-based ground truth)",
+        "",
+        "Each IMU's calibration from all repetitions, error to the truth (optical point acceleration: "
+        "quiet standing's vertical plus the heading that matches the sensor's acceleration to a joint "
+        "centre's) with that truth's own split-half uncertainty, then the error to the second, "
+        "marker-frame truth, the two truths' difference and the marker frame's mean twist about the "
+        "segment's long axis while walking, where the sensor sits (from the segment's point), and the "
+        "conditioning of Kong's plane (smallest/middle eigenvalue ratio; above 0.5 the heading is "
+        "undetermined). Table `truth_errors` has every method.",
+        "",
+    ]
+    for _, r in kong.iterrows():
+        flag = f", flagged {r['flag']}" if isinstance(r["flag"], str) and r["flag"] else ""
+        if isinstance(r["truth_flag"], str) and r["truth_flag"]:
+            flag += f", truth flagged {r['truth_flag']}"
+        lines.append(
+            f"- {r['imu']} ({r['sensor_set']}, {r['test']}): {r['error_deg']:.1f} deg "
+            f"(truth +- {r['truth_split_half_deg']:.1f}); against the marker-frame truth "
+            f"{r['error_marker_frame_deg']:.1f} deg; truths {r['methods_differ_deg']:.1f} deg apart, "
+            f"twist {r['twist_mean_deg']:+.1f} deg; sensor {100 * r['lever_arm_m']:.0f} cm from the "
+            f"segment's point; eigenvalue ratio {r['normal_ratio']:.2f} ({r['heading']}){flag}"
+        )
+    return lines + [""]
 
 
 def to_markdown(
