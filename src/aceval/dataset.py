@@ -452,23 +452,7 @@ def read_sheets(
             report.error(where, f"IMU {row['imu']!r} is not defined in imus.tsv")
 
     recordings = sheets["recordings.tsv"]
-    for index, row in recordings.iterrows():
-        where = f"recordings.tsv {_line(index)}"
-        for column, known, sheet in (
-            ("subject", subjects.index, "subjects.tsv"),
-            ("test", tests.index, "tests.tsv"),
-            ("imu", imu_names, "imus.tsv"),
-        ):
-            if row[column] not in known:
-                report.error(where, f"{column} {row[column]!r} is not defined in {sheet}")
-        if row["sensor_set"] not in meta["sensor_sets"]:
-            report.error(
-                where, f"sensor_set {row['sensor_set']!r} is not in dataset.yaml sensor_sets"
-            )
-        if not row["rep"].isdigit() or int(row["rep"]) < 1:
-            report.error(where, f"rep {row['rep']!r} must be a positive integer")
-        if problem := path_problem(row["path"]):
-            report.error(where, problem)
+    _check_recording_rows(recordings, subjects.index, tests.index, imu_names, meta, report)
     recordings = recordings.assign(
         rep=pd.to_numeric(recordings["rep"], errors="coerce").astype("Int64")
     )
@@ -507,6 +491,42 @@ def read_sheets(
         root, meta, imus, tests, calibrates, subjects, recordings, ground_truth, functional_axes
     )
     return dataset, report
+
+
+def _check_recording_rows(recordings, subjects, tests, imu_names, meta, report) -> None:
+    """Each recordings.tsv row names known subject, test, IMU and set, a positive rep and a path
+    that stays inside the dataset. Checked column by column; only rows with a problem are visited
+    (a large sheet costs no Python loop).
+    """
+    known = {
+        "subject": recordings["subject"].isin(subjects),
+        "test": recordings["test"].isin(tests),
+        "imu": recordings["imu"].isin(imu_names),
+    }
+    known_set = recordings["sensor_set"].isin(meta["sensor_sets"])
+    good_rep = recordings["rep"].str.fullmatch(r"\d+") & (
+        pd.to_numeric(recordings["rep"], errors="coerce") >= 1
+    )
+    problems = {path: path_problem(path) for path in recordings["path"].unique()}
+    path_bad = recordings["path"].map(problems).astype(bool)
+    bad = ~known_set | ~good_rep | path_bad
+    for column in known.values():
+        bad |= ~column
+    sheets = {"subject": "subjects.tsv", "test": "tests.tsv", "imu": "imus.tsv"}
+    for index in recordings.index[bad]:
+        row = recordings.loc[index]
+        where = f"recordings.tsv {_line(index)}"
+        for column, sheet in sheets.items():
+            if not known[column][index]:
+                report.error(where, f"{column} {row[column]!r} is not defined in {sheet}")
+        if not known_set[index]:
+            report.error(
+                where, f"sensor_set {row['sensor_set']!r} is not in dataset.yaml sensor_sets"
+            )
+        if not good_rep[index]:
+            report.error(where, f"rep {row['rep']!r} must be a positive integer")
+        if problems[row["path"]]:
+            report.error(where, problems[row["path"]])
 
 
 def _check_functional_axes(sheet, tests, imus, report) -> None:
