@@ -139,10 +139,6 @@ def calibrate(lab, tmp, _):
     return ["calibrate", str(lab), "--out", str(tmp / "out.csv")]
 
 
-def calibrate_validated(lab, tmp, _):
-    return ["calibrate", str(lab), "--validated", "--out", str(tmp / "out.csv")]
-
-
 def apply(out: str | Callable, *extra):
     def argv(lab, tmp, calibrations):
         target = out(lab, tmp) if callable(out) else tmp / out
@@ -405,12 +401,22 @@ CASES = [
         "warning",
     ),
     Case(
-        "a ;-separated file met after validation",
+        "a ;-separated file, met by the pass that reads it",
         semicolons,
-        calibrate_validated,
-        0,
-        ("left out", "T1_R1_IMU2.csv", "comma-separated"),
-        "flag",
+        calibrate,
+        1,
+        ("T1_R1_IMU2.csv", "comma-separated", "no file written"),
+        "error",
+        no_output=("out.csv",),
+    ),
+    Case(
+        "a NaN sample, met by the pass that reads it",
+        lambda lab: edit(lab / T1, "\n0.05,", "\nnan,"),
+        calibrate,
+        1,
+        (T1, "NaN, inf or non-numeric", "line 7", "no file written"),
+        "error",
+        no_output=("out.csv",),
     ),
     # crashes, now clear errors
     Case(

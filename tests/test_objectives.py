@@ -87,6 +87,55 @@ def test_best_lag_recovers_a_known_shift(shift, rng):
     assert objectives.best_lag(a, b, max_lag=0) == 0  # the window limits the search
 
 
+@pytest.mark.parametrize("mode", objectives.CORRELATION_MODES)
+def test_correlation_from_moments_equals_the_samples_for_any_calibration(mode, rng):
+    """The one-pass moments of a recording pair give the correlation of the pair calibrated by
+    any rotations: the same number as correlating the rotated samples, for every mode."""
+    from aceval.reduction import moments
+
+    t = np.linspace(0, 6, 600)
+    a = np.column_stack([np.sin(2 * t), 0.3 * np.cos(3 * t), 0.1 * t]) + [0.5, 0.0, -9.81]
+    b = a @ Rotation.random(random_state=1).as_matrix().T + rng.normal(0, 0.05, a.shape)
+    moving = (t > 1) & (t < 5)
+    window = moving if mode == "per_axis_moving" else slice(None)
+    pairs = pd.DataFrame([moments(a[window], b[window])] * 4)
+    R_a = Rotation.random(4, random_state=2).as_matrix()
+    R_b = Rotation.random(4, random_state=3).as_matrix()
+    expected = [
+        objectives.correlation_3d(a @ Ra.T, b @ Rb.T, mode, moving) for Ra, Rb in zip(R_a, R_b)
+    ]
+    got = objectives.correlation_from_moments(pairs, R_a, R_b, mode)
+    assert got == pytest.approx(expected, abs=1e-12)
+
+
+def test_correlation_from_moments_leaves_out_what_does_not_vary():
+    """An axis constant in the calibrated signal has no correlation (per_axis leaves it out), and a
+    pair without samples has none at all, as for the samples themselves."""
+    from aceval.reduction import moments
+
+    rng = np.random.default_rng(0)
+    a = np.column_stack([rng.normal(size=50), rng.normal(size=50), np.full(50, 9.81)])
+    b = a + rng.normal(0, 0.1, a.shape) * [1, 1, 0]
+    pairs = pd.DataFrame([moments(a, b), {"n": 0}])
+    identity = np.stack([np.eye(3)] * 2)
+    got = objectives.correlation_from_moments(pairs, identity, identity, "per_axis")
+    assert got[0] == pytest.approx(objectives.correlation_3d(a, b, "per_axis"), abs=1e-12)
+    assert np.isnan(got[1])
+
+
+def test_best_lag_is_the_argmax_of_the_full_cross_correlation(rng):
+    """Only the lags in the window are computed: the same lag as the full cross-correlation
+    (numpy's) restricted to that window."""
+    a, b = rng.normal(size=(300, 3)), rng.normal(size=(280, 3))
+    x = np.linalg.norm(a, axis=1) - np.linalg.norm(a, axis=1).mean()
+    y = np.linalg.norm(b, axis=1) - np.linalg.norm(b, axis=1).mean()
+    full = np.correlate(x, y, mode="full")
+    lags = np.arange(-(len(y) - 1), len(x))
+    for window in (0, 5, 40, 400):
+        inside = np.abs(lags) <= window
+        assert objectives.best_lag(a, b, window) == lags[inside][np.argmax(full[inside])]
+
+
 def test_concatenated_correlation_counts_axis_levels_per_axis_does_not(rng):
     """Two static sensors with independent noise around gravity: the concatenated signal is
     dominated by the shared axis levels (r ~ 1), the per-axis correlations by the noise (r ~ 0)."""

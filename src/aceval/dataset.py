@@ -8,6 +8,7 @@ config/README.md for the user-facing description.
 
 from __future__ import annotations
 
+import gzip
 import os
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -601,18 +602,44 @@ def _check_ground_truth(ground_truth, report):
     return out.set_index(["subject", "sensor_set", "imu"])
 
 
-def check_recording(dataset: Dataset, row, report: ValidationReport) -> None:
-    """File-level checks of one recording, adding findings to ``report``."""
-    where = f"{row['path']} ({row['subject']} {row['sensor_set']} {row['test']} R{row['rep']} {row['imu']})"
+def recording_where(row) -> str:
+    """How findings name a recording: its path and what it is (subject, set, test, rep, IMU)."""
+    return f"{row['path']} ({row['subject']} {row['sensor_set']} {row['test']} R{row['rep']} {row['imu']})"
+
+
+def read_checked(dataset: Dataset, row, report: ValidationReport) -> Recording | None:
+    """Read one recording (a recordings.tsv row) and run every file-level check on it, adding
+    findings to ``report``: the recording in SI units, or None when it has an error.
+    """
+    where = recording_where(row)
     path = dataset.root / row["path"]
     if not path.is_file():
         report.error(where, "file is missing")
-        return
+        return None
     try:
         values = recording_values(path)
     except RecordingError as exc:
         report.error(where, exc.cause)
-        return
+        return None
+    errors = len(report.errors)
+    check_values(dataset, row, values, report)
+    if len(report.errors) > errors:
+        return None
+    return Recording(
+        values[:, 0], values[:, 1:4] * dataset.acc_scale, values[:, 4:7] * dataset.gyr_scale, path
+    )
+
+
+def check_recording(dataset: Dataset, row, report: ValidationReport) -> None:
+    """File-level checks of one recording, adding findings to ``report``."""
+    read_checked(dataset, row, report)
+
+
+def check_values(dataset: Dataset, row, values: np.ndarray, report: ValidationReport) -> None:
+    """File-level checks of one recording's (N, 7) values (file units), adding findings to
+    ``report``: sample count, NaN, time, sampling rate, units at rest, saturation and clipping.
+    """
+    where = recording_where(row)
     if len(values) < 2:
         report.error(where, f"{len(values)} samples: a recording needs at least 2")
         return
@@ -704,22 +731,53 @@ def known_recordings(dataset: Dataset) -> pd.DataFrame:
     known = (
         recordings["subject"].isin(dataset.subjects.index)
         & recordings["test"].isin(dataset.tests.index)
-        & pd.Series(
-            [key in dataset.imus.index for key in zip(recordings["sensor_set"], recordings["imu"])],
-            index=recordings.index,
+        & pd.MultiIndex.from_arrays([recordings["sensor_set"], recordings["imu"]]).isin(
+            dataset.imus.index
         )
     )
     return recordings[known]
 
 
-def validate(root: str | Path, check_files: bool = True) -> tuple[Dataset | None, ValidationReport]:
-    """Full validation: sheets, then every recording file. Returns the dataset (None if the sheets
-    are unusable) and the report; ``report.ok`` is False when there are errors.
+def check_header(dataset: Dataset, row, report: ValidationReport) -> None:
+    """The cheap file checks of one recording: it exists and its first line names every column
+    of the contract (a file separated by anything but commas fails here). Its values are checked
+    by :func:`read_checked` in the pass that reads them.
+    """
+    where = recording_where(row)
+    path = dataset.root / row["path"]
+    if not path.is_file():
+        report.error(where, "file is missing")
+        return
+    try:
+        opener = gzip.open if path.suffix == ".gz" else open
+        with opener(path, "rt", errors="replace") as handle:
+            header = handle.readline().strip()
+    except (OSError, EOFError) as exc:
+        report.error(where, f"cannot be read: {exc}")
+        return
+    columns = [c.strip().strip('"') for c in header.split(",")]
+    missing = [c for c in RECORDING_COLUMNS if c not in columns]
+    if missing:
+        hint = " (is the file comma-separated?)" if len(columns) == 1 else ""
+        report.error(
+            where,
+            f"missing column(s) {', '.join(missing)}; the header is {header[:60]!r}{hint}",
+        )
+
+
+def validate(
+    root: str | Path, check_files: bool | str = True
+) -> tuple[Dataset | None, ValidationReport]:
+    """Validation: the sheets, then the recording files. ``check_files``: True or ``'all'`` (every
+    check of every file: it is read), ``'headers'`` (only that each file exists and has the
+    contract's columns: :func:`check_header`) or False. Returns the dataset (None if the sheets are
+    unusable) and the report; ``report.ok`` is False when there are errors.
     """
     dataset, report = read_sheets(root)
     if dataset is not None and check_files:
+        check = check_header if check_files == "headers" else check_recording
         for row in known_recordings(dataset).to_dict("records"):
-            check_recording(dataset, row, report)
+            check(dataset, row, report)
     return dataset, report
 
 

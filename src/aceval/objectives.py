@@ -84,18 +84,20 @@ def correlation_3d(
 def best_lag(a: np.ndarray, b: np.ndarray, max_lag: int) -> int:
     """Kong Sec. 2.3: "the data from the two sets were aligned by removing the offset estimated
     from the cross correlation of the acceleration". The lag L (samples, |L| <= ``max_lag``) that
-    maximises the cross-correlation of the two recordings' acceleration magnitudes (demeaned; the
-    magnitude needs no calibration), such that ``a[t + L]`` matches ``b[t]``.
+    maximises the cross-correlation ``sum_t x[t + L] y[t]`` of the two recordings' acceleration
+    magnitudes (demeaned; the magnitude needs no calibration), such that ``a[t + L]`` matches
+    ``b[t]``. Only the lags in the window are computed; the first of equal maxima wins.
     """
-    from scipy.signal import correlate, correlation_lags
-
     x = np.linalg.norm(np.asarray(a, float), axis=1)
     y = np.linalg.norm(np.asarray(b, float), axis=1)
     x, y = x - x.mean(), y - y.mean()
-    cross = correlate(x, y, mode="full", method="auto")
-    lags = correlation_lags(len(x), len(y), mode="full")
-    window = np.abs(lags) <= max_lag
-    return int(lags[window][np.argmax(cross[window])]) if window.any() else 0
+    lags = np.arange(max(-max_lag, 1 - len(y)), min(max_lag, len(x) - 1) + 1)
+    if not len(lags):
+        return 0
+    cross = [
+        float(np.dot(x[max(0, lag) : len(y) + lag], y[max(0, -lag) : len(x) - lag])) for lag in lags
+    ]
+    return int(lags[int(np.argmax(cross))])
 
 
 def aligned(n_a: int, n_b: int, lag: int) -> tuple[slice, slice]:
@@ -103,6 +105,60 @@ def aligned(n_a: int, n_b: int, lag: int) -> tuple[slice, slice]:
     start_b = max(0, -lag)
     stop_b = min(n_b, n_a - lag)
     return slice(start_b + lag, stop_b + lag), slice(start_b, max(start_b, stop_b))
+
+
+def correlation_from_moments(
+    pairs: pd.DataFrame, R_a: np.ndarray, R_b: np.ndarray, mode: str = "concatenated"
+) -> np.ndarray:
+    """:func:`correlation_3d` of ``R_a a`` and ``R_b b`` from the moments of each recording pair
+    (rows of :data:`aceval.reduction.PAIR_COLUMNS`: ``n``, means ``ma_*``, ``mb_*``, centred
+    scatters ``caa*``, ``cbb*`` and cross-moment ``cab*``), for (K, 3, 3) stacks of calibrations:
+    sum(x y) = trace(R_a C_ab R_b^T) + n M_a . M_b with M = R m, so any calibration costs O(1).
+
+    ``concatenated``: r of the 3n values of each signal (spread of the axes' means included);
+    ``per_axis`` (and ``per_axis_moving``, whose rows hold the moving samples' moments): the mean
+    of the axes' correlations, an axis constant in either signal left out (NaN if all are).
+    """
+    from .reduction import C_AA, C_AB, C_BB, MEAN_A, MEAN_B
+
+    n = pairs["n"].to_numpy(float)
+    C_aa = pairs[C_AA].to_numpy(float).reshape(-1, 3, 3)
+    C_bb = pairs[C_BB].to_numpy(float).reshape(-1, 3, 3)
+    C_ab = pairs[C_AB].to_numpy(float).reshape(-1, 3, 3)
+    M_a = np.einsum("kij,kj->ki", R_a, pairs[MEAN_A].to_numpy(float))
+    M_b = np.einsum("kij,kj->ki", R_b, pairs[MEAN_B].to_numpy(float))
+    V_a = np.einsum("kij,kjl,kml->kim", R_a, C_aa, R_a)  # R_a C_aa R_a^T
+    V_b = np.einsum("kij,kjl,kml->kim", R_b, C_bb, R_b)
+    V_ab = np.einsum("kij,kjl,kml->kim", R_a, C_ab, R_b)  # R_a C_ab R_b^T
+    with np.errstate(invalid="ignore", divide="ignore"):
+        if mode == "concatenated":
+            D_a = M_a - M_a.mean(axis=1, keepdims=True)  # each axis's mean about the grand mean
+            D_b = M_b - M_b.mean(axis=1, keepdims=True)
+            var_a = np.trace(V_a, axis1=1, axis2=2) + n * np.sum(D_a**2, axis=1)
+            var_b = np.trace(V_b, axis1=1, axis2=2) + n * np.sum(D_b**2, axis=1)
+            cov = np.trace(V_ab, axis1=1, axis2=2) + n * np.sum(D_a * D_b, axis=1)
+            r = cov / np.sqrt(var_a * var_b)
+            return np.where(_varies(var_a, V_a, M_a, n) & _varies(var_b, V_b, M_b, n), r, np.nan)
+        if mode in ("per_axis", "per_axis_moving"):
+            var_a = np.diagonal(V_a, axis1=1, axis2=2)
+            var_b = np.diagonal(V_b, axis1=1, axis2=2)
+            r = np.diagonal(V_ab, axis1=1, axis2=2) / np.sqrt(var_a * var_b)
+            valid = (
+                _varies(var_a, V_a, M_a, n[:, None])
+                & _varies(var_b, V_b, M_b, n[:, None])
+                & (n[:, None] > 1)
+            )
+            counted = valid.sum(axis=1)
+            total = np.where(valid, r, 0.0).sum(axis=1)
+            return np.where(counted > 0, total / np.maximum(counted, 1), np.nan)
+    raise ValueError(f"correlation mode {mode!r} is not one of {', '.join(CORRELATION_MODES)}")
+
+
+def _varies(variance: np.ndarray, V: np.ndarray, M: np.ndarray, n) -> np.ndarray:
+    """A signal (or axis) varies when its spread is more than rounding error of its size."""
+    size = np.trace(V, axis1=1, axis2=2) + np.squeeze(n) * np.sum(M**2, axis=1)
+    size = size[:, None] if np.ndim(variance) == 2 else size
+    return variance > 1e-20 * size
 
 
 def parse_subset(label: str) -> tuple[int, ...]:

@@ -1,8 +1,10 @@
-"""From a dataset to calibrations: recordings -> trimmed per-repetition summaries -> rotations.
+"""From a dataset's per-recording statistics to calibrations and correlations.
 
-Data flow one way (docs/design.md, section 2): each recording is read once and reduced to a summary
-(static: the median specific force; motion: the scatter matrix ``sum a a^T`` and count of its
-trimmed samples); every subset of repetitions is then calibrated from the summaries alone.
+Data flow one way (docs/design.md, section 2): :mod:`aceval.reduction` reads each recording once and
+reduces it to a summary (static: the median specific force; motion: the scatter matrix ``sum a
+a^T`` and count of its trimmed samples) and each Obj 1-2 recording pair to its moments; every
+subset of repetitions is then calibrated from the summaries alone, and every calibrated pair
+correlated from the moments alone.
 """
 
 from __future__ import annotations
@@ -13,17 +15,14 @@ import numpy as np
 import pandas as pd
 from scipy.spatial.transform import Rotation
 
-from .calibration.kong import KongLimits, kong_from_scatters, scatter, vertical_axis
+from .calibration.kong import KongLimits, kong_from_scatters
 from .checks import (
     AGREEMENT_COLUMNS,
     THIRD_MOMENT_COLUMNS,
-    agreement_moments,
     direction_checks,
     sensor_problem,
-    third_moments,
 )
-from .dataset import R_COLUMNS, Dataset, RecordingError, plateau_limit
-from .errors import CalibrationError, SaturatedError
+from .dataset import R_COLUMNS, Dataset
 from .functional import (
     AXIS_METHODS,
     MOMENT_COLUMNS,
@@ -32,7 +31,6 @@ from .functional import (
     functional_fits,
     pool,
     pool_summed,
-    recording_moments,
     sagittal_fits,
     subset_axes,
 )
@@ -41,18 +39,16 @@ from .functional import (
 )
 from .objectives import (
     CORRELATION_MODES,
-    aligned,
-    best_lag,
-    correlation_3d,
+    correlation_from_moments,
     frontal_lateral_plan,
     full_sets,
     segment_pair_plan,
     unflagged,
 )
+from .reduction import SCATTER_COLUMNS, reduce_recordings
 from .rotations import axis_vector, error_angle_deg, vertical_share
-from .segmentation import TrimParams, mask_to_ranges, movement_mask
+from .segmentation import TrimParams
 
-SCATTER_COLUMNS = [f"s{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
 KEY = ["subject", "sensor_set", "imu"]
 #: the columns every calibration table has (an empty table keeps them)
 CALIBRATION_COLUMNS = [
@@ -66,10 +62,6 @@ CALIBRATION_COLUMNS = [
     *R_COLUMNS,
     "flag",
 ]
-#: a motion recording is left out when more than this fraction of its moving samples is clipped at
-#: the accelerometer range (a choice, not from the papers: the clipped samples themselves are always
-#: left out of the scatter, and beyond a fifth of them the plane rests on a biased remainder)
-MAX_CLIPPED_FRACTION = 0.2
 
 
 def summarise_recordings(
@@ -78,71 +70,11 @@ def summarise_recordings(
     trim: TrimParams = TrimParams(),
     tests: list[str] | None = None,
 ) -> pd.DataFrame:
-    """One row per recording of ``subject`` (all subjects if None) that some analysis needs.
-
-    Static tests: ``z0_x, z0_y, z0_z`` (Kong Eq. 2). Motion tests that may calibrate the IMU
-    (calibrates.tsv): ``n_samples`` kept by the trimmer and the scatter ``s11..s33`` (m^2/s^4).
-    Samples clipped at the declared accelerometer range (``n_clipped``) carry a wrong direction
-    and are left out of the scatter; above :data:`MAX_CLIPPED_FRACTION` the recording is left out.
-    A recording that cannot be used gets ``flag`` (the error code) and ``message`` naming the file.
-    ``tests``: only these motion tests (default: all).
+    """One summary row per recording of ``subject`` (all subjects if None) that some analysis
+    needs (:func:`aceval.reduction.summarise`); ``tests``: only these motion tests. The recording
+    pairs and file findings of the same pass are in :func:`aceval.reduction.reduce_recordings`.
     """
-    recordings = dataset.recordings
-    if subject is not None:
-        recordings = recordings[recordings["subject"] == subject]
-    static = set(dataset.static_tests())
-    if tests is not None:  # only these motion tests (static tests always: they give z0)
-        recordings = recordings[recordings["test"].isin(static | set(tests))]
-    allowed = set(map(tuple, dataset.calibrates[["test", "imu"]].to_numpy()))
-    rows = []
-    for rec in recordings.to_dict("records"):
-        is_static = rec["test"] in static
-        if not is_static and (rec["test"], rec["imu"]) not in allowed:
-            continue
-        row = {k: rec[k] for k in ["subject", "sensor_set", "test", "rep", "imu"]}
-        row.update(kind="static" if is_static else "motion", flag="", message="")
-        try:
-            data = dataset.read_recording(rec["path"])
-        except RecordingError as exc:
-            rows.append(row | {"flag": "unreadable", "message": str(exc)})
-            continue
-        try:
-            if is_static:
-                row.update(zip(["z0_x", "z0_y", "z0_z"], vertical_axis(data.acc)))
-                row["n_samples"] = len(data.acc)
-                row.update(recording_moments(data.acc, dataset.fs_hz, motion=False))
-            else:
-                row.update(agreement_moments(data.acc, data.gyr, dataset.fs_hz))
-                row["gyro_p90_deg_s"] = float(
-                    np.degrees(np.percentile(np.linalg.norm(data.gyr, axis=1), 90))
-                )
-                mask = movement_mask(data.gyr, dataset.fs_hz, trim)
-                limit = dataset.acc_limit(rec["sensor_set"], rec["imu"])
-                if limit is None and (plateau := plateau_limit(data.acc)) is not None:
-                    limit, row["clipping_from_data"] = (
-                        plateau,
-                        True,
-                    )  # clipped at a range nobody declared
-                clipped = (
-                    mask & (np.abs(data.acc) >= limit).any(axis=1) if limit else np.zeros_like(mask)
-                )
-                row["n_clipped"] = int(clipped.sum())
-                if row["n_clipped"] > MAX_CLIPPED_FRACTION * mask.sum():
-                    raise SaturatedError(
-                        f"{row['n_clipped']} of {int(mask.sum())} moving samples are clipped at "
-                        f"the accelerometer range (more than {MAX_CLIPPED_FRACTION:.0%})"
-                    )
-                mask = mask & ~clipped
-                kept = data.acc[mask]
-                row["n_samples"] = int(mask.sum())
-                row["n_segments"] = len(mask_to_ranges(mask))
-                row.update(zip(SCATTER_COLUMNS, scatter(kept).ravel()))
-                row.update(recording_moments(data.gyr[mask], dataset.fs_hz, motion=True))
-                row.update(third_moments(data.gyr[mask]))
-        except CalibrationError as exc:
-            row.update(flag=exc.code, message=f"{rec['path']}: {exc}")
-        rows.append(row)
-    return pd.DataFrame(rows)
+    return reduce_recordings(dataset, subject, trim, tests).summaries
 
 
 def all_subsets(repetitions: list[int]) -> list[tuple[int, ...]]:
@@ -578,136 +510,98 @@ CORRELATION_COLUMNS = [
 #: heading errors (deg, about body z, imposed on the second set's calibration) at which the Obj 1
 #: correlation is also computed, for every mode: how large an error the correlation can detect
 SENSITIVITY_HEADINGS_DEG = (0.0, 1.0, 2.0, 5.0, 10.0, 15.0, 20.0, 30.0)
-#: an aligned pair sharing fewer than this share of the shorter recording is not correlated
-MIN_OVERLAP = 0.5
 
 
 def correlations(
     dataset: Dataset,
     calibrations: pd.DataFrame,
+    pairs: pd.DataFrame,
     mode: str = "concatenated",
     segment_pairs: dict | None = None,
-    trim: TrimParams = TrimParams(),
-    max_lag_s: float = 0.5,
     headings_deg: tuple = SENSITIVITY_HEADINGS_DEG,
 ) -> pd.DataFrame:
-    """Kong Obj 1 and 2 (Eq. 7-10) for the subjects in ``calibrations``: full-set calibrations
-    applied to every repetition of every motion test (T_ap), correlation per recording pair.
+    """Kong Obj 1 and 2 (Eq. 7-10): full-set calibrations applied to every repetition of every
+    motion test (T_ap), one correlation per recording pair, from the pair moments of the one pass
+    (``pairs``, :func:`aceval.reduction.reduce_recordings`; already aligned in time, Kong Sec. 2.3).
 
     Obj 1 (``objective='frontal_lateral'``, needs two sensor sets): the same IMU in both sets,
     ``sensor_set`` = 'set_a|set_b'; acceleration and angular velocity (``signal``). Obj 2
     (``'segment_pair'``): two segments of one set calibrated from the same T_ex, on the tests that
-    ``segment_pairs`` names; acceleration. The two recordings are first aligned in time by the lag
-    (within ``max_lag_s``) that maximises the cross-correlation of their acceleration magnitudes
-    (Kong Sec. 2.3; ``lag_samples``) and correlated over their overlap; a pair overlapping less
-    than half the shorter recording is flagged ``no_overlap``. ``mode`` as in
-    :func:`aceval.objectives.correlation_3d` (``per_axis_moving``: over the samples either sensor's
-    trimmer keeps as movement).
+    ``segment_pairs`` names; acceleration. ``mode`` as in :func:`aceval.objectives.correlation_3d`
+    (``per_axis_moving``: over the samples either sensor's trimmer keeps as movement). A pair
+    overlapping too little is flagged ``no_overlap`` with no correlation.
 
     Also, for Obj 1's acceleration (``objective='frontal_lateral_sensitivity'``): the correlation in
     every mode with the second set's calibration turned by each heading error in ``headings_deg``
     about body z, to measure what size of calibration error the correlation can detect.
     """
-    if calibrations.empty:
+    if calibrations.empty or pairs.empty:
         return pd.DataFrame(columns=CORRELATION_COLUMNS)
     full = full_sets(calibrations)
     motion = [t for t in dataset.tests.index if dataset.tests.loc[t, "kind"] == "motion"]
-    paths = dataset.recordings.set_index(["subject", "sensor_set", "test", "rep", "imu"])[
-        "path"
-    ].to_dict()
-    reps: dict = {}
-    for subject, sensor_set, test, rep, imu in paths:
-        reps.setdefault((subject, sensor_set, test, imu), []).append(rep)
-    cache: dict = {}
-    max_lag = int(round(max_lag_s * dataset.fs_hz))
+    index = {
+        key: k
+        for k, key in enumerate(
+            zip(pairs["objective"], pairs["sensor_set"], pairs["imu"], pairs["imu_b"].fillna(""),
+                pairs["test"], pairs["rep"].astype(int), pairs["signal"], pairs["window"])
+        )
+    }  # fmt: skip
+    reps = pairs.groupby(["objective", "sensor_set", "imu", "test"])["rep"].unique().to_dict()
     turns = {h: Rotation.from_euler("z", h, degrees=True).as_matrix() for h in headings_deg}
-
-    def signals(key):
-        if key not in cache:
-            try:
-                cache[key] = dataset.read_recording(paths[key]) if key in paths else None
-            except RecordingError:  # validated before; a file broken since is left out
-                cache[key] = None
-        return cache[key]
-
-    def moving_mask(recording):
-        try:
-            return movement_mask(recording.gyr, dataset.fs_hz, trim)
-        except CalibrationError:
-            return np.zeros(len(recording.t), dtype=bool)
-
-    def correlate(base: dict, key_a, key_b, R_a, R_b, which, sensitivity=False):
-        a, b = signals(key_a), signals(key_b)
-        if a is None or b is None:
-            return
-        lag = best_lag(a.acc, b.acc, max_lag)
-        part_a, part_b = aligned(len(a.t), len(b.t), lag)
-        n = part_b.stop - part_b.start
-        common = {**base, "rep": key_a[3], "lag_samples": lag, "n_samples": n, "flag": ""}
-        if n < MIN_OVERLAP * min(len(a.t), len(b.t)):
-            rows.extend({**common, "signal": s, "mode": mode, "heading_error_deg": 0.0,
-                         "correlation": np.nan, "flag": "no_overlap"} for s in which)  # fmt: skip
-            return
-        moving = moving_mask(a)[part_a] | moving_mask(b)[part_b]
-        for signal in which:
-            x, y = getattr(a, signal)[part_a] @ R_a.T, getattr(b, signal)[part_b] @ R_b.T
-            rows.append({**common, "signal": signal, "mode": mode, "heading_error_deg": 0.0,
-                         "correlation": correlation_3d(x, y, mode, moving)})  # fmt: skip
-            if sensitivity and signal == "acc":
-                for heading, turn in turns.items():
-                    for m in CORRELATION_MODES:
-                        rows.append({**common, "objective": "frontal_lateral_sensitivity", "signal": signal,
-                                     "mode": m, "heading_error_deg": heading,
-                                     "correlation": correlation_3d(x, y @ turn.T, m, moving)})  # fmt: skip
-
     rows: list[dict] = []
+    wanted: list[tuple] = []  # (row, pair row, R_a, R_b, mode)
+
+    def window(m: str) -> str:
+        return "moving" if m == "per_axis_moving" else "all"
+
+    def correlate(base, objective, sensor_set, imu, imu_b, t_ap, R_a, R_b, signals, sensitivity):
+        for rep in sorted(int(r) for r in reps.get((objective, sensor_set, imu, t_ap), [])):
+            for signal in signals:
+                k = index[(objective, sensor_set, imu, imu_b, t_ap, rep, signal, window(mode))]
+                pair = pairs.iloc[k]
+                row = {**base, "t_ap": t_ap, "rep": rep, "signal": signal, "mode": mode,
+                       "heading_error_deg": 0.0, "lag_samples": int(pair["lag_samples"]),
+                       "n_samples": int(pair["n_overlap"]), "correlation": np.nan,
+                       "flag": pair["flag"] if isinstance(pair["flag"], str) else ""}  # fmt: skip
+                rows.append(row)
+                if row["flag"]:
+                    continue
+                wanted.append((len(rows) - 1, k, R_a, R_b, mode))
+                if sensitivity and signal == "acc":
+                    for heading, turn in turns.items():
+                        for m in CORRELATION_MODES:
+                            rows.append({**row, "objective": "frontal_lateral_sensitivity",
+                                         "mode": m, "heading_error_deg": heading})  # fmt: skip
+                            k_m = index[
+                                (objective, sensor_set, imu, imu_b, t_ap, rep, signal, window(m))
+                            ]
+                            wanted.append((len(rows) - 1, k_m, R_a, turn @ R_b, m))
+
     sensor_sets = list(dataset.meta["sensor_sets"])
     if len(sensor_sets) == 2 and len(full):
         for plan in frontal_lateral_plan(full, sensor_sets).to_dict("records"):
-            base = {
-                "objective": "frontal_lateral",
-                "subject": plan["subject"],
-                "sensor_set": "|".join(sensor_sets),
-                "imu": plan["imu"],
-                "segment": plan["segment"],
-                "side": plan["side"],
-                "t_ex": plan["t_ex"],
-            }
+            base = {"objective": "frontal_lateral", "subject": plan["subject"],
+                    "sensor_set": "|".join(sensor_sets), "imu": plan["imu"],
+                    "segment": plan["segment"], "side": plan["side"], "t_ex": plan["t_ex"]}  # fmt: skip
             for t_ap in motion:
-                for rep in sorted(
-                    reps.get((plan["subject"], sensor_sets[0], t_ap, plan["imu"]), [])
-                ):
-                    correlate(
-                        {**base, "t_ap": t_ap},
-                        (plan["subject"], sensor_sets[0], t_ap, rep, plan["imu"]),
-                        (plan["subject"], sensor_sets[1], t_ap, rep, plan["imu"]),
-                        plan["R_a"],
-                        plan["R_b"],
-                        ("acc", "gyr"),
-                        sensitivity=bool(headings_deg),
-                    )
+                correlate(base, "frontal_lateral", base["sensor_set"], plan["imu"], "", t_ap,
+                          plan["R_a"], plan["R_b"], ("acc", "gyr"), bool(headings_deg))  # fmt: skip
     if segment_pairs and len(full):
         for plan in segment_pair_plan(full, segment_pairs).to_dict("records"):
-            base = {
-                "objective": "segment_pair",
-                "subject": plan["subject"],
-                "sensor_set": plan["sensor_set"],
-                "imu": plan["imu_a"],
-                "imu_b": plan["imu_b"],
-                "pair": plan["pair"],
-                "side": plan["side"],
-                "t_ex": plan["t_ex"],
-            }
+            base = {"objective": "segment_pair", "subject": plan["subject"],
+                    "sensor_set": plan["sensor_set"], "imu": plan["imu_a"], "imu_b": plan["imu_b"],
+                    "pair": plan["pair"], "side": plan["side"], "t_ex": plan["t_ex"]}  # fmt: skip
             for t_ap in [t for t in plan["t_ap"] if t in motion]:
-                for rep in sorted(
-                    reps.get((plan["subject"], plan["sensor_set"], t_ap, plan["imu_a"]), [])
-                ):
-                    correlate(
-                        {**base, "t_ap": t_ap},
-                        (plan["subject"], plan["sensor_set"], t_ap, rep, plan["imu_a"]),
-                        (plan["subject"], plan["sensor_set"], t_ap, rep, plan["imu_b"]),
-                        plan["R_a"],
-                        plan["R_b"],
-                        ("acc",),
-                    )
-    return pd.DataFrame(rows, columns=CORRELATION_COLUMNS)
+                correlate(base, "segment_pair", plan["sensor_set"], plan["imu_a"], plan["imu_b"],
+                          t_ap, plan["R_a"], plan["R_b"], ("acc",), False)  # fmt: skip
+    table = pd.DataFrame(rows, columns=CORRELATION_COLUMNS)
+    for m in {w[4] for w in wanted}:
+        chosen = [w for w in wanted if w[4] == m]
+        values = correlation_from_moments(
+            pairs.iloc[[w[1] for w in chosen]],
+            np.array([w[2] for w in chosen]),
+            np.array([w[3] for w in chosen]),
+            m,
+        )
+        table.loc[[w[0] for w in chosen], "correlation"] = values
+    return table

@@ -1,0 +1,310 @@
+"""One pass over the recordings: each file is read once, checked, and reduced to the small
+statistics that every analysis needs (docs/design.md, "One pass").
+
+* ``summaries``, one row per recording that calibrates something (:func:`summarise`): static
+  tests give z0 (Kong Eq. 2); motion tests the scatter ``sum a a^T`` of the trimmed accelerations
+  (Kong Eq. 3: the plane of any union of repetitions is a sum of these), the moments of the unit
+  gyroscope samples (Ricci Eq. 1-2) and the plausibility moments of :mod:`aceval.checks`.
+* ``pairs``, one row per time-aligned recording pair of Kong's Obj 1-2 (the same IMU in the two
+  sensor sets; two segments moved as one body), per signal and window: the sample count, both
+  means, both centred scatters and the centred cross-moment of the overlap. The Pearson
+  correlation of the pair after any two calibrations follows from these alone
+  (:func:`aceval.objectives.correlation_from_moments`): nothing reads the samples again.
+* ``report``: every file problem with its file, line and cause, as ``aceval validate`` gives it.
+
+Recordings are read grouped by test and repetition (the pairs of Obj 1-2 never cross them), so
+a subject's memory is one repetition of one test at a time.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from .calibration.kong import scatter, vertical_axis
+from .checks import agreement_moments, third_moments
+from .dataset import (
+    Dataset,
+    Recording,
+    ValidationReport,
+    known_recordings,
+    plateau_limit,
+    read_checked,
+)
+from .errors import CalibrationError, SaturatedError
+from .functional import recording_moments
+from .objectives import aligned, best_lag
+from .segmentation import TrimParams, mask_to_ranges, movement_mask
+
+SCATTER_COLUMNS = [f"s{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
+#: a motion recording is left out when more than this fraction of its moving samples is clipped at
+#: the accelerometer range (a choice, not from the papers: the clipped samples themselves are always
+#: left out of the scatter, and beyond a fifth of them the plane rests on a biased remainder)
+MAX_CLIPPED_FRACTION = 0.2
+#: an aligned pair sharing fewer than this share of the shorter recording is not correlated
+MIN_OVERLAP = 0.5
+#: the moments of one recording pair (a: first recording, b: second; c_xy: centred cross-moments)
+MEAN_A, MEAN_B = ["ma_x", "ma_y", "ma_z"], ["mb_x", "mb_y", "mb_z"]
+C_AA, C_BB, C_AB = (
+    [f"{m}{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)] for m in ("caa", "cbb", "cab")
+)
+PAIR_COLUMNS = [
+    "objective",
+    "subject",
+    "sensor_set",
+    "imu",
+    "imu_b",
+    "test",
+    "rep",
+    "lag_samples",
+    "n_overlap",
+    "flag",
+    "signal",
+    "window",
+    "n",
+    *MEAN_A,
+    *MEAN_B,
+    *C_AA,
+    *C_BB,
+    *C_AB,
+]
+
+
+@dataclass
+class Reduction:
+    """What one pass over a set of recordings leaves: see the module docstring."""
+
+    summaries: pd.DataFrame
+    pairs: pd.DataFrame
+    report: ValidationReport
+
+
+def reduce_recordings(
+    dataset: Dataset,
+    subject: str | None = None,
+    trim: TrimParams = TrimParams(),
+    tests: list[str] | None = None,
+    segment_pairs: dict | None = None,
+    max_lag_s: float = 0.5,
+) -> Reduction:
+    """Read every recording of ``subject`` (all subjects if None) once: check it, summarise it
+    and reduce the Obj 1-2 pairs it belongs to. ``tests``: only these motion tests (static tests
+    always); ``segment_pairs`` as in config ``objectives.segment_pairs``; ``max_lag_s``: the
+    window of the time alignment of a pair (Kong Sec. 2.3).
+    """
+    recordings = known_recordings(dataset)
+    if subject is not None:
+        recordings = recordings[recordings["subject"] == subject]
+    static = set(dataset.static_tests())
+    if tests is not None:
+        recordings = recordings[recordings["test"].isin(static | set(tests))]
+    allowed = set(map(tuple, dataset.calibrates[["test", "imu"]].to_numpy()))
+    findings: dict[int, list] = {}
+    summaries: dict[int, dict] = {}
+    pairs: list[dict] = []
+    max_lag = int(round(max_lag_s * dataset.fs_hz))
+    for (subj, test, rep), group in recordings.groupby(["subject", "test", "rep"], sort=False):
+        loaded: dict[tuple[str, str], tuple[Recording, np.ndarray]] = {}
+        for index, rec in zip(group.index, group.to_dict("records")):
+            report = ValidationReport(dataset.name)
+            data = read_checked(dataset, rec, report)
+            findings[index] = report.findings
+            is_static = rec["test"] in static
+            needed = is_static or (rec["test"], rec["imu"]) in allowed
+            if data is None:
+                if needed:
+                    summaries[index] = _row(rec, is_static) | {
+                        "flag": "unreadable",
+                        "message": f"{rec['path']}: {report.errors[0].cause}",
+                    }
+                continue
+            moving = None
+            if not is_static:
+                try:
+                    moving = movement_mask(data.gyr, dataset.fs_hz, trim)
+                except CalibrationError:
+                    moving = None
+            if needed:
+                summaries[index] = summarise(dataset, rec, data, moving, is_static, trim)
+            if not is_static:
+                mask = moving if moving is not None else np.zeros(len(data.t), dtype=bool)
+                loaded[(rec["sensor_set"], rec["imu"])] = (data, mask)
+        if test not in static and loaded:
+            pairs += _pair_rows(dataset, subj, test, int(rep), loaded, segment_pairs, max_lag)
+    report = ValidationReport(dataset.name)
+    report.findings = [f for k in sorted(findings) for f in findings[k]]  # in the sheet's order
+    ordered = [summaries[k] for k in sorted(summaries)]
+    return Reduction(pd.DataFrame(ordered), pd.DataFrame(pairs, columns=PAIR_COLUMNS), report)
+
+
+def _row(rec: dict, is_static: bool) -> dict:
+    row = {k: rec[k] for k in ["subject", "sensor_set", "test", "rep", "imu"]}
+    return row | {"kind": "static" if is_static else "motion", "flag": "", "message": ""}
+
+
+def summarise(
+    dataset: Dataset,
+    rec: dict,
+    data: Recording,
+    moving: np.ndarray | None,
+    is_static: bool,
+    trim: TrimParams = TrimParams(),
+) -> dict:
+    """The summary row of one recording (module docstring). Static tests: ``z0_x, z0_y, z0_z``
+    and the unit moments of the accelerometer. Motion tests: ``n_samples`` kept by the trimmer
+    (``moving``; None when it found no movement) and the scatter ``s11..s33`` (m^2/s^4).
+    Samples clipped at the declared accelerometer range, or at a plateau found in the data
+    (``n_clipped``), carry a wrong direction and are left out of the scatter; above
+    :data:`MAX_CLIPPED_FRACTION` the recording is left out. A recording that cannot be used gets
+    ``flag`` (the error code) and ``message`` naming the file.
+    """
+    row = _row(rec, is_static)
+    try:
+        if is_static:
+            row.update(zip(["z0_x", "z0_y", "z0_z"], vertical_axis(data.acc)))
+            row["n_samples"] = len(data.acc)
+            row.update(recording_moments(data.acc, dataset.fs_hz, motion=False))
+            return row
+        row.update(agreement_moments(data.acc, data.gyr, dataset.fs_hz))
+        row["gyro_p90_deg_s"] = float(
+            np.degrees(np.percentile(np.linalg.norm(data.gyr, axis=1), 90))
+        )
+        mask = moving if moving is not None else movement_mask(data.gyr, dataset.fs_hz, trim)
+        limit = dataset.acc_limit(rec["sensor_set"], rec["imu"])
+        if limit is None and (plateau := plateau_limit(data.acc)) is not None:
+            limit, row["clipping_from_data"] = plateau, True  # clipped at a range nobody declared
+        clipped = mask & (np.abs(data.acc) >= limit).any(axis=1) if limit else np.zeros_like(mask)
+        row["n_clipped"] = int(clipped.sum())
+        if row["n_clipped"] > MAX_CLIPPED_FRACTION * mask.sum():
+            raise SaturatedError(
+                f"{row['n_clipped']} of {int(mask.sum())} moving samples are clipped at "
+                f"the accelerometer range (more than {MAX_CLIPPED_FRACTION:.0%})"
+            )
+        mask = mask & ~clipped
+        row["n_samples"] = int(mask.sum())
+        row["n_segments"] = len(mask_to_ranges(mask))
+        row.update(zip(SCATTER_COLUMNS, scatter(data.acc[mask]).ravel()))
+        row.update(recording_moments(data.gyr[mask], dataset.fs_hz, motion=True))
+        row.update(third_moments(data.gyr[mask]))
+    except CalibrationError as exc:
+        row.update(flag=exc.code, message=f"{rec['path']}: {exc}")
+    return row
+
+
+def _pair_rows(
+    dataset: Dataset,
+    subject: str,
+    test: str,
+    rep: int,
+    loaded: dict,
+    segment_pairs: dict | None,
+    max_lag: int,
+) -> list[dict]:
+    """The Obj 1 and Obj 2 pairs among one repetition's recordings (``loaded``: (set, IMU) ->
+    (recording, moving mask)): Obj 1 the same IMU in the first two sensor sets, acceleration and
+    angular velocity; Obj 2 the IMUs of two segments named in ``segment_pairs`` on the same side of
+    one set, acceleration, on the tests the pair lists.
+    """
+    rows = []
+    sets = list(dataset.meta["sensor_sets"])
+    base = {"subject": subject, "test": test, "rep": rep}
+    if len(sets) == 2:
+        for set_a, imu in [key for key in loaded if key[0] == sets[0]]:
+            if (sets[1], imu) in loaded:
+                rows += pair_moments(
+                    loaded[(set_a, imu)],
+                    loaded[(sets[1], imu)],
+                    {
+                        **base,
+                        "objective": "frontal_lateral",
+                        "sensor_set": "|".join(sets),
+                        "imu": imu,
+                        "imu_b": "",
+                    },  # fmt: skip
+                    ("acc", "gyr"),
+                    max_lag,
+                )
+    imus = dataset.imus.reset_index()
+    return rows + _segment_pair_rows(loaded, imus, segment_pairs, base, max_lag)
+
+
+def _segment_pair_rows(loaded, imus, segment_pairs, base, max_lag) -> list[dict]:
+    """Obj 2 pairs of :func:`_pair_rows`: each IMU pair once, however many specs name it."""
+    rows = []
+    done = set()
+    for spec in (segment_pairs or {}).values():
+        if base["test"] not in spec["t_ap"]:
+            continue
+        seg_a, seg_b = spec["segments"]
+        matched = imus[imus["segment"] == seg_a].merge(
+            imus[imus["segment"] == seg_b], on=["sensor_set", "side"], suffixes=("_a", "_b")
+        )
+        for sensor_set, imu_a, imu_b in matched[["sensor_set", "imu_a", "imu_b"]].itertuples(
+            index=False
+        ):
+            key = (sensor_set, imu_a, imu_b)
+            if (
+                key in done
+                or (sensor_set, imu_a) not in loaded
+                or (sensor_set, imu_b) not in loaded
+            ):
+                continue
+            done.add(key)
+            rows += pair_moments(
+                loaded[(sensor_set, imu_a)],
+                loaded[(sensor_set, imu_b)],
+                {
+                    **base,
+                    "objective": "segment_pair",
+                    "sensor_set": sensor_set,
+                    "imu": imu_a,
+                    "imu_b": imu_b,
+                },  # fmt: skip
+                ("acc",),
+                max_lag,
+            )
+    return rows
+
+
+def pair_moments(first, second, base: dict, signals: tuple, max_lag: int) -> list[dict]:
+    """Rows of :data:`PAIR_COLUMNS` for two recordings ((recording, moving mask) each): aligned in
+    time by the lag that best correlates their acceleration magnitudes (Kong Sec. 2.3,
+    :func:`aceval.objectives.best_lag`), then, per signal, the moments of the overlap (window
+    ``all``) and of the samples either sensor's trimmer keeps as movement (``moving``). A pair
+    overlapping less than :data:`MIN_OVERLAP` of the shorter recording is flagged ``no_overlap``.
+    """
+    (a, moving_a), (b, moving_b) = first, second
+    lag = best_lag(a.acc, b.acc, max_lag)
+    part_a, part_b = aligned(len(a.t), len(b.t), lag)
+    n = part_b.stop - part_b.start
+    common = {**base, "lag_samples": lag, "n_overlap": n, "flag": ""}
+    if n < MIN_OVERLAP * min(len(a.t), len(b.t)):
+        return [
+            {**common, "signal": s, "window": "all", "flag": "no_overlap", "n": 0} for s in signals
+        ]
+    moving = moving_a[part_a] | moving_b[part_b]
+    rows = []
+    for signal in signals:
+        x, y = getattr(a, signal)[part_a], getattr(b, signal)[part_b]
+        for window, keep in (("all", slice(None)), ("moving", moving)):
+            rows.append({**common, "signal": signal, "window": window, **moments(x[keep], y[keep])})
+    return rows
+
+
+def moments(x: np.ndarray, y: np.ndarray) -> dict:
+    """``n``, both means and the centred scatters and cross-moment of two (n, 3) signals."""
+    n = len(x)
+    if n == 0:
+        return {"n": 0}
+    mean_x, mean_y = x.mean(axis=0), y.mean(axis=0)
+    dx, dy = x - mean_x, y - mean_y
+    return {
+        "n": n,
+        **dict(zip(MEAN_A, mean_x)),
+        **dict(zip(MEAN_B, mean_y)),
+        **dict(zip(C_AA, (dx.T @ dx).ravel())),
+        **dict(zip(C_BB, (dy.T @ dy).ravel())),
+        **dict(zip(C_AB, (dx.T @ dy).ravel())),
+    }
