@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-from aceval import comparison, named_tables, reliability, summary
+from aceval import methods_comparison, outputs, ricci2014, summary
 
 
 def axes_table(rho: dict) -> pd.DataFrame:
@@ -34,7 +34,7 @@ FE = [0.60, 0.61, 0.58, 0.62, 0.57]
 
 def test_rho_table_mean_sd_n_and_the_published_cell():
     axes = axes_table({("FEB", "upper_arm", "right"): FEB, ("S", "thorax", "center"): [0.98, 0.99]})
-    table = reliability.rho_table(axes, {"S": "TS/US/FS"}).set_index(["test", "segment"])
+    table = ricci2014.rho_table(axes, {"S": "TS/US/FS"}).set_index(["test", "segment"])
     cell = table.loc[("FEB", "upper_arm_r")]
     assert cell["mean"] == pytest.approx(np.mean(FEB)) and cell["sd"] == pytest.approx(
         np.std(FEB, ddof=1)
@@ -55,7 +55,7 @@ def test_supported_ttest_is_scipy_paired_ttest_per_side():
             ("FE", "forearm", "left"): FE[:4],
         }
     )
-    table = reliability.supported_ttest(axes).set_index("segment")
+    table = ricci2014.supported_ttest(axes).set_index("segment")
     expected = stats.ttest_rel(FEB, FE)
     row = table.loc["upper_arm_r"]
     assert (row["supported"], row["unsupported"], row["n"]) == ("FEB", "FE", 5)
@@ -87,7 +87,7 @@ def test_lm_and_residual_tables():
             "random_start_iterations_max": [7, 9, 8],
         }
     )
-    lm = reliability.lm_table(calibrations).set_index("segment")
+    lm = ricci2014.lm_table(calibrations).set_index("segment")
     assert lm.loc["thorax", "mean"] == 5 and lm.loc["thorax", "published_mean"] == 6.34
     assert lm.loc["thorax", "random_starts_optimum_share"] == pytest.approx(0.9)
     assert lm.loc["forearm", "converged_share"] == 0
@@ -102,7 +102,7 @@ def test_lm_and_residual_tables():
             "residual_after_deg": [5.0, 3.0, 1.0],
         }
     )
-    residuals = reliability.residual_table(axes).set_index(["segment", "test"])
+    residuals = ricci2014.residual_table(axes).set_index(["segment", "test"])
     assert (
         residuals.loc[("thorax", "TR"), "mean"] == 4
         and residuals.loc[("thorax", "TR"), "before_mean"] == 85
@@ -121,11 +121,11 @@ def test_a_perfectly_ranked_index_correlates_one_with_the_test_retest_angle():
             "test_retest_deg": [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8],
         }
     )
-    table = reliability.reliability_vs_retest(units).set_index(["index", "test"])
+    table = methods_comparison.reliability_vs_retest(units).set_index(["index", "test"])
     assert table.loc[("rho_gyro", "all"), "spearman_r"] == pytest.approx(-1.0)
     assert table.loc[("planarity", "T1"), "spearman_r"] == pytest.approx(1.0)
     assert table.loc[("planarity", "all"), "n"] == 8
-    layout = reliability.kong_reliability_table(units).set_index(["index", "test", "segment"])
+    layout = methods_comparison.kong_reliability_table(units).set_index(["index", "test", "segment"])
     assert layout.loc[("rho_gyro", "T1", "chest"), "mean"] == pytest.approx(0.75)
 
 
@@ -160,32 +160,45 @@ def test_methods_table_statistics_and_best_test():
         {**rows[0], "subject": "S99", "flag": "not_planar", "error_deg": 99.0}
     )  # flagged: left out
     calibrations = pd.DataFrame(rows)
-    table = comparison.methods_table(calibrations).set_index(["test", "method"])
+    table = methods_comparison.methods_table(calibrations).set_index(["test", "method"])
     kong_t3 = calibrations.query(
         "method == 'kong' and test == 'T3' and n_reps == 5 and flag == ''"
     )["error_deg"]
     assert table.loc[("T3", "kong"), "n"] == 20
     assert table.loc[("T3", "kong"), "median"] == pytest.approx(kong_t3.median())
     assert table.loc[("T3", "kong"), "p95"] == pytest.approx(np.percentile(kong_t3, 95))
-    best = comparison.best_tests(calibrations).set_index("method")
+    best = methods_comparison.best_tests(calibrations).set_index("method")
     assert best.loc["kong", "best_test"] == "T3" and best.loc["triad", "best_test"] == "T6"
     assert best.loc["kong", "kong_recommends"] == "T3"
     lines = summary.methods_section(
         {
-            "methods": comparison.methods_table(calibrations),
-            "methods_best": comparison.best_tests(calibrations),
+            "methods": methods_comparison.methods_table(calibrations),
+            "methods_best": methods_comparison.best_tests(calibrations),
         }
     )
     assert any("Kong recommends T3" in line and "agrees" in line for line in lines)
 
 
-def test_named_tables_render_and_refuse_unknown_names():
+def test_registry_tables_render_and_unknown_names_are_refused():
+    """A table is found in the registry by name (Kong's also by number), built from the tidy
+    tables and rendered with its title; an unknown name is refused with the known ones."""
     axes = axes_table({("FEB", "upper_arm", "right"): FEB, ("FE", "upper_arm", "right"): FE})
-    table = named_tables.build("ricci_ttest", axes=axes)
-    text = named_tables.to_markdown(table, "ricci_ttest", "demo", simulated=True)
-    assert "SIMULATED" in text and "FEB" in text
-    with pytest.raises(ValueError, match="unknown table"):
-        named_tables.build("table99")
+    output = outputs.find("table", "ricci_ttest")
+    table = output.build({"axes": axes, "paper_names": {}})
+    text = output.markdown(table, output, "demo", True)
+    assert "SIMULATED" in text and "FEB" in text and output.title in text
+    assert outputs.find("table", "9") is outputs.find("table", "table9")
+    with pytest.raises(ValueError, match="unknown table 'table99': one of table3"):
+        outputs.find("table", "table99")
+
+
+def test_every_output_has_a_builder_a_known_analysis_and_inputs():
+    for output in outputs.OUTPUTS.values():
+        assert output.analysis in outputs.ANALYSES and output.kind in ("table", "figure")
+        assert output.build is not None and set(output.inputs) <= set(outputs.INPUT_KINDS)
+        assert (output.markdown is not None) == (output.kind == "table")
+    kong = [o.name for o in outputs.outputs_of(["kong"]) if o.kind == "table"]
+    assert kong[:6] == ["table3", "table6", "table7", "table8", "table9", "table10"]
 
 
 def test_ricci_claims_from_known_tables():
@@ -193,7 +206,7 @@ def test_ricci_claims_from_known_tables():
     movement) with raw p; the elbow movement FFEB is a second reading that does not decide it."""
     ttest = pd.DataFrame(
         {
-            "reading": [reliability.PRIMARY_READING] * 2
+            "reading": [ricci2014.PRIMARY_READING] * 2
             + ["elbow vs shoulder movement (FFEB vs FE)"],
             "segment": ["upper_arm_r", "forearm_r", "forearm_r"],
             "supported": ["FEB", "FEB", "FFEB"],
@@ -230,7 +243,7 @@ def test_conditioning_keeps_flagged_full_sets_and_says_when_the_heading_is_undet
         {**base, "imu": "b", "test": "T6", "n_reps": 3, "method": "triad", "normal_ratio": np.nan,
          "planarity": np.nan, "flag": ""},
     ]  # fmt: skip
-    table = reliability.conditioning_table(pd.DataFrame(rows))
+    table = methods_comparison.conditioning_table(pd.DataFrame(rows))
     assert list(table["imu"]) == ["a", "b"] and list(table["n_reps"]) == [3, 3]
     assert list(table["heading"]) == ["determined", "undetermined"]
     assert list(table["flag"]) == ["", "not_planar"]
@@ -262,7 +275,7 @@ def test_truth_errors_measure_against_both_truths_and_carry_the_truths_flag():
              **{f"marker_frame_{c}": v for c, v in zip(R_COLUMNS, marker_frame)}}
         ]
     )  # fmt: skip
-    table = comparison.truth_errors(calibrations, sheet)
+    table = methods_comparison.truth_errors(calibrations, sheet)
     assert len(table) == 1  # the calibration of all repetitions only
     row = table.iloc[0]
     assert row["error_deg"] == 13.0 and row["error_marker_frame_deg"] == pytest.approx(15.0)
@@ -290,7 +303,7 @@ def test_loose_reference_angles_between_right_axes_and_verticals():
         [{**key, "right_x": 0.0, "right_y": 1.0, "right_z": 0.0, "up_x": 0.0, "up_y": 0.0,
           "up_z": -1.0, "standing_up_angle_deg": 3.0}]
     )  # fmt: skip
-    row = comparison.loose_reference_angles(calibrations, reference).iloc[0]
+    row = methods_comparison.loose_reference_angles(calibrations, reference).iloc[0]
     assert row["right_axis_angle_deg"] == pytest.approx(30.0)
     assert row["vertical_angle_deg"] == pytest.approx(0.0, abs=1e-6) and row["flag"] == ""
     text = "\n".join(summary.loose_reference_section({"loose_reference": pd.DataFrame([row])}))

@@ -4,7 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from aceval import summary, tables
+from aceval import kong2016, summary
 from aceval.stats import holm, paired_by_set, paired_ttest
 
 
@@ -75,7 +75,7 @@ def angle_rows(values_by_set: dict, comparison="test_retest", segment="head", te
 
 def test_table9_mean_sd_n_published_value_and_flag():
     angles = angle_rows({"frontal": [1.0, 2.0, 3.0], "lateral": [0.5, 0.5, 0.5]})
-    table = tables.build(9, None, angles, ["frontal", "lateral"])
+    table = kong2016.build(9, None, angles, ["frontal", "lateral"])
     head = table[(table["t_ex"] == "T1") & (table["segment"] == "head")].iloc[0]
     assert head["n"] == 6
     assert head["mean"] == pytest.approx(np.mean([1, 2, 3, 0.5, 0.5, 0.5]), abs=1e-4)
@@ -84,7 +84,7 @@ def test_table9_mean_sd_n_published_value_and_flag():
     assert head["difference"] == pytest.approx(head["mean"] - 0.345, abs=1e-4)
     # rows of the paper this dataset has no data for are kept, with n = 0
     assert (table[table["t_ex"] == "T6"]["n"] == 0).all()
-    markdown = tables.to_markdown(table, 9, "demo", simulated=True)
+    markdown = kong2016.to_markdown(table, 9, "demo", simulated=True)
     assert (
         "SIMULATED" in markdown
         and "1.250 ± 1.037 †" in markdown
@@ -96,11 +96,11 @@ def test_table8_names_the_set_with_the_smaller_angle():
     angles = angle_rows(
         {"frontal": [1.0, 2.0, 3.5], "lateral": [0.4, 0.6, 0.9]}, comparison="incremental"
     )
-    table = tables.build(8, None, angles, ["frontal", "lateral"])
+    table = kong2016.build(8, None, angles, ["frontal", "lateral"])
     head = table[(table["segment"] == "head") & (table["test"] == "paper")].iloc[0]
     assert head["better"] == "lateral" and head["published_better"] == "frontal"
     assert head["n"] == 3 and head["p_holm"] == pytest.approx(head["p"])  # one testable row
-    assert "paper frontal" in tables.to_markdown(table, 8, "demo", simulated=False)
+    assert "paper frontal" in kong2016.to_markdown(table, 8, "demo", simulated=False)
 
 
 def test_independent_units_and_mixed_model_on_a_known_table():
@@ -123,7 +123,7 @@ def test_independent_units_and_mixed_model_on_a_known_table():
             parts.append(rows.assign(subject=f"S{s}"))
     angles = pd.concat(parts, ignore_index=True)
     table = (
-        tables.build(8, None, angles, ["frontal", "lateral"])
+        kong2016.build(8, None, angles, ["frontal", "lateral"])
         .set_index(["segment", "test"])
         .loc["head"]
     )
@@ -140,8 +140,8 @@ def test_independent_units_and_mixed_model_on_a_known_table():
         means["frontal"].mean() - means["lateral"].mean(), abs=1e-4
     )
     assert mixed["n"] == 200 and mixed["n_groups"] == 5
-    markdown = tables.to_markdown(
-        tables.build(8, None, angles, ["frontal", "lateral"]), 8, "demo", False
+    markdown = kong2016.to_markdown(
+        kong2016.build(8, None, angles, ["frontal", "lateral"]), 8, "demo", False
     )
     assert "independent units" in markdown and "random intercept per subject" in markdown
 
@@ -193,7 +193,7 @@ def test_claim_rules_hold_and_fail_on_built_tables():
 
 def test_tables_refuse_numbers_the_paper_does_not_have():
     with pytest.raises(ValueError, match="Table 12"):
-        tables.build(12, None, None, ["a", "b"])
+        kong2016.build(12, None, None, ["a", "b"])
 
 
 def test_claims_with_known_tables():
@@ -213,7 +213,7 @@ def test_one_sensor_set_gives_untestable_ttests_and_an_explicit_figure(tmp_path)
     from aceval import figures
 
     angles = angle_rows({"main": [1.0, 2.0, 3.0]}, comparison="incremental")
-    table = tables.build(8, None, angles, ["main"])
+    table = kong2016.build(8, None, angles, ["main"])
     assert (table["n"] == 0).all() and table["p"].isna().all()
     from aceval.pipeline import CORRELATION_COLUMNS
 

@@ -174,6 +174,7 @@ def test_invalid_dataset_stops_before_any_calibration(tiny, tmp_path):
     assert "data/S2/lateral/T4_R2_IMU5.csv" in output and "file is missing" in output
     assert not (work / "results" / "broken" / "calibrations").exists()
     assert not (work / "results" / "broken" / "validation.txt").exists()
+    assert not (work / "results" / "broken" / "validation" / "sheets.tsv").exists()
 
 
 def test_config_is_validated_against_the_schema(tmp_path):
@@ -201,6 +202,8 @@ def test_any_folder_name_reaches_the_shell_quoted_and_validation_follows_the_fil
     assert "it's a note; $(touch PWNED2)" in (work / "results" / "lab" / "SUMMARY.md").read_text()
     assert not list(tmp_path.rglob("PWNED*")) and not list(Path.cwd().glob("PWNED*"))
 
+    results = work / "results" / "lab"
+    before = {p: p.stat().st_mtime_ns for p in results.rglob("*") if p.is_file()}
     changed = lab / "data" / "S1" / "frontal" / "T1_R2_IMU2.csv"
     changed.write_text(changed.read_text().replace(",", ";"))
     again = snakemake(work)
@@ -209,4 +212,19 @@ def test_any_folder_name_reaches_the_shell_quoted_and_validation_follows_the_fil
         "T1_R2_IMU2.csv" in again.stderr + again.stdout
         and "comma-separated" in again.stderr + again.stdout
     )
-    assert not (work / "results" / "lab" / "validation.txt").exists()
+    # the gate ran again on the changed file and failed: its report is gone, and nothing was
+    # recomputed from the broken file (the previous run's outputs are older than it)
+    assert not (results / "validation" / "sheets.tsv").exists()
+    after = {p: p.stat().st_mtime_ns for p in results.rglob("*") if p.is_file()}
+    assert all(after[p] == before[p] for p in after)
+
+    # a defect only a full read finds (NaN deep in the file): the pass that reads the file stops
+    # the workflow, naming the file, the line and the cause
+    changed.write_text(changed.read_text().replace(";", ","))
+    text = changed.read_text().splitlines()
+    text[40] = "nan" + text[40][text[40].index(",") :]
+    changed.write_text("\n".join(text) + "\n")
+    third = snakemake(work)
+    assert third.returncode != 0
+    output = third.stderr + third.stdout
+    assert "T1_R2_IMU2.csv" in output and "NaN, inf or non-numeric" in output and "line 41" in output

@@ -1,4 +1,4 @@
-"""Command line: ``aceval simulate|import|validate|calibrate|apply|correlate|angles|table|figure|summary``
+"""Command line: ``aceval simulate|import|validate|calibrate|apply|angles|table|figure|outputs``
 (also ``python -m aceval``). The workflow's rules are thin calls of these commands.
 """
 
@@ -73,10 +73,12 @@ def _import(args) -> int:
 def _validate(args) -> int:
     from .dataset import validate
 
-    _, report = validate(args.dataset)
+    _, report = validate(args.dataset, check_files="headers" if args.sheets_only else "all")
     print(report.format(), file=sys.stdout if report.ok else sys.stderr)
     if report.ok and args.out:
         _write_text(args.out, report.format() + "\n")
+    if report.ok and args.findings_out:
+        _write_findings(args.findings_out, report)
     return 0 if report.ok else 1
 
 
@@ -95,18 +97,9 @@ def _write_text(path, text: str) -> None:
 
 
 def _read_csvs(paths) -> pd.DataFrame:
-    import pandas as pd
+    from .results import read_tables
 
-    parts = []
-    for path in paths:
-        try:
-            parts.append(pd.read_csv(path))
-        except (
-            pd.errors.EmptyDataError
-        ):  # an empty table (e.g. a subject with nothing to calibrate)
-            continue
-    non_empty = [p for p in parts if len(p)] or parts[:1]  # keep the columns of an empty table
-    return pd.concat(non_empty, ignore_index=True) if non_empty else pd.DataFrame()
+    return read_tables(paths)
 
 
 #: ``--method`` choices of ``aceval calibrate`` -> the ``method`` values of the calibrations table
@@ -132,14 +125,17 @@ def _progress(done: int, total: int, what: str) -> None:
 
 
 def _calibrate(args) -> int:
+    import json
+
     import pandas as pd
 
-    from .dataset import DatasetError, load_dataset
-    from .pipeline import AXES_COLUMNS, CALIBRATION_COLUMNS, calibrate, summarise_recordings
+    from .dataset import DatasetError, ValidationReport, load_dataset
+    from .pipeline import AXES_COLUMNS, CALIBRATION_COLUMNS, calibrate, correlations
+    from .reduction import reduce_recordings
     from .summary import calibration_screen
 
-    try:  # the workflow has validated the files already (validation.txt); a user's call checks them
-        dataset = load_dataset(args.dataset, check_files=not args.validated)
+    try:  # the sheets here; each recording file is checked in the pass that reads it
+        dataset = load_dataset(args.dataset)
     except DatasetError as exc:
         print(f"aceval calibrate: {args.dataset} is not a valid dataset:\n{exc}", file=sys.stderr)
         return 1
@@ -157,13 +153,26 @@ def _calibrate(args) -> int:
         )
         return 2
     trim = _trim(args)
+    segment_pairs = json.loads(args.pairs)
     subjects = [args.subject] if args.subject is not None else list(dataset.subjects.index)
-    parts = []
+    summaries, pairs, report = [], [], ValidationReport(dataset.name)
     for done, subject in enumerate(subjects, start=1):
-        parts.append(summarise_recordings(dataset, subject, trim, args.tests))
+        reduced = reduce_recordings(
+            dataset, subject, trim, args.tests, segment_pairs, args.max_lag_s
+        )
+        summaries.append(reduced.summaries)
+        pairs.append(reduced.pairs)
+        report.findings += reduced.report.findings
         _progress(done, len(subjects), "subjects read")
-    non_empty = [p for p in parts if len(p)]
-    summaries = pd.concat(non_empty, ignore_index=True) if non_empty else pd.DataFrame()
+    if not report.ok:
+        print(
+            f"aceval calibrate: {args.dataset}: recording files that cannot be used; no file "
+            f"written:\n{report.format()}",
+            file=sys.stderr,
+        )
+        return 1
+    summaries = _concat_tables(summaries)
+    pairs = _concat_tables(pairs)
     unusable = summaries[summaries["flag"] != ""] if len(summaries) else summaries
     for message in unusable.get("message", []):
         print(f"aceval calibrate: left out {message}", file=sys.stderr)
@@ -195,8 +204,53 @@ def _calibrate(args) -> int:
         _write_csv(args.recordings_out, summaries)
     if args.axes_out:
         _write_csv(args.axes_out, axes)
+    if args.pairs_out:
+        _write_csv(args.pairs_out, pairs)
+    if args.correlations_out:
+        _write_csv(
+            args.correlations_out,
+            correlations(dataset, calibrations, pairs, args.mode, segment_pairs),
+        )
+    if args.findings_out:
+        _write_findings(args.findings_out, report)
+    if report.warnings:
+        print(f"aceval calibrate: {len(report.warnings)} file warning(s):", file=sys.stderr)
+        print("\n".join(map(str, report.warnings)), file=sys.stderr)
     print(calibration_screen(calibrations, len(unusable), args.out), file=sys.stderr)
     return 0
+
+
+def _concat_tables(parts: list) -> pd.DataFrame:
+    import pandas as pd
+
+    non_empty = [p for p in parts if len(p)]
+    return (
+        pd.concat(non_empty, ignore_index=True)
+        if non_empty
+        else (parts[0] if parts else pd.DataFrame())
+    )
+
+
+def _write_findings(path, report) -> None:
+    """The file findings of a pass as a tab-separated table (level, where, cause)."""
+    import pandas as pd
+
+    table = pd.DataFrame(
+        [(f.level, f.where, f.cause) for f in report.findings], columns=["level", "where", "cause"]
+    )
+    _atomic(path, lambda tmp: table.to_csv(tmp, sep="\t", index=False))
+
+
+def _add_table_inputs(command) -> None:
+    """The tidy tables a table, figure or results folder is built from."""
+    command.add_argument("--calibrations", nargs="*", default=[], help="CSVs of `aceval calibrate`")
+    command.add_argument("--axes", nargs="*", default=[], help="axes CSVs (calibrate --axes-out)")
+    command.add_argument(
+        "--correlations", nargs="*", default=[], help="CSVs of calibrate --correlations-out"
+    )
+    command.add_argument(
+        "--paper-names", default="{}", help="JSON map of this dataset's test names to the paper's"
+    )
 
 
 def _add_trim_options(command) -> None:
@@ -272,25 +326,6 @@ def _apply(args) -> int:
     )
 
 
-def _correlate(args) -> int:
-    import json
-
-    from .dataset import load_dataset
-    from .pipeline import correlations
-
-    dataset = load_dataset(args.dataset)
-    table = correlations(
-        dataset,
-        _read_csvs([args.calibrations]),
-        args.mode,
-        json.loads(args.pairs),
-        _trim(args),
-        args.max_lag_s,
-    )
-    _write_csv(args.out, table)
-    return 0
-
-
 def _angles(args) -> int:
     from .objectives import all_angles
 
@@ -298,143 +333,87 @@ def _angles(args) -> int:
     return 0
 
 
-def _dataset_meta(root) -> dict:
-    import yaml
+def _single_output(args, kind: str) -> int:
+    """``aceval table|figure NAME``: one output of the registry, from the given tidy tables."""
+    import json
 
-    return yaml.safe_load((Path(root) / "dataset.yaml").read_text())
+    from .outputs import find
+    from .results import build_data, read_tables, write_figure, write_table
+
+    try:
+        output = find(kind, args.name)
+    except ValueError as exc:
+        print(f"aceval {kind}: {exc}", file=sys.stderr)
+        return 2
+    data = build_data(
+        args.dataset,
+        read_tables(args.calibrations),
+        read_tables(args.axes),
+        read_tables(args.correlations),
+        read_tables([args.angles] if args.angles else []),
+        json.loads(args.paper_names),
+    )
+    missing = [k for k in output.inputs if data.get(k) is None]
+    if missing:
+        print(
+            f"aceval {kind} {output.name}: needs {', '.join('--' + k for k in missing)} "
+            f"({output.paper})",
+            file=sys.stderr,
+        )
+        return 2
+    if kind == "table":
+        write_table(output, data, Path(args.csv), Path(args.md))
+    else:
+        write_figure(output, data, Path(args.out))
+    return 0
 
 
 def _table(args) -> int:
-    import json
-
-    from . import named_tables, tables
-
-    meta = _dataset_meta(args.dataset)
-    names = json.loads(args.paper_names)
-    if not args.number.isdigit():
-        table = named_tables.build(
-            args.number,
-            _optional_csvs(args.axes),
-            _optional_csvs(args.calibrations),
-            _optional_csvs([args.angles] if args.angles else []),
-            names,
-            _optional_csvs(args.correlations),
-            _dataset_sheet(args.dataset, "ground_truth_method.tsv"),
-            _dataset_sheet(args.dataset, "loose_reference.tsv"),
-        )
-        _write_csv(args.csv, table)
-        _write_text(
-            args.md,
-            named_tables.to_markdown(
-                table, args.number, meta.get("name", ""), bool(meta.get("simulated"))
-            ),
-        )
-        return 0
-    number = int(args.number)
-    table = tables.build(
-        number,
-        _read_csvs(args.correlations) if args.correlations else None,
-        _read_csvs([args.angles]) if args.angles else None,
-        list(meta["sensor_sets"])[:2],
-        names,
-    )
-    if not (table["n"] > 0).any():
-        print(
-            f"aceval table: Kong Table {number}: no data in {meta.get('name')} for this table",
-            file=sys.stderr,
-        )
-    _write_csv(args.csv, table)
-    _write_text(
-        args.md,
-        tables.to_markdown(table, number, meta.get("name", ""), bool(meta.get("simulated"))),
-    )
-    return 0
-
-
-def _dataset_sheet(root, name):
-    """An importer's extra sheet in the dataset folder, or None: ``ground_truth_method.tsv`` (how
-    a marker-based ground truth was made), ``loose_reference.tsv`` (a hand-set reference).
-    """
-    import pandas as pd
-
-    path = Path(root) / name
-    return pd.read_csv(path, sep="\t", dtype={"flag": str}) if path.is_file() else None
-
-
-def _optional_csvs(paths):
-    return _read_csvs(paths) if paths else None
+    return _single_output(args, "table")
 
 
 def _figure(args) -> int:
+    return _single_output(args, "figure")
+
+
+def _outputs(args) -> int:
+    """``aceval outputs``: a dataset's whole results folder (the workflow's job per dataset)."""
     import json
 
-    from . import figures
+    from .dataset import Finding, ValidationReport
+    from .results import build_data, dataset_meta, read_tables, write_results
 
-    meta = _dataset_meta(args.dataset)
-    title = str(meta.get("name", "")) + (" (SIMULATED)" if meta.get("simulated") else "")
-    names = json.loads(args.paper_names)
-    if not args.number.isdigit():
-        data = dict(
-            axes=_optional_csvs(args.axes),
-            calibrations=_optional_csvs(args.calibrations),
-            angles=_optional_csvs([args.angles] if args.angles else []),
-            correlations=_optional_csvs(args.correlations),
-            paper_names=names,
-        )
-        _atomic(args.out, lambda tmp: figures.plot_named(args.number, data, tmp, title))
-        return 0
-    _atomic(
-        args.out,
-        lambda tmp: figures.plot(
-            int(args.number),
-            _read_csvs(args.correlations) if args.correlations else None,
-            _read_csvs([args.angles]) if args.angles else None,
-            tmp,
-            title,
-            names,
-        ),
+    data = build_data(
+        args.dataset,
+        read_tables(args.calibrations),
+        read_tables(args.axes),
+        read_tables(args.correlations),
+        paper_names=json.loads(args.paper_names),
+    )
+    validation = None
+    if args.findings:
+        report = ValidationReport(str(dataset_meta(args.dataset).get("name", args.dataset)))
+        for path in args.findings:
+            table = _read_findings(path)
+            report.findings += [Finding(*row) for row in table.itertuples(index=False)]
+        validation = report.format() + "\n"
+    write_results(
+        Path(args.results),
+        args.dataset,
+        args.analyses,
+        data,
+        args.test_retest_k,
+        args.note,
+        validation,
+        lambda what: print(f"aceval outputs: wrote {what}", file=sys.stderr),
     )
     return 0
 
 
-def _summary(args) -> int:
-    import re
+def _read_findings(path):
+    import pandas as pd
 
-    from . import summary
-    from .comparison import truth_warning
-
-    meta = _dataset_meta(args.dataset)
-    tables, calibration_files, angles = {}, [], None
-    for path in map(Path, args.inputs):  # told apart by name, as the workflow writes them
-        if match := re.fullmatch(r"table(\d+)\.csv", path.name):
-            tables[int(match.group(1))] = _read_csvs([path])
-        elif path.parent.name == "tables" and path.suffix == ".csv":
-            tables[path.stem] = _read_csvs([path])
-        elif path.name == "angles.csv":
-            angles = _read_csvs([path])
-        elif (
-            path.parent.name == "calibrations"
-            and path.suffix == ".csv"
-            and not path.stem.endswith(("_recordings", "_axes"))
-        ):
-            calibration_files.append(path)
-    calibrations = _read_csvs(calibration_files) if calibration_files else None
-    notes = [f"- {line}" for line in args.note if line]
-    if calibrations is not None and (warning := truth_warning(calibrations)):
-        notes.append(f"- {warning}")
-    text = summary.to_markdown(
-        summary.claims(tables, angles, calibrations),
-        meta.get("name", ""),
-        meta.get("description", ""),
-        bool(meta.get("simulated")),
-        notes,
-        summary.methods_section(tables)
-        + summary.conditioning_section(tables)
-        + summary.truth_section(tables)
-        + summary.loose_reference_section(tables),
-    )
-    _write_text(args.out, text)
-    return 0
+    return pd.read_csv(path, sep="\t", dtype=str, keep_default_na=False)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -487,6 +466,16 @@ def main(argv: list[str] | None = None) -> int:
     validate.add_argument(
         "--out", help="write the report here when the dataset is valid (nothing when not)"
     )
+    validate.add_argument(
+        "--findings-out",
+        help="write the findings here as a table (level, where, cause) when the dataset is valid",
+    )
+    validate.add_argument(
+        "--sheets-only",
+        action="store_true",
+        help="the sheets, and of each recording file only that it exists and its header (the "
+        "workflow's first gate: the files' contents are checked in the pass that reads them)",
+    )
     validate.set_defaults(run=_validate)
 
     calibrate = commands.add_parser(
@@ -525,9 +514,30 @@ def main(argv: list[str] | None = None) -> int:
         help="write a table with no rows (and exit 0) when nothing can be calibrated (the workflow)",
     )
     calibrate.add_argument(
-        "--validated",
-        action="store_true",
-        help="skip the recording-file checks (the workflow has run `aceval validate`)",
+        "--correlations-out",
+        help="Kong Obj 1-2 correlations of the calibrated recording pairs (from the pair moments)",
+    )
+    calibrate.add_argument(
+        "--pairs-out", help="the moments of every time-aligned Obj 1-2 recording pair (CSV)"
+    )
+    calibrate.add_argument("--findings-out", help="file warnings of the pass (tab-separated)")
+    calibrate.add_argument(
+        "--mode",
+        choices=["concatenated", "per_axis", "per_axis_moving"],
+        default="concatenated",
+        help="correlation of two 3-axis signals (config objectives.correlation)",
+    )
+    calibrate.add_argument(
+        "--max-lag-s",
+        type=float,
+        default=0.5,
+        help="the two recordings of a pair are aligned by the lag, within this (s), that best "
+        "correlates their acceleration magnitudes (Kong Sec. 2.3) (0.5)",
+    )
+    calibrate.add_argument(
+        "--pairs",
+        default="{}",
+        help='Obj 2 segment pairs as JSON: {"name": {"segments": [a, b], "t_ap": [...]}}',
     )
     _add_trim_options(calibrate)
     calibrate.set_defaults(run=_calibrate)
@@ -547,30 +557,6 @@ def main(argv: list[str] | None = None) -> int:
     apply.add_argument("--force", action="store_true", help="replace a non-empty output folder")
     apply.set_defaults(run=_apply)
 
-    correlate = commands.add_parser(
-        "correlate", help="Kong Obj 1-2 correlations of calibrated signals (one subject)"
-    )
-    correlate.add_argument("dataset")
-    correlate.add_argument("--calibrations", required=True)
-    correlate.add_argument("--out", required=True)
-    correlate.add_argument(
-        "--mode", choices=["concatenated", "per_axis", "per_axis_moving"], default="concatenated"
-    )
-    correlate.add_argument(
-        "--max-lag-s",
-        type=float,
-        default=0.5,
-        help="the two recordings of a pair are aligned by the lag, within this (s), that best "
-        "correlates their acceleration magnitudes (Kong Sec. 2.3) (0.5)",
-    )
-    _add_trim_options(correlate)
-    correlate.add_argument(
-        "--pairs",
-        default="{}",
-        help='Obj 2 segment pairs as JSON: {"name": {"segments": [a, b], "t_ap": [...]}}',
-    )
-    correlate.set_defaults(run=_correlate)
-
     angles = commands.add_parser("angles", help="Kong Obj 3-5 error angles from calibration tables")
     angles.add_argument("--calibrations", nargs="+", required=True)
     angles.add_argument("--out", required=True)
@@ -578,51 +564,18 @@ def main(argv: list[str] | None = None) -> int:
     angles.set_defaults(run=_angles)
 
     for name, helper in (
-        (
-            "table",
-            "Kong Table N (3-11) or a named table (ricci_table1, methods, ...), "
-            "CSV and Markdown, published values beside",
-        ),
-        (
-            "figure",
-            "Kong Figure N (6, 8, 9, 10) or a named figure (ricci_figure4, methods, ...) as PNG",
-        ),
+        ("table", "one table, CSV and Markdown, the published values beside (aceval.outputs)"),
+        ("figure", "one figure as PNG (aceval.outputs)"),
     ):
         command = commands.add_parser(name, help=helper)
         command.add_argument(
-            "number",
-            help="Kong number, or a name: "
-            + ", ".join(
-                [
-                    "ricci_table1",
-                    "ricci_ttest",
-                    "ricci_lm",
-                    "ricci_residuals",
-                    "reliability",
-                    "reliability_retest",
-                    "methods",
-                    "methods_best",
-                ]
-                if name == "table"
-                else ["ricci_figure4", "ricci_figure5", "reliability", "methods"]
-            ),
+            "name", help=f"the {name}'s name in aceval.outputs (Kong's also by number: 3 = {name}3)"
         )
         command.add_argument(
             "--dataset", required=True, help="dataset folder (for its name and sensor sets)"
         )
-        command.add_argument("--correlations", nargs="*", default=[])
-        command.add_argument(
-            "--axes", nargs="*", default=[], help="axes CSVs of `aceval calibrate --axes-out`"
-        )
-        command.add_argument(
-            "--calibrations", nargs="*", default=[], help="calibration CSVs of `aceval calibrate`"
-        )
-        command.add_argument("--angles")
-        command.add_argument(
-            "--paper-names",
-            default="{}",
-            help="JSON map of this dataset's test names to the paper's",
-        )
+        _add_table_inputs(command)
+        command.add_argument("--angles", help="angles CSV of `aceval angles`")
         if name == "table":
             command.add_argument("--csv", required=True)
             command.add_argument("--md", required=True)
@@ -631,21 +584,29 @@ def main(argv: list[str] | None = None) -> int:
             command.add_argument("--out", required=True)
             command.set_defaults(run=_figure)
 
-    summarise = commands.add_parser(
-        "summary", help="SUMMARY.md: each Kong claim, holds / does not hold / not testable"
+    outputs = commands.add_parser(
+        "outputs",
+        help="a dataset's results folder in one process: angles, every table and figure of its "
+        "analyses, SUMMARY.md and validation.txt",
     )
-    summarise.add_argument("--dataset", required=True)
-    summarise.add_argument(
-        "inputs",
-        nargs="*",
-        help="tables/tableN.csv, angles.csv and calibrations/<subject>.csv "
-        "files of the dataset (others, e.g. validation.txt, are ignored)",
+    outputs.add_argument("--dataset", required=True, help="dataset folder")
+    outputs.add_argument("--results", required=True, help="the dataset's results folder")
+    outputs.add_argument(
+        "--analyses",
+        nargs="+",
+        required=True,
+        help="kong, box, ricci, methods, truth, loose_reference",
     )
-    summarise.add_argument(
-        "--note", action="append", default=[], help="a line to add under the counts"
+    _add_table_inputs(outputs)
+    outputs.add_argument(
+        "--findings", nargs="*", default=[],
+        help="findings of the validation (tab-separated: level, where, cause): validation.txt",
+    )  # fmt: skip
+    outputs.add_argument("--test-retest-k", type=int, default=3, help="Obj 4: k of k-of-n (3)")
+    outputs.add_argument(
+        "--note", action="append", default=[], help="a line for SUMMARY.md under the counts"
     )
-    summarise.add_argument("--out", required=True)
-    summarise.set_defaults(run=_summary)
+    outputs.set_defaults(run=_outputs)
 
     args = parser.parse_args(argv)
     from .safety import UnsafeOutputError, check_outputs, exit_cleanly_on_sigterm, fail
@@ -664,8 +625,12 @@ OUTPUT_OPTIONS = {
     "out": "--out",
     "csv": "--csv",
     "md": "--md",
+    "results": "--results",
     "recordings_out": "--recordings-out",
     "axes_out": "--axes-out",
+    "correlations_out": "--correlations-out",
+    "pairs_out": "--pairs-out",
+    "findings_out": "--findings-out",
 }
 INPUT_OPTIONS = {
     "dataset": "dataset",
@@ -676,7 +641,7 @@ INPUT_OPTIONS = {
     "correlations": "--correlations",
     "axes": "--axes",
     "angles": "--angles",
-    "inputs": "input",
+    "findings": "--findings",
 }
 #: commands whose --out is a folder written as a whole
 FOLDER_COMMANDS = {"simulate", "import", "apply"}
@@ -693,6 +658,9 @@ def _outputs_and_inputs(args) -> tuple[dict, dict, tuple]:
         value = getattr(args, name, None)
         for k, path in enumerate(value if isinstance(value, list) else [value] if value else []):
             inputs[f"{label}[{k}]" if isinstance(value, list) else label] = path
+    if args.command == "outputs":  # a results folder, written file by file: it holds its own
+        # intermediates (calibrations/, correlations/), and must not hold or sit in the dataset
+        return outputs, {"dataset": args.dataset}, ("--results",)
     return outputs, inputs, ("--out",) if args.command in FOLDER_COMMANDS else ()
 
 

@@ -1,4 +1,7 @@
-"""Kong et al. 2016 Figures 6, 8, 9 and 10 "in spirit": what they plot, drawn with seaborn."""
+"""The figures, drawn with seaborn: Kong et al. 2016 Figures 6, 8, 9 and 10 "in spirit" (what
+they plot, not their look), Ricci et al. 2014 Figures 4-5, and the figures beyond the papers.
+Captions are in :mod:`aceval.outputs`.
+"""
 
 from __future__ import annotations
 
@@ -11,20 +14,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 import seaborn as sns  # noqa: E402
 
+from .kong2016 import SEGMENT_ORDER, rename_tests  # noqa: E402
 from .objectives import unflagged  # noqa: E402
-from .tables import SEGMENT_ORDER, rename_tests  # noqa: E402
-
-FIGURES = {
-    6: "Acceleration correlation between the frontal/back and lateral sensor of each segment, by the "
-    "test the matrices are applied to (T_ap) and the test they come from (T_ex); mean and SD over "
-    "subjects and sides, each value averaged over the repetitions",
-    8: "Acceleration correlation between body segments moved as one rigid body (same sensor set), by "
-    "T_ap and T_ex; mean and SD over subjects, sets and sides",
-    9: "'Incremental' error angle: the change of the calibration when one repetition is added to k "
-    "repetitions (Kong Eq. 11-12), mean and SD by T_ex and segment",
-    10: "'To last' error angle: calibration from k repetitions vs from all of them (Kong Eq. 13 is "
-    "k = 1), mean and SD by T_ex and segment",
-}
 
 
 def _segments(values) -> list:
@@ -117,21 +108,6 @@ def plot(
     plt.close(grid.figure)
 
 
-NAMED_FIGURES = {
-    "obj1_sensitivity": "What Kong's Obj 1 can detect: frontal vs lateral acceleration correlation "
-    "against a heading error imposed on the lateral calibration, per correlation mode (mean and SD "
-    "over Table 3's units)",
-    "ricci_figure4": "Ricci Fig. 4 in spirit: the LM fit of one thorax frame per iteration (quaternion, "
-    "roll/pitch/yaw, residual vector, cost), and the cost from 10 random starts",
-    "ricci_figure5": "Ricci Fig. 5 in spirit: residual angle between each reference axis and its estimate "
-    "before (identity) and after the LM fit, mean and SD over children",
-    "reliability": "Reliability index of each Kong test (rho of the gyroscope axis; Kong planarity) against "
-    "the Obj 4 test-retest angle, one point per subject x set x IMU x test",
-    "methods": "Error angle to the true mounting by method and test, per segment: median and "
-    "interquartile range",
-}
-
-
 def _not_testable(out: Path, text: str) -> None:
     figure = plt.figure(figsize=(6, 1.5))
     figure.text(0.5, 0.5, text, ha="center", va="center", fontsize=9)
@@ -200,12 +176,14 @@ def _lm_example(axes: pd.DataFrame, figure_title: str, out: Path) -> None:
 
 
 def plot_named(name: str, data: dict, out: Path, title: str) -> None:
-    """Draw a named figure (``NAMED_FIGURES``) from the tidy tables in ``data``."""
-    from . import comparison, reliability
+    """Draw a figure beyond Kong's numbered ones (:mod:`aceval.outputs`) from the tidy tables in
+    ``data``.
+    """
+    from . import methods_comparison, ricci2014
 
     sns.set_theme(style="whitegrid", context="paper")
     if name == "obj1_sensitivity":
-        from .tables import correlation_sensitivity
+        from .kong2016 import correlation_sensitivity
 
         curve = correlation_sensitivity(data.get("correlations"))
         if curve.empty:
@@ -226,7 +204,7 @@ def plot_named(name: str, data: dict, out: Path, title: str) -> None:
         used = data["axes"].dropna(subset=["residual_after_deg"])
         if used.empty:
             return _not_testable(out, f"Ricci Fig. 5, {title}: no LM fit in this dataset")
-        long = used.assign(segment=reliability.segment_label(used["segment"], used["side"])).melt(
+        long = used.assign(segment=ricci2014.segment_label(used["segment"], used["side"])).melt(
             id_vars=["segment", "test"],
             value_vars=["residual_before_deg", "residual_after_deg"],
             var_name="when",
@@ -251,7 +229,9 @@ def plot_named(name: str, data: dict, out: Path, title: str) -> None:
         grid.figure.suptitle(f"Ricci Fig. 5 in spirit, {title}", y=1.02, fontsize=9)
         return _save(grid.figure, out)
     if name == "reliability":
-        units = reliability.kong_units(data["axes"], data["calibrations"], data.get("angles"))
+        units = methods_comparison.kong_units(
+            data["axes"], data["calibrations"], data.get("angles")
+        )
         units = units.dropna(subset=["test_retest_deg"])
         if units.empty:
             return _not_testable(out, f"Reliability vs test-retest, {title}: no test-retest angles")
@@ -278,10 +258,10 @@ def plot_named(name: str, data: dict, out: Path, title: str) -> None:
         figure.tight_layout()
         return _save(figure, out)
     if name == "methods":
-        errors = comparison.full_set_errors(data["calibrations"])
+        errors = methods_comparison.full_set_errors(data["calibrations"])
         if errors.empty:
             return _not_testable(out, f"Methods vs ground truth, {title}: no ground truth")
-        order = [m for m in comparison.METHOD_ORDER if m in set(errors["method"])]
+        order = [m for m in methods_comparison.METHOD_ORDER if m in set(errors["method"])]
         segments = _segments(errors["segment"])
         grid = sns.catplot(
             data=errors,
@@ -307,6 +287,4 @@ def plot_named(name: str, data: dict, out: Path, title: str) -> None:
         grid.set_titles("{col_name}")
         grid.figure.suptitle(f"Methods against the ground truth, {title}", y=1.02, fontsize=9)
         return _save(grid.figure, out)
-    raise ValueError(
-        f"unknown figure {name!r}: one of {', '.join(NAMED_FIGURES)} or a Kong figure number"
-    )
+    raise ValueError(f"unknown figure {name!r} (aceval.outputs lists the figures)")

@@ -2,7 +2,7 @@
 every reproduced one (``reference/kong2016``, see its SOURCE.md).
 
 Each builder returns one tidy frame: key columns, this run's values, ``n`` (what is counted is
-stated in ``TABLES[...]['unit']``), ``published_*`` and ``difference``. :func:`to_markdown`
+stated in the table's entry of :mod:`aceval.outputs`), ``published_*`` and ``difference``. :func:`to_markdown`
 renders it in the paper's layout plus a long comparison table.
 """
 
@@ -18,68 +18,46 @@ from .objectives import unflagged
 REFERENCE = Path(__file__).parent / "reference" / "kong2016"
 SEGMENT_ORDER = ["head", "chest", "waist", "thigh", "shank", "foot"]
 
+#: layout of each Kong table (titles, objective and unit: :mod:`aceval.outputs`)
 TABLES = {
     3: dict(
         reference="table3_frontal_lateral_correlation",
-        objective="Obj 1",
-        title="Acceleration correlation between the two sensors of one segment (frontal/back vs lateral set)",
-        unit="subject x IMU x T_ex, each averaged over the repetitions of T_ap",
         row="t_ap",
         column="segment",
         kind="correlation",
     ),
     4: dict(
         reference="table4_box_acc_correlation",
-        objective="Obj 1, rigid box",
-        title="Acceleration correlation between the two sensors of each IMU position on a rigid box",
-        unit="repetitions of T_ap (per box, averaged)",
         row="t_ap",
         column="imu",
         kind="correlation",
     ),
     5: dict(
         reference="table5_box_gyro_correlation",
-        objective="Obj 1, rigid box",
-        title="Angular velocity correlation between the two sensors of each IMU position on a rigid box",
-        unit="repetitions of T_ap (per box, averaged)",
         row="t_ap",
         column="imu",
         kind="correlation",
     ),
     6: dict(
         reference="table6_segment_pair_correlation",
-        objective="Obj 2",
-        title="Acceleration correlation between segments moved as one rigid body (same sensor set)",
-        unit="subject x sensor set x side x T_ex, each averaged over the repetitions of T_ap",
         row="pair",
         column="t_ap",
         kind="correlation",
     ),
     7: dict(
         reference="table7_ttest_segment_pair_correlation",
-        objective="Obj 2",
-        title="Paired t-test, segment-pair correlation, first vs second sensor set",
         kind_of_value="correlation",
-        unit="pairs matched on subject, side, T_ex, T_ap and repetition (paper-style); "
-        "subject x side (independent units)",
         row="pair",
         kind="ttest",
     ),
     8: dict(
         reference="table8_ttest_incremental_angle",
-        objective="Obj 3",
-        title="Paired t-test, 'incremental' error angle (deg), first vs second sensor set",
         kind_of_value="angle",
-        unit="pairs matched on subject, IMU, T_ex and the two subsets compared (paper-style); "
-        "subject x IMU (independent units)",
         row="segment",
         kind="ttest",
     ),
     9: dict(
         reference="table9_test_retest_angle",
-        objective="Obj 4",
-        title="Error angle (deg) between different subsets of three repetitions of the same test",
-        unit="subject x set x IMU x pair of 3-repetition subsets",
         row="t_ex",
         column="segment",
         kind="angle",
@@ -87,19 +65,12 @@ TABLES = {
     ),
     10: dict(
         reference="table10_ttest_test_retest_angle",
-        objective="Obj 4",
-        title="Paired t-test, test-retest error angle (deg), first vs second sensor set",
         kind_of_value="angle",
-        unit="pairs matched on subject, IMU, T_ex and the two subsets compared (paper-style); "
-        "subject x IMU (independent units)",
         row="segment",
         kind="ttest",
     ),
     11: dict(
         reference="table11_cross_test_angle",
-        objective="Obj 5",
-        title="Error angle (deg) between the calibrations from two different tests",
-        unit="subject x set x IMU",
         row="t_ex_pair",
         column="segment",
         kind="angle",
@@ -438,22 +409,50 @@ def _fmt_p(value) -> str:
     return "<0.001" if value < 0.001 else f"{value:.3f}"
 
 
-def to_markdown(table: pd.DataFrame, number: int, dataset: str, simulated: bool) -> str:
-    """Kong Table ``number`` as Markdown: the paper's layout, then beside the published values."""
-    spec = TABLES[number]
-    lines = [
-        f"# Kong et al. 2016, Table {number}: {spec['title']}",
+def _heading(title: str, dataset: str, simulated: bool, what: str) -> list[str]:
+    return [
+        f"# {title}",
         "",
         f"Dataset **{dataset}**"
         + (" (SIMULATED data, not the paper's recordings)" if simulated else "")
-        + f". {spec['objective']}. n counts {spec['unit']}.",
+        + f". {what}",
         "",
     ]
+
+
+def to_markdown(table: pd.DataFrame, number: int, dataset: str, simulated: bool) -> str:
+    """Kong Table ``number`` as Markdown: the paper's layout, then beside the published values."""
+    from .outputs import find
+
+    spec, output = TABLES[number], find("table", str(number))
+    objective = output.paper.split("(")[-1].rstrip(")")
+    lines = _heading(
+        f"Kong et al. 2016, Table {number}: {output.title}",
+        dataset,
+        simulated,
+        f"{objective}. n counts {output.unit}.",
+    )
     if spec["kind"] == "ttest":
         lines += _ttest_markdown(table, spec)
     else:
         lines += _matrix_markdown(table, spec)
     return "\n".join(lines) + "\n"
+
+
+def named_markdown(
+    table: pd.DataFrame, title: str, unit: str, dataset: str, simulated: bool
+) -> str:
+    """A table beyond Kong's numbered ones as Markdown, labelled with its dataset (and SIMULATED)."""
+    lines = _heading(title, dataset, simulated, f"n counts {unit}.")
+    if table.empty:
+        return "\n".join(lines + ["No data in this dataset for this table.", ""])
+    shown = table.copy()
+    for column in shown.columns:
+        if column in ("p", "p_holm"):
+            shown[column] = [_fmt_p(v) for v in shown[column]]
+        elif pd.api.types.is_float_dtype(shown[column]):
+            shown[column] = [_fmt(v) for v in shown[column]]
+    return "\n".join(lines + [shown.to_markdown(index=False, disable_numparse=True), ""])
 
 
 def _matrix_markdown(table: pd.DataFrame, spec: dict) -> list[str]:

@@ -171,7 +171,7 @@ def _defensible(table: pd.DataFrame | None) -> pd.DataFrame:
     """The rows of a set-comparison table (7, 8, 10) on which claims are judged: the paired t-test
     on independent units (per-subject x IMU means).
     """
-    from .tables import DEFENSIBLE_TEST
+    from .kong2016 import DEFENSIBLE_TEST
 
     cells = _cells(table)
     return cells[cells["test"] == DEFENSIBLE_TEST] if len(cells) else cells
@@ -591,7 +591,7 @@ def ricci_claims(tables: dict) -> list[Claim]:
     if ttest.empty:
         out.append(_untestable("Ricci t-test", claim, rule, "needs FEB and FE (and FFEB)"))
     else:
-        from .reliability import PRIMARY_READING
+        from .ricci2014 import PRIMARY_READING
 
         primary = ttest[ttest["reading"] == PRIMARY_READING]
         second = ttest[ttest["reading"] != PRIMARY_READING]
@@ -927,7 +927,7 @@ def calibration_screen(calibrations: pd.DataFrame, n_left_out: int, path) -> str
     )
     if per_method["median_error_deg"].isna().all():
         per_method = per_method.drop(columns="median_error_deg")
-    from .comparison import truth_warning
+    from .methods_comparison import truth_warning
 
     lines = [
         f"aceval calibrate: wrote {path}",

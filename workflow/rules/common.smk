@@ -5,6 +5,7 @@ import os
 
 import pandas as pd
 
+from aceval.outputs import outputs_of
 from aceval.safety import path_problem
 
 #: the datasets this run covers: ``run`` names them (default: every dataset of the config)
@@ -60,68 +61,12 @@ def import_options(wildcards):
     return options + (["--subject", spec["subject"]] if "subject" in spec else [])
 
 
-#: what each analysis produces: Kong et al. 2016 tables and figures (tableN, figureN), the Ricci
-#: et al. 2014 reproduction, the reliability of Kong's tests; "methods" joins every dataset with
-#: ground truth
-ANALYSES = {
-    "kong": {
-        "tables": [
-            "table3",
-            "table6",
-            "table7",
-            "table8",
-            "table9",
-            "table10",
-            "table11",
-            "correlation_factors",
-            "obj1_sensitivity",
-            "reliability",
-            "reliability_retest",
-            "conditioning",
-        ],
-        "figures": ["figure6", "figure8", "figure9", "figure10", "obj1_sensitivity", "reliability"],
-    },
-    "box": {"tables": ["table4", "table5"], "figures": []},
-    "ricci": {
-        "tables": ["ricci_table1", "ricci_ttest", "ricci_lm", "ricci_residuals"],
-        "figures": ["ricci_figure4", "ricci_figure5"],
-    },
-    "methods": {"tables": ["methods", "methods_best"], "figures": ["methods"]},
-    "truth": {"tables": ["truth_errors"], "figures": []},
-    "loose_reference": {"tables": ["loose_reference"], "figures": []},
-}
-#: the inputs of each table and figure (Kong's by number: correlations or error angles)
-INPUTS = {
-    **{f"table{n}": ["correlations"] for n in (3, 4, 5, 6, 7)},
-    **{f"table{n}": ["angles"] for n in (8, 9, 10, 11)},
-    "correlation_factors": ["correlations"],
-    "obj1_sensitivity": ["correlations"],
-    "figure6": ["correlations"],
-    "figure8": ["correlations"],
-    "figure9": ["angles"],
-    "figure10": ["angles"],
-    "ricci_table1": ["axes"],
-    "ricci_ttest": ["axes"],
-    "ricci_lm": ["calibrations"],
-    "ricci_residuals": ["axes"],
-    "ricci_figure4": ["axes"],
-    "ricci_figure5": ["axes"],
-    "reliability": ["axes", "calibrations", "angles"],
-    "reliability_retest": ["axes", "calibrations", "angles"],
-    "methods": ["calibrations"],
-    "methods_best": ["calibrations"],
-    "truth_errors": ["calibrations"],
-    "conditioning": ["calibrations"],
-    "loose_reference": ["calibrations"],
-}
 ALL_UNITS = "_all"  # the calibration "unit" of a dataset calibrated in one job
 
 
 wildcard_constraints:
     dataset="|".join(map(re.escape, DATASETS)),
     subject=r"[^/]+",
-    table="|".join(sorted({t for a in ANALYSES.values() for t in a["tables"]})),
-    figure="|".join(sorted({f for a in ANALYSES.values() for f in a["figures"]})),
 
 
 def only(names):
@@ -227,16 +172,13 @@ def analyses(dataset):
     )
 
 
-def tables_of(dataset):
-    return sorted({n for a in analyses(dataset) for n in ANALYSES[a]["tables"]})
-
-
-def figures_of(dataset):
-    return sorted({n for a in analyses(dataset) for n in ANALYSES[a]["figures"]})
+def dataset_outputs(dataset):
+    """The registry's outputs (aceval.outputs) of this dataset's analyses."""
+    return outputs_of(analyses(dataset))
 
 
 def trim_options():
-    """The trimmer's parameters (config ``calibration.trim``) as options of calibrate/correlate."""
+    """The trimmer's parameters (config ``calibration.trim``) as options of `aceval calibrate`."""
     trim = config["calibration"]["trim"]
     return [
         f"--trim-threshold={trim['threshold']}",
@@ -246,8 +188,14 @@ def trim_options():
     ]
 
 
-def paper_names(dataset):
-    return json.dumps(DATASETS[dataset].get("paper_names", {}))
+def correlation_options():
+    """Obj 1-2 options of `aceval calibrate` (config ``objectives``)."""
+    objectives = config["objectives"]
+    return [
+        f"--mode={objectives['correlation']}",
+        f"--max-lag-s={objectives['max_lag_s']}",
+        f"--pairs={json.dumps(objectives['segment_pairs'])}",
+    ]
 
 
 def simulated_label(dataset):
@@ -262,68 +210,59 @@ def simulated_label(dataset):
 def all_outputs(wildcards):
     out = []
     for dataset in DATASETS:
-        out.append(f"results/{dataset}/SUMMARY.md")
-        out += [f"results/{dataset}/tables/{name}.md" for name in tables_of(dataset)]
-        out += [f"results/{dataset}/figures/{name}.png" for name in figures_of(dataset)]
+        out += [f"results/{dataset}/SUMMARY.md", f"results/{dataset}/validation.txt"]
+        out += [f"results/{dataset}/{o.path}" for o in dataset_outputs(dataset)]
     return out
 
 
-# --- inputs and options of the tables, figures and summaries ------------------------------------
+# --- inputs and outputs of a dataset's results job ----------------------------------------------
 
 
-def calibration_files(wildcards):
-    return [
-        f"results/{wildcards.dataset}/calibrations/{u}.csv"
-        for u in calibration_units(wildcards.dataset)
-    ]
+def unit_files(dataset, pattern):
+    """``pattern`` (e.g. 'calibrations/{unit}_axes.csv') for each calibration job of the dataset."""
+    return [f"results/{dataset}/{pattern.format(unit=u)}" for u in calibration_units(dataset)]
 
 
-def axes_files(wildcards):
-    return [
-        f"results/{wildcards.dataset}/calibrations/{u}_axes.csv"
-        for u in calibration_units(wildcards.dataset)
-    ]
+def results_inputs(dataset):
+    """What the results job of ``dataset`` reads: every calibration job's tables and findings,
+    and the sheets gate's findings."""
+
+    def inputs(wildcards):
+        return {
+            "sheets": f"results/{dataset}/validation/sheets.tsv",
+            "calibrations": unit_files(dataset, "calibrations/{unit}.csv"),
+            "axes": unit_files(dataset, "calibrations/{unit}_axes.csv"),
+            "correlations": unit_files(dataset, "correlations/{unit}.csv"),
+            "findings": unit_files(dataset, "calibrations/{unit}_findings.tsv"),
+        }
+
+    return inputs
 
 
-def correlation_files(wildcards):
-    return [
-        f"results/{wildcards.dataset}/correlations/{s}.csv" for s in subjects(wildcards.dataset)
-    ]
-
-
-def output_inputs(wildcards):
-    """The inputs of a table or figure (INPUTS), by kind."""
+def results_outputs(dataset):
+    """Every file the results job of ``dataset`` writes, by name, tables and figures marked for
+    the report with their registry entry's title."""
+    folder = f"results/{dataset}"
     files = {
-        "correlations": correlation_files,
-        "calibrations": calibration_files,
-        "axes": axes_files,
-        "angles": lambda w: [f"results/{w.dataset}/angles.csv"],
-    }
-    name = wildcards.table if "table" in wildcards.keys() else wildcards.figure
-    return {kind: files[kind](wildcards) for kind in INPUTS[name]}
-
-
-def source_options(wildcards, input):
-    """--correlations/--calibrations/--axes/--angles options of `aceval table|figure`, as a list."""
-    options = []
-    for kind in ("correlations", "calibrations", "axes", "angles"):
-        if kind in input.keys():
-            options += [f"--{kind}", *input[kind]]
-    return options
-
-
-def kong_number(name):
-    """`aceval table|figure` takes Kong's tables and figures by number, the others by name."""
-    return name[5:] if name.startswith("table") else name[6:] if name.startswith("figure") else name
-
-
-def summary_inputs(wildcards):
-    dataset = wildcards.dataset
-    inputs = {
-        "validation": f"results/{dataset}/validation.txt",
-        "tables": [f"results/{dataset}/tables/{name}.csv" for name in tables_of(dataset)],
+        "summary": report(
+            f"{folder}/SUMMARY.md",
+            caption="../report/summary.rst",
+            category=dataset,
+            subcategory="Summary",
+            labels={"dataset": dataset, "file": "SUMMARY.md"},
+        ),
+        "validation": f"{folder}/validation.txt",
     }
     if "kong" in analyses(dataset):
-        inputs["angles"] = f"results/{dataset}/angles.csv"
-        inputs["calibrations"] = calibration_files(wildcards)
-    return inputs
+        files["angles"] = f"{folder}/angles.csv"
+    for o in dataset_outputs(dataset):
+        files[f"{o.kind}_{o.name}"] = report(
+            f"{folder}/{o.path}",
+            caption=f"../report/{o.kind}.rst",
+            category=dataset,
+            subcategory=f"{o.kind.capitalize()}s",
+            labels={"dataset": dataset, o.kind: o.name, "reproduces": o.paper, "title": o.title},
+        )
+        if o.kind == "table":
+            files[f"markdown_{o.name}"] = f"{folder}/tables/{o.name}.md"
+    return files

@@ -1,6 +1,7 @@
 # Stage 1: the datasets. Simulated ones are generated from a seed, real recordings imported; every
-# dataset is validated against the contract, its recording files included, before anything else
-# runs (a failed validation stops the workflow; a file changed after a good run validates again).
+# dataset's sheets are validated against the contract, and each recording file's presence and
+# header, before anything else runs (a failed validation stops the workflow; a file changed after a
+# good run validates again). The files' contents are checked in the pass that reads them (stage 2).
 
 
 rule simulate:
@@ -49,7 +50,7 @@ checkpoint validate:
     input:
         dataset_input,
     output:
-        "results/{dataset}/validation.txt",
+        "results/{dataset}/validation/sheets.tsv",
     log:
         "logs/{dataset}/validate.log",
     conda:
@@ -57,4 +58,5 @@ checkpoint validate:
     params:
         root=lambda w: dataset_dir(w.dataset),
     shell:
-        "python -m aceval validate {params.root:q} --out {output:q} > {log:q} 2>&1 || (cat {log:q} >&2; exit 1)"
+        "python -m aceval validate {params.root:q} --sheets-only --findings-out {output:q} > {log:q} 2>&1 "
+        "|| (cat {log:q} >&2; exit 1)"

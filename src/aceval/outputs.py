@@ -1,0 +1,424 @@
+"""The one registry of aceval's outputs: every table and figure, the paper item it reproduces (or
+that it goes beyond the papers), the analysis it belongs to, what it is built from, its caption
+and its builder. The workflow (which files a dataset gets, and the report's labels), the command
+line (``aceval table|figure|outputs``) and the renderers read it; adding an output is one entry
+here and its builder.
+
+Builders import their modules when called, so reading the registry costs no start-up time.
+Tables are built from a dict ``data`` of tidy tables (``INPUT_KINDS``) plus ``paper_names`` and
+``sensor_sets``; figures draw from the same dict to a PNG path.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+#: the tidy tables an output can be built from: the per-subject outputs of ``aceval calibrate``
+#: (calibrations, axes, correlations), the Obj 3-5 angles, and an imported dataset's sheets on its
+#: ground truth (ground_truth_method.tsv) or a loose reference (loose_reference.tsv)
+INPUT_KINDS = ("calibrations", "axes", "correlations", "angles", "truth_method", "loose_reference")
+#: the analyses a dataset can ask for (config ``analyses``), and the ones aceval adds itself
+ANALYSES = ("kong", "box", "ricci", "methods", "truth", "loose_reference")
+
+
+@dataclass(frozen=True)
+class Output:
+    """One table or figure of a dataset's results (``results/<dataset>/<kind>s/<name>``)."""
+
+    name: str
+    kind: str  # "table" | "figure"
+    analysis: str  # one of ANALYSES
+    paper: str  # the paper item it reproduces, or "beyond the papers"
+    inputs: tuple[str, ...]  # kinds of INPUT_KINDS
+    title: str  # the table's heading, the figure's caption
+    unit: str = ""  # tables: what n counts
+    build: Callable | None = None  # tables: data -> DataFrame; figures: (data, png, title) -> None
+    markdown: Callable | None = None  # tables: (table, output, dataset, simulated) -> str
+
+    @property
+    def path(self) -> str:
+        """Where it lives under ``results/<dataset>/`` (tables: the CSV; the Markdown beside)."""
+        return f"{self.kind}s/{self.name}.{'csv' if self.kind == 'table' else 'png'}"
+
+
+# --- builders (lazy imports) -------------------------------------------------------------------
+
+
+def _kong_table(number: int) -> Callable:
+    def build(data: dict):
+        from . import kong2016
+
+        return kong2016.build(
+            number,
+            data.get("correlations"),
+            data.get("angles"),
+            data["sensor_sets"],
+            data["paper_names"],
+        )
+
+    return build
+
+
+def _kong_markdown(table, output: Output, dataset: str, simulated: bool) -> str:
+    from . import kong2016
+
+    return kong2016.to_markdown(table, int(output.name.removeprefix("table")), dataset, simulated)
+
+
+def _named_markdown(table, output: Output, dataset: str, simulated: bool) -> str:
+    from .kong2016 import named_markdown
+
+    return named_markdown(table, output.title, output.unit, dataset, simulated)
+
+
+def _named(function: str, *kinds: str, optional: tuple[str, ...] = ()) -> Callable:
+    """A builder calling ``module.function(data[kind], ...)`` (``optional`` kinds may be None),
+    then rounding as every table is rounded.
+    """
+    module, name = function.split(".")
+
+    def build(data: dict):
+        import importlib
+
+        from .kong2016 import rounded
+
+        call = getattr(importlib.import_module(f"aceval.{module}"), name)
+        arguments = [data[k] for k in kinds] + [data.get(k) for k in optional]
+        return rounded(call(*arguments).reset_index(drop=True))
+
+    return build
+
+
+def _kong_units(function: str) -> Callable:
+    def build(data: dict):
+        from . import methods_comparison
+        from .kong2016 import rounded
+
+        units = methods_comparison.kong_units(
+            data["axes"], data["calibrations"], data.get("angles")
+        )
+        return rounded(getattr(methods_comparison, function)(units).reset_index(drop=True))
+
+    return build
+
+
+def _kong_figure(number: int) -> Callable:
+    def draw(data: dict, out, title: str) -> None:
+        from . import figures
+
+        figures.plot(
+            number, data.get("correlations"), data.get("angles"), out, title, data["paper_names"]
+        )
+
+    return draw
+
+
+def _named_figure(data: dict, out, title: str, name: str = "") -> None:
+    from . import figures
+
+    figures.plot_named(name, data, out, title)
+
+
+def _figure(name: str) -> Callable:
+    return lambda data, out, title: _named_figure(data, out, title, name)
+
+
+# --- the registry ------------------------------------------------------------------------------
+
+_KONG_TABLES = {
+    3: ("Obj 1", "Acceleration correlation between the two sensors of one segment (frontal/back vs "
+        "lateral set)", "subject x IMU x T_ex, each averaged over the repetitions of T_ap"),
+    4: ("Obj 1, rigid box", "Acceleration correlation between the two sensors of each IMU position "
+        "on a rigid box", "repetitions of T_ap (per box, averaged)"),
+    5: ("Obj 1, rigid box", "Angular velocity correlation between the two sensors of each IMU "
+        "position on a rigid box", "repetitions of T_ap (per box, averaged)"),
+    6: ("Obj 2", "Acceleration correlation between segments moved as one rigid body (same sensor "
+        "set)", "subject x sensor set x side x T_ex, each averaged over the repetitions of T_ap"),
+    7: ("Obj 2", "Paired t-test, segment-pair correlation, first vs second sensor set",
+        "pairs matched on subject, side, T_ex, T_ap and repetition (paper-style); subject x side "
+        "(independent units)"),
+    8: ("Obj 3", "Paired t-test, 'incremental' error angle (deg), first vs second sensor set",
+        "pairs matched on subject, IMU, T_ex and the two subsets compared (paper-style); subject x "
+        "IMU (independent units)"),
+    9: ("Obj 4", "Error angle (deg) between different subsets of three repetitions of the same "
+        "test", "subject x set x IMU x pair of 3-repetition subsets"),
+    10: ("Obj 4", "Paired t-test, test-retest error angle (deg), first vs second sensor set",
+         "pairs matched on subject, IMU, T_ex and the two subsets compared (paper-style); subject "
+         "x IMU (independent units)"),
+    11: ("Obj 5", "Error angle (deg) between the calibrations from two different tests",
+         "subject x set x IMU"),
+}  # fmt: skip
+_KONG_FIGURES = {
+    6: ("Obj 1", "correlations", "Acceleration correlation between the frontal/back and lateral "
+        "sensor of each segment, by the test the matrices are applied to (T_ap) and the test they "
+        "come from (T_ex); mean and SD over subjects and sides, each value averaged over the "
+        "repetitions"),
+    8: ("Obj 2", "correlations", "Acceleration correlation between body segments moved as one "
+        "rigid body (same sensor set), by T_ap and T_ex; mean and SD over subjects, sets and sides"),
+    9: ("Obj 3", "angles", "'Incremental' error angle: the change of the calibration when one "
+        "repetition is added to k repetitions (Kong Eq. 11-12), mean and SD by T_ex and segment"),
+    10: ("Obj 3", "angles", "'To last' error angle: calibration from k repetitions vs from all of "
+         "them (Kong Eq. 13 is k = 1), mean and SD by T_ex and segment"),
+}  # fmt: skip
+
+_ENTRIES = [
+    *(
+        Output(
+            f"table{n}",
+            "table",
+            "box" if n in (4, 5) else "kong",
+            f"Kong et al. 2016, Table {n} ({objective})",
+            ("correlations",) if n <= 7 else ("angles",),
+            title,
+            unit,
+            _kong_table(n),
+            _kong_markdown,
+        )  # fmt: skip
+        for n, (objective, title, unit) in _KONG_TABLES.items()
+    ),
+    Output(
+        "correlation_factors",
+        "table",
+        "kong",
+        "Kong et al. 2016, Obj 1-2 (Sec. 3.1, 4)",
+        ("correlations",),
+        "Kong et al. 2016, Obj 1-2: share of the variance of the correlations explained by the "
+        "test the matrix comes from (T_ex), the test it is applied to (T_ap) and the segment",
+        "Obj 1: subject x IMU x T_ex x T_ap (Table 3's units); Obj 2: subject x set x side x pair x "
+        "T_ex x T_ap (Table 6's); eta squared from type II sums of squares of an additive model",
+        _named("kong2016.correlation_factors", "correlations"),
+        _named_markdown,
+    ),  # fmt: skip
+    Output(
+        "obj1_sensitivity",
+        "table",
+        "kong",
+        "beyond the papers (what Obj 1 can detect)",
+        ("correlations",),
+        "What Kong's Obj 1 correlation can detect: the frontal vs lateral acceleration correlation "
+        "when the lateral calibration is turned by a known heading error, per correlation mode",
+        "subject x IMU x T_ex x T_ap (Table 3's units), each averaged over the repetitions",
+        _named("kong2016.correlation_sensitivity", "correlations"),
+        _named_markdown,
+    ),  # fmt: skip
+    Output(
+        "reliability",
+        "table",
+        "kong",
+        "beyond the papers (Ricci's index on Kong's tests)",
+        ("axes", "calibrations", "angles"),
+        "Reliability indices of Kong's tests in Ricci Table 1's layout: rho of the gyroscope "
+        "axis and Kong planarity",
+        "subject x sensor set x IMU (both from all repetitions of the test)",
+        _kong_units("kong_reliability_table"),
+        _named_markdown,
+    ),  # fmt: skip
+    Output(
+        "reliability_retest",
+        "table",
+        "kong",
+        "beyond the papers",
+        ("axes", "calibrations", "angles"),
+        "Does a reliability index predict the Obj 4 test-retest angle? Spearman rank correlation",
+        "subject x sensor set x IMU x test (index from all repetitions; angle = mean over the "
+        "pairs of 3-repetition subsets)",
+        _kong_units("reliability_vs_retest"),
+        _named_markdown,
+    ),  # fmt: skip
+    Output(
+        "conditioning",
+        "table",
+        "kong",
+        "beyond the papers (Kong Eq. 3's conditioning)",
+        ("calibrations",),
+        "How well each test determines each IMU's heading by Kong's plane: eigenvalue ratio "
+        "(smallest/middle; above 0.5 undetermined) and planarity, flagged calibrations included",
+        "subject x sensor set x IMU x test (the calibration from all repetitions)",
+        _named("methods_comparison.conditioning_table", "calibrations"),
+        _named_markdown,
+    ),  # fmt: skip
+    *(
+        Output(
+            f"figure{n}",
+            "figure",
+            "kong",
+            f"Kong et al. 2016, Figure {n} ({objective})",
+            (source,),
+            caption,
+            build=_kong_figure(n),
+        )  # fmt: skip
+        for n, (objective, source, caption) in _KONG_FIGURES.items()
+    ),
+    Output(
+        "obj1_sensitivity",
+        "figure",
+        "kong",
+        "beyond the papers (what Obj 1 can detect)",
+        ("correlations",),
+        "What Kong's Obj 1 can detect: frontal vs lateral acceleration correlation against a "
+        "heading error imposed on the lateral calibration, per correlation mode (mean and SD over "
+        "Table 3's units)",
+        build=_figure("obj1_sensitivity"),
+    ),  # fmt: skip
+    Output(
+        "reliability",
+        "figure",
+        "kong",
+        "beyond the papers (Ricci's index on Kong's tests)",
+        ("axes", "calibrations", "angles"),
+        "Reliability index of each Kong test (rho of the gyroscope axis; Kong planarity) against "
+        "the Obj 4 test-retest angle, one point per subject x set x IMU x test",
+        build=_figure("reliability"),
+    ),  # fmt: skip
+    Output(
+        "ricci_table1",
+        "table",
+        "ricci",
+        "Ricci et al. 2014, Table 1",
+        ("axes",),
+        "Ricci et al. 2014, Table 1: reliability index rho per movement and segment",
+        "subjects (each child's rho pooled over its 3 trials, as Ricci: 9-12 repetitions)",
+        _named("ricci2014.rho_table", "axes", "paper_names"),
+        _named_markdown,
+    ),  # fmt: skip
+    Output(
+        "ricci_ttest",
+        "table",
+        "ricci",
+        "Ricci et al. 2014, Sec. 4 (paired t-test)",
+        ("axes",),
+        "Ricci et al. 2014: paired t-test of rho, supported (bar) vs unsupported movement",
+        "children, one pair per child and side (rho pooled over the 3 trials); sides tested "
+        "separately; p raw and Holm-corrected within each reading; the paper reports only p < "
+        "0.05 for each frame",
+        _named("ricci2014.supported_ttest", "axes"),
+        _named_markdown,
+    ),  # fmt: skip
+    Output(
+        "ricci_lm",
+        "table",
+        "ricci",
+        "Ricci et al. 2014, Sec. 3 (LM iterations)",
+        ("calibrations",),
+        "Ricci et al. 2014: Levenberg-Marquardt iterations per frame, and random starts",
+        "IMUs (subject x side); q0 = identity, lambda = 1e-3, stop at relative cost change < 1e-4; "
+        "each fit also from random unit quaternions (how many: random_starts), counted as "
+        "reaching the optimum when within 0.1 deg of SciPy's closed-form solution",
+        _named("ricci2014.lm_table", "calibrations"),
+        _named_markdown,
+    ),  # fmt: skip
+    Output(
+        "ricci_residuals",
+        "table",
+        "ricci",
+        "Ricci et al. 2014, Eq. 13, Fig. 5",
+        ("axes",),
+        "Ricci et al. 2014, Fig. 5 / Eq. 13: residual angle between each reference axis and its "
+        "estimate, before (identity) and after the LM fit (deg)",
+        "IMUs (subject x side)",
+        _named("ricci2014.residual_table", "axes", "paper_names"),
+        _named_markdown,
+    ),  # fmt: skip
+    Output(
+        "ricci_figure4",
+        "figure",
+        "ricci",
+        "Ricci et al. 2014, Figure 4",
+        ("axes",),
+        "Ricci Fig. 4 in spirit: the LM fit of one thorax frame per iteration (quaternion, "
+        "roll/pitch/yaw, residual vector, cost), and the cost from 10 random starts",
+        build=_figure("ricci_figure4"),
+    ),  # fmt: skip
+    Output(
+        "ricci_figure5",
+        "figure",
+        "ricci",
+        "Ricci et al. 2014, Figure 5",
+        ("axes",),
+        "Ricci Fig. 5 in spirit: residual angle between each reference axis and its estimate "
+        "before (identity) and after the LM fit, mean and SD over children",
+        build=_figure("ricci_figure5"),
+    ),  # fmt: skip
+    Output(
+        "methods",
+        "table",
+        "methods",
+        "beyond the papers (accuracy)",
+        ("calibrations",),
+        "Every method against the ground truth: error angle to the true mounting (deg)",
+        "subjects (each IMU's calibration from all repetitions of the test; Ricci's design: from "
+        "all its axes)",
+        _named("methods_comparison.methods_table", "calibrations"),
+        _named_markdown,
+    ),  # fmt: skip
+    Output(
+        "methods_best",
+        "table",
+        "methods",
+        "beyond the papers (Kong Sec. 4's recommendation)",
+        ("calibrations",),
+        "Which test to use for which segment: smallest median error per method, beside Kong's "
+        "recommendation (T3 upper body, T6 thighs and shanks)",
+        "calibrations of both sensor sets",
+        _named("methods_comparison.best_tests", "calibrations"),
+        _named_markdown,
+    ),  # fmt: skip
+    Output(
+        "methods",
+        "figure",
+        "methods",
+        "beyond the papers (accuracy)",
+        ("calibrations",),
+        "Error angle to the true mounting by method and test, per segment: median and "
+        "interquartile range",
+        build=_figure("methods"),
+    ),  # fmt: skip
+    Output(
+        "truth_errors",
+        "table",
+        "truth",
+        "beyond the papers (real-data truth)",
+        ("calibrations", "truth_method"),
+        "Against a marker-based ground truth: each method's error beside the truth's own "
+        "uncertainty, the second (marker-frame) truth, and the method's conditioning",
+        "one row per sensor, test and method (all repetitions); the truths and their checks are "
+        "in the dataset's ground_truth_method.tsv",
+        _named("methods_comparison.truth_errors", "calibrations", "truth_method"),
+        _named_markdown,
+    ),  # fmt: skip
+    Output(
+        "loose_reference",
+        "table",
+        "loose_reference",
+        "beyond the papers (orders of magnitude)",
+        ("calibrations", "loose_reference"),
+        "Orders of magnitude against a loose reference (hand-tuned segment axes, NOT a ground "
+        "truth): angle between each calibration's right axis and the reference's, and between "
+        "the verticals (deg)",
+        "one row per sensor, test and method (all repetitions, flagged calibrations included); "
+        "the reference and its standing check are in the dataset's loose_reference.tsv",
+        _named("methods_comparison.loose_reference_angles", "calibrations", "loose_reference"),
+        _named_markdown,
+    ),  # fmt: skip
+]
+#: every output by (kind, name)
+OUTPUTS: dict[tuple[str, str], Output] = {(o.kind, o.name): o for o in _ENTRIES}
+
+
+def outputs_of(analyses) -> list[Output]:
+    """The outputs of these analyses, tables first, in the registry's order."""
+    chosen = [o for o in _ENTRIES if o.analysis in set(analyses)]
+    return [o for o in chosen if o.kind == "table"] + [o for o in chosen if o.kind == "figure"]
+
+
+def find(kind: str, name: str) -> Output:
+    """The output ``name`` of ``kind`` ('table' or 'figure'); Kong's also by number ('3' ->
+    'table3'). ValueError naming the known ones otherwise.
+    """
+    if name.isdigit():
+        name = f"{kind}{name}"
+    if (kind, name) not in OUTPUTS:
+        known = ", ".join(n for k, n in OUTPUTS if k == kind)
+        raise ValueError(f"unknown {kind} {name!r}: one of {known}")
+    return OUTPUTS[(kind, name)]

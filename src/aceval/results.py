@@ -1,0 +1,168 @@
+"""A dataset's results folder in one process: the Obj 3-5 angles, every table and figure of its
+analyses (:mod:`aceval.outputs`), SUMMARY.md and validation.txt.
+
+One process per dataset, not one per output: starting Python with pandas, SciPy, statsmodels and
+seaborn costs seconds, far more than most tables take to build (benchmarks/README.md).
+"""
+
+from __future__ import annotations
+
+import io
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import pandas as pd
+import yaml
+
+from .outputs import Output, outputs_of
+from .safety import atomic_file
+
+
+def read_tables(paths) -> pd.DataFrame | None:
+    """The CSV tables at ``paths`` concatenated (an empty file, e.g. a subject with nothing to
+    calibrate, is skipped but keeps its columns when all are empty); None for no paths.
+    """
+    if not paths:
+        return None
+    parts = []
+    for path in paths:
+        try:
+            parts.append(pd.read_csv(path))
+        except pd.errors.EmptyDataError:
+            continue
+    non_empty = [p for p in parts if len(p)] or parts[:1]
+    return pd.concat(non_empty, ignore_index=True) if non_empty else pd.DataFrame()
+
+
+def dataset_sheet(root, name: str) -> pd.DataFrame | None:
+    """An importer's extra sheet in the dataset folder, or None: ``ground_truth_method.tsv`` (how
+    a marker-based ground truth was made), ``loose_reference.tsv`` (a hand-set reference).
+    """
+    path = Path(root) / name
+    return pd.read_csv(path, sep="\t", dtype={"flag": str}) if path.is_file() else None
+
+
+def dataset_meta(root) -> dict:
+    """dataset.yaml of the dataset at ``root``."""
+    return yaml.safe_load((Path(root) / "dataset.yaml").read_text())
+
+
+def _as_read_back(table: pd.DataFrame, text: str) -> pd.DataFrame:
+    """The table as a reader of its CSV sees it (what the summary's rules are written against)."""
+    try:
+        return pd.read_csv(io.StringIO(text))
+    except pd.errors.EmptyDataError:
+        return table
+
+
+def _write_text(path: Path, text: str) -> None:
+    atomic_file(path, lambda tmp: Path(tmp).write_text(text))
+
+
+def build_data(
+    root, calibrations=None, axes=None, correlations=None, angles=None, paper_names=None
+) -> dict:
+    """The ``data`` dict the builders read: the tidy tables, the dataset's truth and reference
+    sheets, its ``paper_names`` (this dataset's test names -> the paper's) and sensor sets.
+    """
+    meta = dataset_meta(root)
+    return {
+        "calibrations": calibrations,
+        "axes": axes,
+        "correlations": correlations,
+        "angles": angles,
+        "truth_method": dataset_sheet(root, "ground_truth_method.tsv"),
+        "loose_reference": dataset_sheet(root, "loose_reference.tsv"),
+        "sensor_sets": list(meta["sensor_sets"])[:2],
+        "paper_names": paper_names or {},
+        "meta": meta,
+    }
+
+
+def write_table(output: Output, data: dict, csv: Path, md: Path) -> pd.DataFrame:
+    """Build one table, write it as CSV and Markdown; returns it as read back from the CSV."""
+    meta = data["meta"]
+    table = output.build(data)
+    if "n" in table.columns and output.name.startswith("table") and not (table["n"] > 0).any():
+        print(
+            f"aceval: {output.name}: no data in {meta.get('name')} for this table", file=sys.stderr
+        )
+    text = table.to_csv(index=False)
+    _write_text(csv, text)
+    _write_text(
+        md, output.markdown(table, output, meta.get("name", ""), bool(meta.get("simulated")))
+    )
+    return _as_read_back(table, text)
+
+
+def write_figure(output: Output, data: dict, png: Path) -> None:
+    """Draw one figure to ``png``; its title names the dataset (and says SIMULATED)."""
+    meta = data["meta"]
+    title = str(meta.get("name", "")) + (" (SIMULATED)" if meta.get("simulated") else "")
+    atomic_file(png, lambda tmp: output.build(data, tmp, title))
+
+
+def write_results(
+    results: Path,
+    root,
+    analyses: list[str],
+    data: dict,
+    test_retest_k: int = 3,
+    notes: list[str] = (),
+    validation: str | None = None,
+    progress: Callable[[str], None] = lambda message: None,
+) -> None:
+    """Write ``results`` (a dataset's folder under results/): ``angles.csv`` (Kong's analyses), the
+    tables (CSV and Markdown) and figures of ``analyses``, ``SUMMARY.md`` and, when given, the
+    ``validation`` report as validation.txt. ``data`` from :func:`build_data`.
+    """
+    from . import summary
+    from .methods_comparison import truth_warning
+    from .objectives import all_angles
+
+    results = Path(results)
+    (results / "tables").mkdir(parents=True, exist_ok=True)
+    (results / "figures").mkdir(parents=True, exist_ok=True)
+    chosen = outputs_of(analyses)
+    if "kong" in analyses and data.get("angles") is None:
+        angles = all_angles(data["calibrations"], test_retest_k)
+        text = angles.to_csv(index=False)
+        _write_text(results / "angles.csv", text)
+        data["angles"] = _as_read_back(angles, text)
+        progress("angles.csv")
+    tables = {}
+    for output in [o for o in chosen if o.kind == "table"]:
+        table = write_table(
+            output, data, results / output.path, results / f"tables/{output.name}.md"
+        )
+        key = output.name.removeprefix("table")
+        tables[int(key) if key.isdigit() else output.name] = table
+        progress(output.path)
+    for output in [o for o in chosen if o.kind == "figure"]:
+        write_figure(output, data, results / output.path)
+        progress(output.path)
+    meta = data["meta"]
+    # Kong's claims and the truth warning read the angles and calibrations; the other analyses'
+    # claims read their tables only
+    angles, calibrations = (
+        (data.get("angles"), data.get("calibrations")) if "kong" in analyses else (None, None)
+    )
+    notes = [f"- {line}" for line in notes if line]
+    if calibrations is not None and (warning := truth_warning(calibrations)):
+        notes.append(f"- {warning}")
+    text = summary.to_markdown(
+        summary.claims(tables, angles, calibrations),
+        meta.get("name", ""),
+        meta.get("description", ""),
+        bool(meta.get("simulated")),
+        notes,
+        summary.methods_section(tables)
+        + summary.conditioning_section(tables)
+        + summary.truth_section(tables)
+        + summary.loose_reference_section(tables),
+    )
+    _write_text(results / "SUMMARY.md", text)
+    progress("SUMMARY.md")
+    if validation is not None:
+        _write_text(results / "validation.txt", validation)
