@@ -9,7 +9,7 @@ from aceval.dataset import load_dataset, validate
 from aceval.pipeline import calibrate, summarise_recordings
 from aceval.simulate import SimOptions, simulate_box, simulate_kong, simulate_ricci
 from aceval.simulate.body import Anthropometry, kong_placements
-from aceval.simulate.engine import GRAVITY, OVERSAMPLE, PAD, measure
+from aceval.simulate.engine import GRAVITY, OVERSAMPLE, PAD, euler_pitch_roll_yaw, measure
 from aceval.simulate.kong_protocol import PROTOCOL
 from aceval.simulate.motion import segment_poses
 
@@ -33,6 +33,35 @@ def test_at_rest_specific_force_is_one_g_pointing_up():
         body_frame = acc @ mount.T  # sensor -> segment (= body frame in stance, up to sway)
         np.testing.assert_allclose(np.linalg.norm(acc, axis=1), GRAVITY, atol=0.01)
         assert np.all(body_frame[:, 2] < -0.999 * GRAVITY)  # up is -z
+
+
+def test_euler_matrices_are_scipys_intrinsic_zxy():
+    """The written-out Z-X-Y matrices are SciPy's ``from_euler('ZXY')`` (to rounding), for arrays
+    and scalars."""
+    rng = np.random.default_rng(0)
+    pitch, roll, yaw = rng.uniform(-3, 3, (3, 500))
+    expected = Rotation.from_euler("ZXY", np.column_stack([yaw, roll, pitch])).as_matrix()
+    np.testing.assert_allclose(euler_pitch_roll_yaw(pitch, roll, yaw), expected, atol=1e-14)
+    np.testing.assert_allclose(
+        euler_pitch_roll_yaw(0.3, 0.0, -0.2)[0],
+        Rotation.from_euler("ZXY", [-0.2, 0.0, 0.3]).as_matrix(),
+        atol=1e-15,
+    )
+
+
+def test_subjects_in_parallel_write_the_same_dataset(tmp_path):
+    """Each subject draws from its own random streams: two processes write the same bytes as one."""
+
+    def digest(folder):
+        return {
+            str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(folder.rglob("*"))
+            if p.is_file()
+        }
+
+    one = simulate_box(tmp_path / "one", 4, n_subjects=3, options=SimOptions(repetitions=2))
+    two = simulate_box(tmp_path / "two", 4, n_subjects=3, options=SimOptions(repetitions=2, jobs=2))
+    assert digest(one) == digest(two) and len(digest(one)) > 100
 
 
 @pytest.mark.parametrize("test", ["T1", "T3", "T4", "T5", "T6"])

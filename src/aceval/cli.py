@@ -37,6 +37,7 @@ def _simulate(args) -> int:
         offplane=0.0 if args.no_offplane else 1.0,
         wobble=0.0 if args.no_wobble else 1.0,
         repetitions=args.repetitions,
+        jobs=args.jobs,
     )
     kwargs = {"options": options}
     if args.subjects is not None:
@@ -139,9 +140,11 @@ def _calibrate(args) -> int:
     except DatasetError as exc:
         print(f"aceval calibrate: {args.dataset} is not a valid dataset:\n{exc}", file=sys.stderr)
         return 1
-    if args.subject is not None and args.subject not in dataset.subjects.index:
+    unknown = [s for s in args.subject or [] if s not in dataset.subjects.index]
+    if unknown:
         print(
-            f"aceval calibrate: subject {args.subject!r} is not in {args.dataset}/subjects.tsv",
+            f"aceval calibrate: subject(s) {', '.join(map(repr, unknown))} not in "
+            f"{args.dataset}/subjects.tsv",
             file=sys.stderr,
         )
         return 2
@@ -154,7 +157,7 @@ def _calibrate(args) -> int:
         return 2
     trim = _trim(args)
     segment_pairs = json.loads(args.pairs)
-    subjects = [args.subject] if args.subject is not None else list(dataset.subjects.index)
+    subjects = args.subject if args.subject is not None else list(dataset.subjects.index)
     summaries, pairs, report = [], [], ValidationReport(dataset.name)
     for done, subject in enumerate(subjects, start=1):
         reduced = reduce_recordings(
@@ -406,6 +409,7 @@ def _outputs(args) -> int:
         args.note,
         validation,
         lambda what: print(f"aceval outputs: wrote {what}", file=sys.stderr),
+        tuple(args.kinds),
     )
     return 0
 
@@ -436,6 +440,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     simulate.add_argument("--no-offplane", action="store_true", help="pure sagittal-plane motion")
     simulate.add_argument("--no-wobble", action="store_true", help="no soft-tissue wobble")
+    simulate.add_argument(
+        "--jobs", type=int, default=1, help="subjects simulated side by side (same output; 1)"
+    )
     simulate.add_argument("--force", action="store_true", help="replace a non-empty output folder")
     simulate.set_defaults(run=_simulate)
 
@@ -484,7 +491,7 @@ def main(argv: list[str] | None = None) -> int:
         "(Ricci LM, align_vectors, TRIAD); Ricci's functional design when functional_axes.tsv exists",
     )
     calibrate.add_argument("dataset")
-    calibrate.add_argument("--subject", help="only this subject (default: all)")
+    calibrate.add_argument("--subject", nargs="+", help="only these subjects (default: all)")
     calibrate.add_argument("--out", required=True, help="calibrations CSV")
     calibrate.add_argument(
         "--recordings-out", help="per-recording summary CSV (what was kept or left out, and why)"
@@ -602,6 +609,13 @@ def main(argv: list[str] | None = None) -> int:
         "--findings", nargs="*", default=[],
         help="findings of the validation (tab-separated: level, where, cause): validation.txt",
     )  # fmt: skip
+    outputs.add_argument(
+        "--kinds",
+        nargs="+",
+        choices=["table", "figure"],
+        default=["table", "figure"],
+        help="what to write: tables (with angles.csv, SUMMARY.md, validation.txt), figures, or both",
+    )
     outputs.add_argument("--test-retest-k", type=int, default=3, help="Obj 4: k of k-of-n (3)")
     outputs.add_argument(
         "--note", action="append", default=[], help="a line for SUMMARY.md under the counts"

@@ -5,12 +5,35 @@ simulator and the importers.
 from __future__ import annotations
 
 import csv
+import io
+import multiprocessing
+import sys
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
 import yaml
 
 from .dataset import ACC_UNITS, GYR_UNITS, KONG_FIRST_PHASE, R_COLUMNS, RECORDING_COLUMNS
+
+#: what a worker process of DatasetWriter.each_subject runs (set before the workers fork)
+_TASK: tuple | None = None
+
+
+def _write_subject(k: int) -> tuple[str, list]:
+    """One subject in a worker: its files written, its recordings.tsv rows and truths returned."""
+    write_subject, root, meta = _TASK
+    writer = DatasetWriter(root, meta, sheets=False)
+    write_subject(k, writer)
+    return writer._recordings.getvalue(), writer._ground_truth
+
+
+def progress(label: str, done: int, total: int) -> None:
+    """One-line progress on stderr for long generations."""
+    if label:
+        print(f"\r{label}: {done}/{total}", end="\n" if done == total else "", file=sys.stderr,
+              flush=True)  # fmt: skip
 
 
 def write_sheet(path: Path, columns: list[str], rows: list) -> None:
@@ -48,19 +71,27 @@ def simulated_meta(
 
 
 class DatasetWriter:
-    """Writes sheets and one CSV per recording; recordings.tsv is appended as files are written."""
+    """Writes sheets and one CSV per recording; recordings.tsv is appended as files are written.
 
-    def __init__(self, root: Path, meta: dict):
+    :meth:`each_subject` writes the subjects in parallel processes: each writes its own files and
+    hands back its sheet rows, which are appended in subject order, so the dataset is the same
+    byte for byte whatever the number of processes.
+    """
+
+    def __init__(self, root: Path, meta: dict, sheets: bool = True):
         self.root = Path(root)
         self.root.mkdir(parents=True, exist_ok=True)
         self.meta = meta
         self.acc_scale = ACC_UNITS[meta["units"]["acc"]]
         self.gyr_scale = GYR_UNITS[meta["units"]["gyr"]]
+        self._ground_truth: list = []
+        if not sheets:  # a worker of each_subject: its rows go back to the parent
+            self._recordings = io.StringIO()
+            return
         with open(self.root / "dataset.yaml", "w") as handle:
             yaml.safe_dump(meta, handle, sort_keys=False)
         self._recordings = open(self.root / "recordings.tsv", "w", newline="")
         self._recordings.write("subject\tsensor_set\ttest\trep\timu\tpath\n")
-        self._ground_truth: list = []
 
     def recording(self, subject, sensor_set, test, rep, imu, gyr, acc) -> str:
         """Write one recording (SI in, dataset.yaml's units out); returns its path in the dataset."""
@@ -80,6 +111,27 @@ class DatasetWriter:
     def reference(self, subject, sensor_set, test, rep, imu, path: str) -> None:
         """A recordings.tsv row for a file already written (one file serving two tests)."""
         self._recordings.write(f"{subject}\t{sensor_set}\t{test}\t{rep}\t{imu}\t{path}\n")
+
+    def each_subject(self, write_subject: Callable, n: int, jobs: int = 1, label: str = "") -> None:
+        """Call ``write_subject(k, writer)`` for k = 0 .. n-1, in ``jobs`` processes (each subject
+        must draw from its own random streams); progress on stderr as subjects complete.
+        """
+        if jobs <= 1 or n <= 1:
+            for k in range(n):
+                write_subject(k, self)
+                progress(label, k + 1, n)
+            return
+        global _TASK
+        _TASK = (write_subject, self.root, self.meta)
+        pool = ProcessPoolExecutor(min(jobs, n), mp_context=multiprocessing.get_context("fork"))
+        try:
+            for k, (rows, truth) in enumerate(pool.map(_write_subject, range(n))):
+                self._recordings.write(rows)
+                self._ground_truth += truth
+                progress(label, k + 1, n)
+        finally:  # on an error or SIGTERM: no worker may still write once the caller cleans up
+            pool.shutdown(wait=True, cancel_futures=True)
+            _TASK = None
 
     def protocol_sheets(self, tests: dict, repetitions: dict, calibrates: dict) -> None:
         """tests.tsv from ``{test: (kind, description)}`` and ``{test: repetitions}`` (``first_phase``

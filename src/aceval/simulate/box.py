@@ -10,7 +10,7 @@ import numpy as np
 
 from ..writer import DatasetWriter, simulated_meta, write_sheet
 from .body import Placement, random_mount
-from .common import SimOptions, progress, sensor_signals
+from .common import SimOptions, sensor_signals
 from .engine import band_noise, euler_pitch_roll_yaw, fine_time, small_rotations
 from .kong import ACC_RANGE_G, GYR_RANGE_DPS, IMUS, SENSOR_SETS, UNITS
 from .motion import bell
@@ -114,7 +114,10 @@ def simulate_box(
             for imu, _, _, region in IMUS
         ],
     )
-    for k, subject in enumerate(subjects):
+    runs = [(test, rep) for test in TESTS for rep in range(1, repetitions[test] + 1)]
+
+    def write_subject(k: int, writer: DatasetWriter) -> None:
+        subject = subjects[k]
         rng = np.random.default_rng([seed, 1, k])
         mounts = {}
         for sensor_set in meta["sensor_sets"]:
@@ -123,7 +126,6 @@ def simulate_box(
                     rng, placements[sensor_set][imu], MISALIGNMENT_SD_DEG
                 )
                 writer.ground_truth(subject, sensor_set, imu, mounts[sensor_set, imu])
-        runs = [(test, rep) for test in TESTS for rep in range(1, repetitions[test] + 1)]
         for j, (test, rep) in enumerate(runs):
             run_rng = np.random.default_rng([seed, 2, k, j])
             _, R, origin, envelope = TESTS[test][0](run_rng, options.fs_hz)
@@ -141,6 +143,7 @@ def simulate_box(
                         ACC_RANGE_G[region],
                     )
                     writer.recording(subject, sensor_set, test, rep, imu, gyr, acc)
-        progress(f"box_sim {out}", k + 1, len(subjects))
+
+    writer.each_subject(write_subject, len(subjects), options.jobs, f"box_sim {out}")
     writer.close()
     return out

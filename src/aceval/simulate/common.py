@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,6 +21,7 @@ class SimOptions:
     wobble: float = 1.0
     misalignment_sd_deg: float = 10.0
     repetitions: int = 5
+    jobs: int = 1  # processes writing subjects side by side (the output does not depend on it)
 
 
 def sensor_signals(
@@ -52,10 +52,3 @@ def sensor_signals(
     p_w = origin + R_seg @ np.asarray(position, dtype=float)
     gyr, acc = measure(R_ws, p_w, options.fs_hz)
     return error_model.apply(rng, gyr, acc, options.fs_hz, acc_range_g, enabled=options.noise)
-
-
-def progress(label: str, done: int, total: int) -> None:
-    """One-line progress on stderr for long generations."""
-    print(
-        f"\r{label}: {done}/{total}", end="\n" if done == total else "", file=sys.stderr, flush=True
-    )

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..writer import DatasetWriter, simulated_meta, write_sheet
 from .body import Anthropometry, kong_placements, random_mount
-from .common import SimOptions, progress, sensor_signals
+from .common import SimOptions, sensor_signals
 from .engine import euler_pitch_roll_yaw
 from .kong_protocol import PROTOCOL
 from .motion import segment_poses
@@ -126,7 +126,9 @@ def simulate_kong(
     )
 
     runs = [(test, rep) for test in PROTOCOL for rep in range(1, repetitions[test] + 1)]
-    for k, (subject, _, height_cm, _) in enumerate(subjects):
+
+    def write_subject(k: int, writer: DatasetWriter) -> None:
+        subject, _, height_cm, _ = subjects[k]
         rng = np.random.default_rng([seed, 1, k])
         body = Anthropometry(height_cm / 100.0)
         placements = kong_placements(body)
@@ -163,6 +165,7 @@ def simulate_kong(
                         ACC_RANGE_G[region],
                     )
                     writer.recording(subject, sensor_set, test, rep, imu, gyr, acc)
-        progress(f"kong_sim {out}", k + 1, len(subjects))
+
+    writer.each_subject(write_subject, len(subjects), options.jobs, f"kong_sim {out}")
     writer.close()
     return out

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..writer import DatasetWriter, simulated_meta, write_sheet
 from .body import Placement, random_mount
-from .common import SimOptions, progress, sensor_signals
+from .common import SimOptions, sensor_signals
 from .engine import ImuErrorModel, band_noise, euler_pitch_roll_yaw, fine_time, small_rotations
 from .motion import bell
 
@@ -251,7 +251,9 @@ def simulate_ricci(
     write_sheet(out / "functional_axes.tsv", ["test", "segment", "axis"], functional_axes())
     error_model = ImuErrorModel(gyr_range_dps=GYR_RANGE_DPS)
     runs = [(test, trial) for test in tests for trial in range(1, TRIALS + 1)]
-    for k, (subject, _, height_cm) in enumerate(subjects):
+
+    def write_subject(k: int, writer: DatasetWriter) -> None:
+        subject, _, height_cm = subjects[k]
         rng = np.random.default_rng([seed, 1, k])
         child = Child(height_cm / 100.0)
         placements = child.placements()
@@ -278,6 +280,7 @@ def simulate_ricci(
                     error_model,
                 )
                 writer.recording(subject, "main", test, trial, imu, gyr, acc)
-        progress(f"ricci_sim {out}", k + 1, len(subjects))
+
+    writer.each_subject(write_subject, len(subjects), options.jobs, f"ricci_sim {out}")
     writer.close()
     return out
