@@ -112,36 +112,48 @@ def write_results(
     notes: list[str] = (),
     validation: str | None = None,
     progress: Callable[[str], None] = lambda message: None,
+    kinds: tuple[str, ...] = ("table", "figure"),
 ) -> None:
-    """Write ``results`` (a dataset's folder under results/): ``angles.csv`` (Kong's analyses), the
-    tables (CSV and Markdown) and figures of ``analyses``, ``SUMMARY.md`` and, when given, the
-    ``validation`` report as validation.txt. ``data`` from :func:`build_data`.
+    """Write into ``results`` (a dataset's folder under results/) the outputs of ``analyses`` of
+    these ``kinds``: for tables also ``angles.csv`` (Kong's analyses), ``SUMMARY.md`` and, when
+    given, the ``validation`` report as validation.txt. ``data`` from :func:`build_data`. Tables
+    and figures can be written by two processes at once (the workflow does).
     """
-    from . import summary
-    from .methods_comparison import truth_warning
     from .objectives import all_angles
 
     results = Path(results)
-    (results / "tables").mkdir(parents=True, exist_ok=True)
-    (results / "figures").mkdir(parents=True, exist_ok=True)
-    chosen = outputs_of(analyses)
+    chosen = [o for o in outputs_of(analyses) if o.kind in kinds]
     if "kong" in analyses and data.get("angles") is None:
         angles = all_angles(data["calibrations"], test_retest_k)
         text = angles.to_csv(index=False)
-        _write_text(results / "angles.csv", text)
+        if "table" in kinds:
+            _write_text(results / "angles.csv", text)
+            progress("angles.csv")
         data["angles"] = _as_read_back(angles, text)
-        progress("angles.csv")
     tables = {}
-    for output in [o for o in chosen if o.kind == "table"]:
-        table = write_table(
-            output, data, results / output.path, results / f"tables/{output.name}.md"
-        )
-        key = output.name.removeprefix("table")
-        tables[int(key) if key.isdigit() else output.name] = table
+    for output in chosen:
+        (results / f"{output.kind}s").mkdir(parents=True, exist_ok=True)
+        if output.kind == "table":
+            table = write_table(
+                output, data, results / output.path, results / f"tables/{output.name}.md"
+            )
+            key = output.name.removeprefix("table")
+            tables[int(key) if key.isdigit() else output.name] = table
+        else:
+            write_figure(output, data, results / output.path)
         progress(output.path)
-    for output in [o for o in chosen if o.kind == "figure"]:
-        write_figure(output, data, results / output.path)
-        progress(output.path)
+    if "table" in kinds:
+        _write_text(results / "SUMMARY.md", summary_text(tables, analyses, data, notes))
+        progress("SUMMARY.md")
+        if validation is not None:
+            _write_text(results / "validation.txt", validation)
+
+
+def summary_text(tables: dict, analyses: list[str], data: dict, notes: list[str]) -> str:
+    """SUMMARY.md from the tables as read back (Kong's keyed by number, the others by name)."""
+    from . import summary
+    from .methods_comparison import truth_warning
+
     meta = data["meta"]
     # Kong's claims and the truth warning read the angles and calibrations; the other analyses'
     # claims read their tables only
@@ -151,7 +163,7 @@ def write_results(
     notes = [f"- {line}" for line in notes if line]
     if calibrations is not None and (warning := truth_warning(calibrations)):
         notes.append(f"- {warning}")
-    text = summary.to_markdown(
+    return summary.to_markdown(
         summary.claims(tables, angles, calibrations),
         meta.get("name", ""),
         meta.get("description", ""),
@@ -162,7 +174,3 @@ def write_results(
         + summary.truth_section(tables)
         + summary.loose_reference_section(tables),
     )
-    _write_text(results / "SUMMARY.md", text)
-    progress("SUMMARY.md")
-    if validation is not None:
-        _write_text(results / "validation.txt", validation)

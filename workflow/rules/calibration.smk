@@ -1,4 +1,4 @@
-# Stage 2: one pass per subject (or per dataset, `calibration_jobs: one`): each recording file read
+# Stage 2: one pass per subject (or per batch of subjects, `subjects_per_job`): each recording file read
 # once, checked (every problem named with its file and line; an error stops the workflow), and reduced
 # to the statistics every analysis needs; from them every calibration (Kong for every subset of
 # repetitions, the axis methods, or Ricci's functional design) and the correlations of Kong's Obj 1-2
@@ -23,7 +23,7 @@ rule calibrate:
         "../envs/aceval.yaml"
     params:
         root=lambda w: dataset_dir(w.dataset),
-        subject=lambda w: [] if w.subject == ALL_UNITS else ["--subject", w.subject],
+        subject=lambda w: ["--subject", *subject_batches(w.dataset)[w.subject]],
         options=trim_options() + correlation_options(),
     shell:
         "python -m aceval calibrate {params.root:q} {params.subject:q} --allow-empty "

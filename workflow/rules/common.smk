@@ -61,7 +61,6 @@ def import_options(wildcards):
     return options + (["--subject", spec["subject"]] if "subject" in spec else [])
 
 
-ALL_UNITS = "_all"  # the calibration "unit" of a dataset calibrated in one job
 
 
 wildcard_constraints:
@@ -122,25 +121,32 @@ def subjects(dataset):
     return list(table["subject"].str.strip())
 
 
+def subject_batches(dataset):
+    """``{unit: [subject, ...]}``: the subjects of each calibration job (config
+    ``subjects_per_job``, in subjects.tsv order); a job of one subject is named after it."""
+    names = subjects(dataset)
+    size = DATASETS[dataset].get("subjects_per_job", 1)
+    if size == 1:
+        return {name: [name] for name in names}
+    chunks = [names[k : k + size] for k in range(0, len(names), size)]
+    width = len(str(len(chunks)))
+    return {f"_batch{k:0{width}d}": chunk for k, chunk in enumerate(chunks, start=1)}
+
+
 def calibration_units(dataset):
-    """What one calibration job covers: each subject, or the whole dataset (``calibration_jobs: one``)."""
-    if DATASETS[dataset].get("calibration_jobs", "per_subject") == "one":
-        return [ALL_UNITS]
-    return subjects(dataset)
+    """The calibration jobs of a dataset (:func:`subject_batches`)."""
+    return list(subject_batches(dataset))
 
 
 def subject_recordings(wildcards):
-    """A lab dataset's recording files of one subject (so that editing them reruns only that subject)."""
+    """A lab dataset's recording files of one calibration job's subjects (so that editing them
+    reruns only that job)."""
     if wildcards.dataset in GENERATED:
         return []
     root = dataset_dir(wildcards.dataset)
     table = pd.read_csv(os.path.join(root, "recordings.tsv"), sep="\t", dtype=str)
-    chosen = (
-        table
-        if wildcards.subject == ALL_UNITS
-        else table[table["subject"].str.strip() == wildcards.subject]
-    )
-    return _recording_paths(root, chosen)
+    chosen = subject_batches(wildcards.dataset)[wildcards.subject]
+    return _recording_paths(root, table[table["subject"].str.strip().isin(chosen)])
 
 
 def has_truth_method(dataset):
@@ -224,7 +230,7 @@ def unit_files(dataset, pattern):
 
 
 def results_inputs(dataset):
-    """What the results job of ``dataset`` reads: every calibration job's tables and findings,
+    """What the results jobs of ``dataset`` read: every calibration job's tables and findings,
     and the sheets gate's findings."""
 
     def inputs(wildcards):
@@ -239,24 +245,25 @@ def results_inputs(dataset):
     return inputs
 
 
-def results_outputs(dataset):
-    """Every file the results job of ``dataset`` writes, by name, tables and figures marked for
-    the report with their registry entry's title."""
+def results_outputs(dataset, kind):
+    """Every file a results job of ``dataset`` writes (``kind`` 'table': the tables, angles.csv,
+    SUMMARY.md and validation.txt; 'figure': the figures), by name, tables and figures marked for
+    the report with their registry entry's paper item and title."""
     folder = f"results/{dataset}"
-    files = {
-        "summary": report(
+    files = {}
+    if kind == "table":
+        files["summary"] = report(
             f"{folder}/SUMMARY.md",
             caption="../report/summary.rst",
             category=dataset,
             subcategory="Summary",
             labels={"dataset": dataset, "file": "SUMMARY.md"},
-        ),
-        "validation": f"{folder}/validation.txt",
-    }
-    if "kong" in analyses(dataset):
-        files["angles"] = f"{folder}/angles.csv"
-    for o in dataset_outputs(dataset):
-        files[f"{o.kind}_{o.name}"] = report(
+        )
+        files["validation"] = f"{folder}/validation.txt"
+        if "kong" in analyses(dataset):
+            files["angles"] = f"{folder}/angles.csv"
+    for o in [o for o in dataset_outputs(dataset) if o.kind == kind]:
+        files[o.name] = report(
             f"{folder}/{o.path}",
             caption=f"../report/{o.kind}.rst",
             category=dataset,
@@ -264,5 +271,5 @@ def results_outputs(dataset):
             labels={"dataset": dataset, o.kind: o.name, "reproduces": o.paper, "title": o.title},
         )
         if o.kind == "table":
-            files[f"markdown_{o.name}"] = f"{folder}/tables/{o.name}.md"
+            files[f"{o.name}_md"] = f"{folder}/tables/{o.name}.md"
     return files

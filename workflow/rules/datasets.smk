@@ -11,6 +11,8 @@ rule simulate:
         "logs/{dataset}/simulate.log",
     wildcard_constraints:
         dataset=only(SIMULATED),
+    threads: 2
+    priority: 10
     conda:
         "../envs/aceval.yaml"
     params:
@@ -23,7 +25,7 @@ rule simulate:
         ],
     shell:
         "python -m aceval simulate {params.protocol:q} --out {output:q} --seed {params.seed:q} {params.options:q} "
-        "--force 2> {log:q}"
+        "--jobs {threads} --force 2> {log:q}"
 
 
 rule import_dataset:
