@@ -533,20 +533,18 @@ def correlations(
 
     Also, for Obj 1's acceleration (``objective='frontal_lateral_sensitivity'``): the correlation in
     every mode with the second set's calibration turned by each heading error in ``headings_deg``
-    about body z, to measure what size of calibration error the correlation can detect.
+    about body z, to measure what size of calibration error the correlation can detect; one row
+    per unit, mode and heading (the mean over the repetitions).
     """
     if calibrations.empty or pairs.empty:
         return pd.DataFrame(columns=CORRELATION_COLUMNS)
     full = full_sets(calibrations)
     motion = [t for t in dataset.tests.index if dataset.tests.loc[t, "kind"] == "motion"]
-    index = {
-        key: k
-        for k, key in enumerate(
-            zip(pairs["objective"], pairs["sensor_set"], pairs["imu"], pairs["imu_b"].fillna(""),
-                pairs["test"], pairs["rep"].astype(int), pairs["signal"], pairs["window"])
-        )
-    }  # fmt: skip
-    reps = pairs.groupby(["objective", "sensor_set", "imu", "test"])["rep"].unique().to_dict()
+    # the pair moments by (objective, subject, set, IMU, IMU b, test, rep, signal, window)
+    keys = ["objective", "subject", "sensor_set", "imu", "imu_b", "test", "rep", "signal", "window"]
+    lookup = pairs[keys].assign(imu_b=pairs["imu_b"].fillna(""), rep=pairs["rep"].astype(int))
+    index = {key: k for k, key in enumerate(lookup.itertuples(index=False, name=None))}
+    reps = lookup.groupby(keys[:4] + ["test"])["rep"].unique().to_dict()
     turns = {h: Rotation.from_euler("z", h, degrees=True).as_matrix() for h in headings_deg}
     rows: list[dict] = []
     wanted: list[tuple] = []  # (row, pair row, R_a, R_b, mode)
@@ -555,9 +553,11 @@ def correlations(
         return "moving" if m == "per_axis_moving" else "all"
 
     def correlate(base, objective, sensor_set, imu, imu_b, t_ap, R_a, R_b, signals, sensitivity):
-        for rep in sorted(int(r) for r in reps.get((objective, sensor_set, imu, t_ap), [])):
+        unit = (objective, base["subject"], sensor_set, imu)
+        for rep in sorted(int(r) for r in reps.get((*unit, t_ap), [])):
             for signal in signals:
-                k = index[(objective, sensor_set, imu, imu_b, t_ap, rep, signal, window(mode))]
+                key = (*unit, imu_b, t_ap, rep, signal)
+                k = index[(*key, window(mode))]
                 pair = pairs.iloc[k]
                 row = {**base, "t_ap": t_ap, "rep": rep, "signal": signal, "mode": mode,
                        "heading_error_deg": 0.0, "lag_samples": int(pair["lag_samples"]),
@@ -572,10 +572,9 @@ def correlations(
                         for m in CORRELATION_MODES:
                             rows.append({**row, "objective": "frontal_lateral_sensitivity",
                                          "mode": m, "heading_error_deg": heading})  # fmt: skip
-                            k_m = index[
-                                (objective, sensor_set, imu, imu_b, t_ap, rep, signal, window(m))
-                            ]
-                            wanted.append((len(rows) - 1, k_m, R_a, turn @ R_b, m))
+                            wanted.append(
+                                (len(rows) - 1, index[(*key, window(m))], R_a, turn @ R_b, m)
+                            )
 
     sensor_sets = list(dataset.meta["sensor_sets"])
     if len(sensor_sets) == 2 and len(full):
@@ -604,4 +603,24 @@ def correlations(
             m,
         )
         table.loc[[w[0] for w in chosen], "correlation"] = values
-    return table
+    return _sensitivity_unit_means(table)
+
+
+def _sensitivity_unit_means(table: pd.DataFrame) -> pd.DataFrame:
+    """The sensitivity rows as what :func:`aceval.kong2016.correlation_sensitivity` reads: one per
+    unit (subject x IMU x T_ex x T_ap), mode and heading error, the mean over the repetitions
+    (``rep``, lag and sample count left empty): five times fewer rows, the same numbers.
+    """
+    sensitivity = (table["objective"] == "frontal_lateral_sensitivity").to_numpy()
+    if not sensitivity.any():
+        return table
+    per_rep = ["rep", "lag_samples", "n_samples", "correlation", "flag"]
+    keys = [c for c in CORRELATION_COLUMNS if c not in per_rep]
+    means = (
+        table[sensitivity]
+        .groupby(keys, sort=False, dropna=False)["correlation"]
+        .mean()
+        .reset_index()
+        .assign(flag="")
+    )
+    return pd.concat([table[~sensitivity], means], ignore_index=True)[CORRELATION_COLUMNS]
