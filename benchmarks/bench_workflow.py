@@ -1,49 +1,176 @@
-"""Wall-clock time of the default workflow from clean and of an up-to-date re-run.
+"""Workflow speed, measured in one run on this machine (issue 16's goals; benchmarks/README.md).
 
-    python benchmarks/bench_workflow.py
+    python benchmarks/bench_workflow.py                       # everything (about half an hour)
+    python benchmarks/bench_workflow.py --subjects 5 20       # a shorter scaling run
 
-Runs `snakemake --cores 2` with the default config/config.yaml in a temporary working directory
-(the repository's results/ are not touched), then runs it again with nothing to do.
+1. The default workflow (`snakemake --cores 2`, config/config.yaml: simulate kong, box and ricci,
+   then everything) from clean, and an up-to-date re-run.
+2. The floor: one Python process reading every recording of the simulated Kong dataset (5
+   subjects) once with aceval's reader and forming the scatter of each; against it, the workflow
+   of that dataset from clean (the dataset already on disk, as a lab's would be).
+3. Scaling: the Kong protocol with 5, 20, 50 and 200 simulated subjects, simulation (2
+   processes) and workflow timed apart, peak RSS of the largest process, files and disk; the
+   marginal cost per subject; a plot (benchmarks/scaling.png).
+
+Everything runs in temporary folders; the repository's results/ are not touched. Peak RSS is
+GNU time's maximum resident set of the command and the processes it waited for.
 """
 
+from __future__ import annotations
+
+import argparse
+import math
+import os
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
+import yaml
+
 REPO = Path(__file__).resolve().parents[1]
+TIME = "/usr/bin/time"
 
 
-def timed_run(workdir: str) -> float:
-    start = time.perf_counter()
-    subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "snakemake",
-            "-s",
-            str(REPO / "Snakefile"),
-            "--directory",
-            workdir,
-            "--cores",
-            "2",
-            "--quiet",
-        ],
-        check=True,
-        capture_output=True,
+def run(command: list[str], cwd: Path | None = None) -> tuple[float, float]:
+    """Run ``command``; (wall seconds, peak RSS in MiB). Fails loudly on a non-zero exit."""
+    env = {
+        **os.environ,
+        "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}",
+    }
+    with tempfile.NamedTemporaryFile("r") as report:
+        start = time.perf_counter()
+        done = subprocess.run(
+            [TIME, "-f", "%M", "-o", report.name, *command],
+            cwd=cwd,
+            env=env,
+            capture_output=True,
+            text=True,
+        )
+        wall = time.perf_counter() - start
+        if done.returncode:
+            raise SystemExit(f"{' '.join(command)} failed:\n{done.stderr[-3000:]}")
+        return wall, int(report.read().split()[-1]) / 1024
+
+
+def snakemake(workdir: Path, config: Path | None = None) -> list[str]:
+    command = [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile")]
+    command += ["--directory", str(workdir), "--cores", "2", "--quiet"]
+    if config is not None:
+        command += ["--configfile", str(config), "--replace-workflow-config"]
+    return command
+
+
+def lab_config(workdir: Path, dataset: Path, subjects_per_job: int) -> Path:
+    """A config running one dataset on disk with Kong's analyses, as a lab would."""
+    default = yaml.safe_load((REPO / "config" / "config.yaml").read_text())
+    config = {
+        "datasets": {
+            "lab": {
+                "path": str(dataset),
+                "analyses": ["kong"],
+                "subjects_per_job": subjects_per_job,
+            }
+        },
+        "calibration": default["calibration"],
+        "objectives": default["objectives"],
+    }
+    path = workdir / "config.yaml"
+    path.write_text(yaml.safe_dump(config))
+    return path
+
+
+def simulate(out: Path, subjects: int) -> tuple[float, float]:
+    return run(
+        [sys.executable, "-m", "aceval", "simulate", "kong", "--out", str(out), "--seed", "1",
+         "--subjects", str(subjects), "--jobs", "2"]  # fmt: skip
     )
-    return time.perf_counter() - start
+
+
+FLOOR = """
+import sys
+from aceval.calibration.kong import scatter
+from aceval.dataset import load_dataset, recording_values
+dataset = load_dataset(sys.argv[1])
+for path in dataset.recordings["path"]:
+    values = recording_values(dataset.root / path)
+    scatter(values[:, 1:4])
+"""
+
+
+def disk(folder: Path) -> tuple[int, float]:
+    files = [p for p in folder.rglob("*") if p.is_file()]
+    return len(files), sum(p.stat().st_size for p in files) / 1e9
 
 
 def main() -> None:
-    with tempfile.TemporaryDirectory() as workdir:
-        clean = timed_run(workdir)
-        again = timed_run(workdir)
-    print(
-        f"default workflow from clean: {clean:.1f} s; up-to-date re-run: {again:.1f} s "
-        f"(ratio {clean / again:.0f}x)"
-    )
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--subjects", type=int, nargs="*", default=[5, 20, 50, 200])
+    parser.add_argument("--skip-default", action="store_true")
+    args = parser.parse_args()
+    lines = []
+
+    def say(text: str) -> None:
+        print(text, flush=True)
+        lines.append(text)
+
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        if not args.skip_default:
+            clean, rss = run(snakemake(tmp / "default"))
+            again, _ = run(snakemake(tmp / "default"))
+            say(f"default workflow from clean: {clean:.1f} s (largest process {rss:.0f} MiB); "
+                f"up-to-date re-run: {again:.1f} s")  # fmt: skip
+
+        kong = tmp / "kong5"
+        simulate(kong, 5)
+        floor, _ = run([sys.executable, "-c", FLOOR, str(kong)])
+        analysis, _ = run(snakemake(tmp / "kong5_work", lab_config(tmp, kong, 1)))
+        say(f"Kong simulation, 5 subjects: floor (one process reading every recording once and "
+            f"forming its scatter) {floor:.1f} s; workflow from clean {analysis:.1f} s; ratio "
+            f"{analysis / floor:.1f}")  # fmt: skip
+
+        rows = []
+        for n in args.subjects:
+            data = tmp / f"scale{n}"
+            sim, sim_rss = simulate(data, n)
+            files, gigabytes = disk(data)
+            work = tmp / f"scale{n}_work"
+            work.mkdir()
+            per_job = max(1, math.ceil(n / 20))  # at most about 20 calibration jobs
+            wall, rss = run(snakemake(work, lab_config(work, data, per_job)))
+            rows.append((n, sim, wall, max(sim_rss, rss), files, gigabytes))
+            say(f"{n} subjects: simulate {sim:.0f} s + workflow {wall:.0f} s = {sim + wall:.0f} s; "
+                f"peak RSS {max(sim_rss, rss):.0f} MiB; {files} files, {gigabytes:.2f} GB "
+                f"({per_job} subject(s) per calibration job)")  # fmt: skip
+            for folder in (data, work):
+                subprocess.run(["rm", "-rf", str(folder)], check=True)
+        if len(rows) >= 2:
+            (n0, s0, w0, *_), (n1, s1, w1, *_) = rows[-2], rows[-1]
+            say(f"marginal cost per subject ({n0} -> {n1}): simulate {(s1 - s0) / (n1 - n0):.2f} "
+                f"s, workflow {(w1 - w0) / (n1 - n0):.2f} s")  # fmt: skip
+            plot(rows, REPO / "benchmarks" / "scaling.png")
+    (REPO / "benchmarks" / "last_run.txt").write_text("\n".join(lines) + "\n")
+
+
+def plot(rows, out: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    n = [r[0] for r in rows]
+    figure, panel = plt.subplots(figsize=(5.5, 3.6))
+    panel.plot(n, [r[1] for r in rows], "o-", label="simulate (2 processes)")
+    panel.plot(n, [r[2] for r in rows], "s-", label="workflow (snakemake --cores 2)")
+    panel.plot(n, [r[1] + r[2] for r in rows], "^-", label="both")
+    panel.set(xlabel="simulated subjects (Kong protocol)", ylabel="wall time (s)")
+    panel.grid(alpha=0.3)
+    panel.legend(fontsize=8)
+    figure.suptitle("aceval end to end on 2 cores (benchmarks/bench_workflow.py)", fontsize=9)
+    figure.tight_layout()
+    figure.savefig(out, dpi=120, metadata={"Software": None})
 
 
 if __name__ == "__main__":
