@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import io
 import sys
+import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
@@ -124,12 +125,16 @@ def write_results(
     results = Path(results)
     chosen = [o for o in outputs_of(analyses) if o.kind in kinds]
     if "kong" in analyses and data.get("angles") is None:
-        angles = all_angles(data["calibrations"], test_retest_k)
-        text = angles.to_csv(index=False)
+        with tempfile.TemporaryDirectory() as scratch:
+            # written, then read back as every reader of angles.csv sees it (one copy in memory:
+            # for 200 subjects it has 1.6 million rows)
+            path = results / "angles.csv" if "table" in kinds else Path(scratch) / "angles.csv"
+            angles = all_angles(data["calibrations"], test_retest_k)
+            atomic_file(path, lambda tmp: angles.to_csv(tmp, index=False))
+            del angles
+            data["angles"] = pd.read_csv(path)
         if "table" in kinds:
-            _write_text(results / "angles.csv", text)
             progress("angles.csv")
-        data["angles"] = _as_read_back(angles, text)
     tables = {}
     for output in chosen:
         (results / f"{output.kind}s").mkdir(parents=True, exist_ok=True)

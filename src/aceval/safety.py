@@ -89,6 +89,8 @@ def path_problem(relative: str) -> str:
     """Why a path from a sheet may not be used ('' when it may): absolute or climbing out."""
     if not relative:
         return "the path is empty"
+    if not relative.startswith(("/", "\\")) and ".." not in relative and ":" not in relative:
+        return ""  # a plain relative path (the common case, checked without building a path)
     path = PurePath(relative)
     if path.is_absolute() or path.drive or relative.startswith(("/", "\\")):
         return f"path {relative!r} is absolute: it must be relative to the dataset folder"

@@ -9,7 +9,6 @@
 rule calibrate:
     input:
         validation="results/{dataset}/validation/sheets.tsv",
-        recordings=subject_recordings,
     output:
         calibrations="results/{dataset}/calibrations/{subject}.csv",
         recordings="results/{dataset}/calibrations/{subject}_recordings.csv",
@@ -24,6 +23,7 @@ rule calibrate:
     params:
         root=lambda w: dataset_dir(w.dataset),
         subject=lambda w: ["--subject", *subject_batches(w.dataset)[w.subject]],
+        files=lambda w: recordings_fingerprint(w.dataset, subject_batches(w.dataset)[w.subject]),
         options=trim_options() + correlation_options(),
     shell:
         "python -m aceval calibrate {params.root:q} {params.subject:q} --allow-empty "

@@ -1,5 +1,7 @@
 # Helpers shared by the rules (functions only; the rules are in the other .smk files): where each
 # dataset lives, which subjects, tables and figures it has, and the command-line options of each job.
+import functools
+import hashlib
 import json
 import os
 
@@ -61,8 +63,6 @@ def import_options(wildcards):
     return options + (["--subject", spec["subject"]] if "subject" in spec else [])
 
 
-
-
 wildcard_constraints:
     dataset="|".join(map(re.escape, DATASETS)),
     subject=r"[^/]+",
@@ -84,34 +84,55 @@ def _recording_paths(root, table):
     return [os.path.join(root, p) for p in table["path"].str.strip() if not path_problem(p)]
 
 
+@functools.cache
+def _recordings_sheet(dataset):
+    """A lab dataset's recordings.tsv as strings (None when absent or unreadable: the validation
+    reports it)."""
+    try:
+        return pd.read_csv(
+            os.path.join(dataset_dir(dataset), "recordings.tsv"),
+            sep="\t",
+            dtype=str,
+            keep_default_na=False,
+        )
+    except (OSError, ValueError, KeyError):
+        return None
+
+
 def dataset_input(wildcards):
-    """The dataset as an input: the generated folder, or a lab dataset's sheets and every recording
-    file (so that the validation is redone when a file changes)."""
+    """The dataset as an input: the generated folder, or a lab dataset's sheets (its recording
+    files enter through :func:`recordings_fingerprint`)."""
     root = dataset_dir(wildcards.dataset)
     if wildcards.dataset in GENERATED:
         return root
-    sheets = [
-        os.path.join(root, name)
-        for name in (
-            "dataset.yaml",
-            "imus.tsv",
-            "tests.tsv",
-            "calibrates.tsv",
-            "subjects.tsv",
-            "recordings.tsv",
-        )
+    names = ["dataset.yaml", "imus.tsv", "tests.tsv", "calibrates.tsv", "subjects.tsv"]
+    names += ["recordings.tsv", "ground_truth.tsv", "functional_axes.tsv"]
+    return [
+        os.path.join(root, n)
+        for n in names
+        if n not in ("ground_truth.tsv", "functional_axes.tsv")
+        or os.path.exists(os.path.join(root, n))
     ]
-    sheets += [p for p in [os.path.join(root, "ground_truth.tsv")] if os.path.exists(p)]
-    try:
-        table = pd.read_csv(
-            os.path.join(root, "recordings.tsv"), sep="\t", dtype=str, keep_default_na=False
-        )
-        files = [
-            p for p in _recording_paths(root, table) if os.path.exists(p)
-        ]  # missing ones: reported
-    except (OSError, ValueError, KeyError):  # no or unreadable sheet: the validation reports it
-        files = []
-    return sheets + files
+
+
+def recordings_fingerprint(dataset, chosen=None):
+    """A digest of the path, size and modification time of a lab dataset's recording files (of
+    the ``chosen`` subjects; all when None), a param of the jobs that read them: a file changed
+    after a good run reruns its jobs (Snakemake's params rerun trigger), without a hundred
+    thousand files in the DAG. '' for a generated dataset (its folder is the input)."""
+    table = None if dataset in GENERATED else _recordings_sheet(dataset)
+    if table is None or "path" not in table or "subject" not in table:
+        return ""
+    if chosen is not None:
+        table = table[table["subject"].str.strip().isin(chosen)]
+    digest = hashlib.sha1()
+    for path in _recording_paths(dataset_dir(dataset), table):
+        try:
+            stat = os.stat(path)
+            digest.update(f"{path}\0{stat.st_size}\0{stat.st_mtime_ns}\n".encode())
+        except OSError:
+            digest.update(f"{path}\0missing\n".encode())
+    return digest.hexdigest()
 
 
 def subjects(dataset):
@@ -136,17 +157,6 @@ def subject_batches(dataset):
 def calibration_units(dataset):
     """The calibration jobs of a dataset (:func:`subject_batches`)."""
     return list(subject_batches(dataset))
-
-
-def subject_recordings(wildcards):
-    """A lab dataset's recording files of one calibration job's subjects (so that editing them
-    reruns only that job)."""
-    if wildcards.dataset in GENERATED:
-        return []
-    root = dataset_dir(wildcards.dataset)
-    table = pd.read_csv(os.path.join(root, "recordings.tsv"), sep="\t", dtype=str)
-    chosen = subject_batches(wildcards.dataset)[wildcards.subject]
-    return _recording_paths(root, table[table["subject"].str.strip().isin(chosen)])
 
 
 def has_truth_method(dataset):
@@ -243,6 +253,24 @@ def results_inputs(dataset):
         }
 
     return inputs
+
+
+def results_folder(output):
+    """A dataset's results folder, from a results job's outputs (all under it)."""
+    folder = os.path.commonpath([os.path.dirname(path) for path in output])
+    return os.path.dirname(folder) if os.path.basename(folder) == "figures" else folder
+
+
+def results_options(wildcards, input):
+    """--calibrations/--axes/--correlations/--findings of `aceval outputs`, as a list, from the
+    inputs known so far (before the checkpoint has run, only the sheets gate's)."""
+    options = []
+    for kind in ("calibrations", "axes", "correlations"):
+        if kind in input.keys():
+            options += [f"--{kind}", *input[kind]]
+    findings = [input[k] for k in ("sheets",) if k in input.keys()]
+    findings += list(input.findings) if "findings" in input.keys() else []
+    return options + ["--findings", *findings]
 
 
 def results_outputs(dataset, kind):

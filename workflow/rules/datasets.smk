@@ -1,7 +1,8 @@
 # Stage 1: the datasets. Simulated ones are generated from a seed, real recordings imported; every
 # dataset's sheets are validated against the contract, and each recording file's presence and
 # header, before anything else runs (a failed validation stops the workflow; a file changed after a
-# good run validates again). The files' contents are checked in the pass that reads them (stage 2).
+# good run validates again: the files' fingerprint is a param). The files' contents are checked in
+# the pass that reads them (stage 2).
 
 
 rule simulate:
@@ -11,10 +12,10 @@ rule simulate:
         "logs/{dataset}/simulate.log",
     wildcard_constraints:
         dataset=only(SIMULATED),
-    threads: 2
     priority: 10
     conda:
         "../envs/aceval.yaml"
+    threads: 2
     params:
         protocol=lambda w: DATASETS[w.dataset]["simulate"]["protocol"],
         seed=lambda w: DATASETS[w.dataset]["simulate"].get("seed", 0),
@@ -59,6 +60,7 @@ checkpoint validate:
         "../envs/aceval.yaml"
     params:
         root=lambda w: dataset_dir(w.dataset),
+        files=lambda w: recordings_fingerprint(w.dataset),
     shell:
         "python -m aceval validate {params.root:q} --sheets-only --findings-out {output:q} > {log:q} 2>&1 "
         "|| (cat {log:q} >&2; exit 1)"

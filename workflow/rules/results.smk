@@ -25,8 +25,9 @@ for _dataset in DATASETS:
                 "../envs/aceval.yaml"
             params:
                 root=dataset_dir(_dataset),
-                results=lambda w, output: os.path.dirname(output[0]).removesuffix("/figures"),
+                results=lambda w, output: results_folder(output),
                 kind=_kind,
+                inputs=results_options,
                 analyses=analyses(_dataset),
                 names=json.dumps(DATASETS[_dataset].get("paper_names", {})),
                 note=DATASETS[_dataset].get("note", ""),
@@ -34,8 +35,6 @@ for _dataset in DATASETS:
                 data_label=simulated_label(_dataset),
             shell:
                 "python -m aceval outputs --kinds {params.kind:q} --dataset {params.root:q} "
-                "--results {params.results:q} --analyses {params.analyses:q} "
-                "--calibrations {input.calibrations:q} --axes {input.axes:q} "
-                "--correlations {input.correlations:q} --findings {input.sheets:q} {input.findings:q} "
+                "--results {params.results:q} --analyses {params.analyses:q} {params.inputs:q} "
                 "--paper-names {params.names:q} --note={params.note:q} --test-retest-k {params.k:q} "
                 "2> {log:q}"
