@@ -25,6 +25,9 @@ GRAVITY = 9.81  # m/s^2: 1 g, used for unit conversion and by the simulator's ph
 ACC_UNITS = {"g": GRAVITY, "m/s^2": 1.0}
 GYR_UNITS = {"deg/s": np.pi / 180.0, "rad/s": 1.0}
 RECORDING_COLUMNS = ["t", "acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z"]
+#: optional columns of a recording: the vendor's orientation estimate (scalar first, sensor -> the
+#: vendor's z-up world); read only by the OpenSense peer (workflow/peers/)
+QUAT_COLUMNS = ["quat_w", "quat_x", "quat_y", "quat_z"]
 R_COLUMNS = [f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
 SHEETS = {
     "imus.tsv": ["imu", "segment", "side", "region", "right_axis"],

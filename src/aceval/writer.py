@@ -15,7 +15,14 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .dataset import ACC_UNITS, GYR_UNITS, KONG_FIRST_PHASE, R_COLUMNS, RECORDING_COLUMNS
+from .dataset import (
+    ACC_UNITS,
+    GYR_UNITS,
+    KONG_FIRST_PHASE,
+    QUAT_COLUMNS,
+    R_COLUMNS,
+    RECORDING_COLUMNS,
+)
 
 #: what a worker process of DatasetWriter.each_subject runs (set before the workers fork)
 _TASK: tuple | None = None
@@ -93,18 +100,25 @@ class DatasetWriter:
         self._recordings = open(self.root / "recordings.tsv", "w", newline="")
         self._recordings.write("subject\tsensor_set\ttest\trep\timu\tpath\n")
 
-    def recording(self, subject, sensor_set, test, rep, imu, gyr, acc) -> str:
-        """Write one recording (SI in, dataset.yaml's units out); returns its path in the dataset."""
+    def recording(self, subject, sensor_set, test, rep, imu, gyr, acc, quat=None) -> str:
+        """Write one recording (SI in, dataset.yaml's units out); returns its path in the dataset.
+        ``quat``: the vendor's orientation estimate (N, 4: w, x, y, z, sensor -> its z-up world),
+        kept as the optional columns ``QUAT_COLUMNS`` (aceval's methods do not read them; OpenSense
+        does, workflow/peers/).
+        """
         rel = Path("data") / subject / sensor_set / f"{test}_R{rep}_{imu}.csv"
         path = self.root / rel
         path.parent.mkdir(parents=True, exist_ok=True)
         t = np.arange(len(acc)) / self.meta["sampling_rate_hz"]
-        table = np.column_stack([t, acc / self.acc_scale, gyr / self.gyr_scale])
+        parts = [t, acc / self.acc_scale, gyr / self.gyr_scale]
+        columns = list(RECORDING_COLUMNS)
+        if quat is not None:
+            parts.append(quat)
+            columns += QUAT_COLUMNS
+        table = np.column_stack(parts)
         row_format = ",".join(["%.6g"] * table.shape[1]) + "\n"
         # one %-format over the whole table: the same text as np.savetxt, several times faster
-        path.write_text(
-            ",".join(RECORDING_COLUMNS) + "\n" + (row_format * len(table)) % tuple(table.ravel())
-        )
+        path.write_text(",".join(columns) + "\n" + (row_format * len(table)) % tuple(table.ravel()))
         self.reference(subject, sensor_set, test, rep, imu, rel.as_posix())
         return rel.as_posix()
 

@@ -21,6 +21,11 @@ Rules (documented in config/README.md "Real datasets"):
 * Which test may calibrate which IMU: Kong Table 2 (T3: head, chest, waist, thighs; T6: thighs,
   shanks, feet) plus what this recording allows to compare: the lower back with T3, the shanks
   with T3, the pelvis and lower back with T6 (cross-test T3 vs T6 for the trunk and shanks).
+* The vendor's ``quat`` is not imported: it gives no common vertical. Mapped by it, the sensors'
+  standing specific forces point up to 67-99 deg apart in its world (head vs right foot; 67 deg
+  in the most favourable of the four readings, scalar first or last, either direction), so its
+  frame is not the accelerometer's, and the OpenSense peer, which needs orientations in one
+  gravity-aligned world, cannot use it.
 * No ground truth. The publishers' hand-tuned segment-to-sensor quaternions
   (``hand_tuned_segment2sensor.tsv``, ISB segment frames: x forward, y up, z right) were set by
   eye for a visualisation: they give the sheet's ``right_axis`` signs (checked by aceval's

@@ -40,6 +40,7 @@ from .common import (
 )
 
 REQUIRED = ["PacketCounter", "Acc_X", "Acc_Y", "Acc_Z", "Gyr_X", "Gyr_Y", "Gyr_Z"]
+QUATERNION = ["Quat_q0", "Quat_q1", "Quat_q2", "Quat_q3"]
 SHEET_COLUMNS = ["sensor_id", "imu", "sensor_set", "segment", "side", "region", "right_axis"]
 STANDING_MARGIN_S = 1.0
 MIN_STANDING_S = 2.0
@@ -92,6 +93,10 @@ def read_mt_export(path: str | Path) -> tuple[dict, pd.DataFrame]:
         )
     if len(values) < 2:
         raise FormatError(f"{path}: fewer than 2 samples")
+    if set(QUATERNION) <= set(columns):  # the orientation, where exported and complete
+        quat = table[QUATERNION].apply(pd.to_numeric, errors="coerce")
+        if np.isfinite(quat.to_numpy(dtype=float)).all():
+            values = pd.concat([values, quat], axis=1)
     return header, values
 
 
@@ -199,6 +204,10 @@ def import_xsens(
     fs_hz = rates.pop()
     gyr = {s: t[["Gyr_X", "Gyr_Y", "Gyr_Z"]].to_numpy(float) for s, t in tables.items()}
     acc = {s: t[["Acc_X", "Acc_Y", "Acc_Z"]].to_numpy(float) for s, t in tables.items()}
+    quat = {  # the Xsens orientation (scalar first, sensor -> its z-up world), when exported
+        s: t[QUATERNION].to_numpy(float) if set(QUATERNION) <= set(t.columns) else None
+        for s, t in tables.items()
+    }
     shanks = [s for s, row in wanted.items() if row["segment"] == "shank"]
     if not shanks:
         raise FormatError(f"{sensors}: no shank sensor to count strides with")
@@ -236,6 +245,7 @@ def import_xsens(
                     row["imu"],
                     gyr[sensor_id][a:b],
                     acc[sensor_id][a:b],
+                    None if quat[sensor_id] is None else quat[sensor_id][a:b],
                 )
         report.add(
             files[sensor_id].name,
