@@ -125,7 +125,9 @@ def test_a_perfectly_ranked_index_correlates_one_with_the_test_retest_angle():
     assert table.loc[("rho_gyro", "all"), "spearman_r"] == pytest.approx(-1.0)
     assert table.loc[("planarity", "T1"), "spearman_r"] == pytest.approx(1.0)
     assert table.loc[("planarity", "all"), "n"] == 8
-    layout = methods_comparison.kong_reliability_table(units).set_index(["index", "test", "segment"])
+    layout = methods_comparison.kong_reliability_table(units).set_index(
+        ["index", "test", "segment"]
+    )
     assert layout.loc[("rho_gyro", "T1", "chest"), "mean"] == pytest.approx(0.75)
 
 
@@ -177,6 +179,84 @@ def test_methods_table_statistics_and_best_test():
         }
     )
     assert any("Kong recommends T3" in line and "agrees" in line for line in lines)
+
+
+def test_a_flagged_calibration_from_all_repetitions_is_not_replaced_by_its_subsets():
+    """When the calibration from all repetitions is flagged, the IMU drops out of the methods
+    table: its unflagged subsets never stand in for it."""
+    base = {"subject": "S1", "sensor_set": "a", "imu": "I", "segment": "shank", "test": "T6",
+            "method": "kong", "error_vertical_share": 1.0}  # fmt: skip
+    calibrations = pd.DataFrame(
+        [{**base, "repetitions": "R1+R2+R3", "n_reps": 3, "flag": "not_planar", "error_deg": 30.0}]
+        + [
+            {**base, "repetitions": r, "n_reps": 2, "flag": "", "error_deg": 1.0}
+            for r in ("R1+R2", "R1+R3", "R2+R3")
+        ]  # fmt: skip
+    )
+    assert methods_comparison.full_set_errors(calibrations).empty
+    assert methods_comparison.methods_table(calibrations).empty
+
+
+def _yaw(deg: float) -> list[float]:
+    c, s = np.cos(np.radians(deg)), np.sin(np.radians(deg))
+    return [c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0]
+
+
+def test_every_methods_test_retest_and_the_peers_errors_and_reasons():
+    """Each method's test-retest is the mean angle between its k-subset calibrations (here yaws
+    of 0, 2 and 4 deg: pairs 2, 4, 2 -> 8/3 deg); a peer's calibration gets its error to the truth
+    from aceval; a method that cannot calibrate at all stays in the table with its reason."""
+    rows = []
+    for method, yaws in (("kong", (0.0, 2.0, 4.0)), ("gaitmap_pca", (0.0, 1.0, 2.0))):
+        rows.append({"repetitions": "R1+R2+R3+R4", "n_reps": 4, "yaw": 10.0, "method": method})
+        for subset, yaw in zip(("R1+R2+R3", "R1+R2+R4", "R1+R3+R4"), yaws):
+            rows.append({"repetitions": subset, "n_reps": 3, "yaw": yaw, "method": method})
+    for subset in ("R1+R2+R3+R4", "R1+R2+R3"):
+        rows.append({"repetitions": subset, "n_reps": len(subset.split("+")), "yaw": np.nan,
+                     "method": "opensense_imuplacer", "flag": "not_applicable",
+                     "note": "needs orientations"})  # fmt: skip
+    calibrations = pd.DataFrame(
+        [
+            {
+                "subject": "S1",
+                "sensor_set": "a",
+                "imu": "I",
+                "segment": "thigh",
+                "side": "right",
+                "test": "T6",
+                "flag": "",
+                "note": "",
+                **dict(
+                    zip(
+                        [f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)],
+                        _yaw(r["yaw"]) if np.isfinite(r["yaw"]) else [np.nan] * 9,
+                    )
+                ),
+                **r,
+            }
+            for r in rows
+        ]  # fmt: skip
+    ).drop(columns="yaw")
+    retest = methods_comparison.retest_table(calibrations, k=3).set_index("method")
+    assert retest.loc["kong", "mean"] == pytest.approx(8 / 3)
+    assert retest.loc["gaitmap_pca", "mean"] == pytest.approx(4 / 3)
+    assert retest.loc["opensense_imuplacer", "n"] == 0
+    assert retest.loc["opensense_imuplacer", "note"] == "needs orientations"
+    truth = pd.DataFrame(
+        [
+            {
+                "subject": "S1",
+                "sensor_set": "a",
+                "imu": "I",
+                **dict(zip([f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)], _yaw(7.0))),
+            }
+        ]  # fmt: skip
+    ).set_index(["subject", "sensor_set", "imu"])
+    peers = methods_comparison.with_truth(calibrations[calibrations["method"] != "kong"], truth)
+    full = peers[(peers["method"] == "gaitmap_pca") & (peers["n_reps"] == 4)]
+    assert full["error_deg"].item() == pytest.approx(3.0)  # 10 deg vs 7 deg, about the vertical
+    assert full["error_vertical_share"].item() == pytest.approx(1.0)
+    assert peers.loc[peers["method"] == "opensense_imuplacer", "error_deg"].isna().all()
 
 
 def test_registry_tables_render_and_unknown_names_are_refused():

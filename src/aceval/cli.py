@@ -180,7 +180,7 @@ def _calibrate(args) -> int:
     for message in unusable.get("message", []):
         print(f"aceval calibrate: left out {message}", file=sys.stderr)
     calibrations, axes = (
-        calibrate(dataset, summaries, args.subsets)
+        calibrate(dataset, summaries, args.subsets, retest_k=args.retest_k)
         if len(summaries)
         else (pd.DataFrame(columns=CALIBRATION_COLUMNS), pd.DataFrame(columns=AXES_COLUMNS))
     )
@@ -216,6 +216,11 @@ def _calibrate(args) -> int:
         )
     if args.findings_out:
         _write_findings(args.findings_out, report)
+    if args.plan_out:
+        from .pipeline import calibration_plan
+
+        plan = calibration_plan(dataset, summaries, args.retest_k)
+        _write_text(args.plan_out, json.dumps(plan, indent=1) + "\n")
     if report.warnings:
         print(f"aceval calibrate: {len(report.warnings)} file warning(s):", file=sys.stderr)
         print("\n".join(map(str, report.warnings)), file=sys.stderr)
@@ -392,6 +397,8 @@ def _outputs(args) -> int:
         read_tables(args.axes),
         read_tables(args.correlations),
         paper_names=json.loads(args.paper_names),
+        peers=read_tables(args.peers),
+        test_retest_k=args.test_retest_k,
     )
     validation = None
     if args.findings:
@@ -529,6 +536,17 @@ def main(argv: list[str] | None = None) -> int:
     )
     calibrate.add_argument("--findings-out", help="file warnings of the pass (tab-separated)")
     calibrate.add_argument(
+        "--plan-out",
+        help="what a peer tool calibrates (JSON for workflow/peers/: files, right axes, subsets)",
+    )
+    calibrate.add_argument(
+        "--retest-k",
+        type=int,
+        default=3,
+        help="the axis methods (and the plan) also from every subset of this many repetitions "
+        "(Obj 4's test-retest for every method; 0: none) (3)",
+    )
+    calibrate.add_argument(
         "--mode",
         choices=["concatenated", "per_axis", "per_axis_moving"],
         default="concatenated",
@@ -618,6 +636,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     outputs.add_argument("--test-retest-k", type=int, default=3, help="Obj 4: k of k-of-n (3)")
     outputs.add_argument(
+        "--peers", nargs="*", default=[], help="peer tools' calibrations (workflow/peers/, CSV)"
+    )
+    outputs.add_argument(
         "--note", action="append", default=[], help="a line for SUMMARY.md under the counts"
     )
     outputs.set_defaults(run=_outputs)
@@ -645,6 +666,7 @@ OUTPUT_OPTIONS = {
     "correlations_out": "--correlations-out",
     "pairs_out": "--pairs-out",
     "findings_out": "--findings-out",
+    "plan_out": "--plan-out",
 }
 INPUT_OPTIONS = {
     "dataset": "dataset",
@@ -656,6 +678,7 @@ INPUT_OPTIONS = {
     "axes": "--axes",
     "angles": "--angles",
     "findings": "--findings",
+    "peers": "--peers",
 }
 #: commands whose --out is a folder written as a whole
 FOLDER_COMMANDS = {"simulate", "import", "apply"}

@@ -116,6 +116,7 @@ def fit_axes(
     triad_pair: tuple[int, int],
     random_starts: int = 0,
     seed: int = 0,
+    diagnostics: bool = True,
 ) -> dict[str, dict]:
     """R (sensor -> body) by each of ``AXIS_METHODS`` from axis pairs ``v_ref ~ R v_est``.
 
@@ -124,7 +125,8 @@ def fit_axes(
     (adaptive damping) adds its accepted and rejected steps, convergence, final cost, distance to
     the closed-form optimum (deg), the same three for the fixed-damping LM (``fixed_*``), residual
     angles (deg) before/after and, with ``random_starts``, how many random starts reach the
-    closed-form optimum and their iterations.
+    closed-form optimum and their iterations. ``diagnostics=False`` leaves out the fixed-damping
+    LM (the rotations are the same; for the many subset calibrations of Obj 4).
     """
     out: dict[str, dict] = {}
     try:
@@ -135,9 +137,6 @@ def fit_axes(
         out["align_vectors"] = _failed(exc)
     try:
         fit = lm_fit(v_ref, v_est, rho)  # Hartley & Zisserman's adaptive damping, as Ricci cites
-        fixed = lm_fit(
-            v_ref, v_est, rho, adaptive=False
-        )  # lambda fixed at 1e-3: Eq. 9-10 read literally
         entry = {
             "R": fit.R,
             "n_iterations": fit.n_iterations,
@@ -145,12 +144,16 @@ def fit_axes(
             "converged": fit.converged,
             "cost": fit.cost,
             "optimum_distance_deg": _distance_deg(fit.R, optimum),
-            "fixed_n_iterations": fixed.n_iterations,
-            "fixed_cost": fixed.cost,
-            "fixed_optimum_distance_deg": _distance_deg(fixed.R, optimum),
             "residual_before_deg": fit.residual_angle_before_deg,
             "residual_after_deg": fit.residual_angle_after_deg,
         }
+        if diagnostics:  # lambda fixed at 1e-3: Eq. 9-10 read literally
+            fixed = lm_fit(v_ref, v_est, rho, adaptive=False)
+            entry.update(
+                fixed_n_iterations=fixed.n_iterations,
+                fixed_cost=fixed.cost,
+                fixed_optimum_distance_deg=_distance_deg(fixed.R, optimum),
+            )
         if random_starts and optimum is not None:
             starts = Rotation.random(random_starts, random_state=seed).as_quat(scalar_first=True)
             runs = [lm_fit(v_ref, v_est, rho, q0_wxyz=q) for q in starts]
@@ -220,6 +223,7 @@ def sagittal_fits(
     rho_motion: float,
     spread_deg: float = float("nan"),
     limits: AxisLimits = AxisLimits(),
+    diagnostics: bool = True,
 ) -> dict[str, dict]:
     """Kong's protocol, axis methods: body z (down) <- z0 from quiet stance, body y (right) <- the
     gyroscope axis of the motion test (already oriented to the right), weighted by their rho.
@@ -228,7 +232,9 @@ def sagittal_fits(
     """
     v_ref = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
     v_est = np.array([z0, motion_axis])
-    fits = fit_axes(v_ref, v_est, np.array([rho_static, rho_motion]), (0, 1))
+    fits = fit_axes(
+        v_ref, v_est, np.array([rho_static, rho_motion]), (0, 1), diagnostics=diagnostics
+    )
     vertical_angle = float(np.degrees(np.arccos(min(1.0, abs(float(np.dot(z0, motion_axis)))))))
     if rho_motion < limits.min_rho:
         return _flag_all(

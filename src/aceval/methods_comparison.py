@@ -13,20 +13,28 @@ import numpy as np
 import pandas as pd
 
 from .calibration.kong import KongLimits
+from .dataset import R_COLUMNS
 from .kong2016 import SEGMENT_ORDER
-from .objectives import CALIBRATION_KEY, full_sets, kong_rows, unflagged
+from .objectives import CALIBRATION_KEY, full_sets, kong_rows, test_retest_angles, unflagged
+from .rotations import error_angle_deg, vertical_share
 from .stats import holm
 
 #: Kong et al. 2016 Sec. 4: the test recommended for each segment
 KONG_RECOMMENDATION = {"head": "T3", "chest": "T3", "waist": "T3", "thigh": "T6", "shank": "T6"}
-METHOD_ORDER = ["kong", "ricci_lm", "align_vectors", "triad"]
+#: aceval's methods, then the peers (each run in its own environment: workflow/peers/)
+METHOD_ORDER = [
+    "kong", "ricci_lm", "align_vectors", "triad", "gaitmap_pca", "qmt_hinge", "opensense_imuplacer",
+]  # fmt: skip
+PEERS = METHOD_ORDER[4:]
 KEY = ["subject", "sensor_set", "imu", "test", "method"]
 
 
 def full_set_errors(calibrations: pd.DataFrame) -> pd.DataFrame:
-    """The unflagged calibrations from all repetitions, with a finite error to the truth."""
-    data = calibrations[unflagged(calibrations)]
-    data = data[data["n_reps"] == data.groupby(KEY[:-1] + ["method"])["n_reps"].transform("max")]
+    """The calibrations from all repetitions, when not flagged, with a finite error to the truth
+    (a flagged calibration from all repetitions is left out, not replaced by its subsets).
+    """
+    most = calibrations.groupby(KEY[:-1] + ["method"])["n_reps"].transform("max")
+    data = calibrations[(calibrations["n_reps"] == most) & unflagged(calibrations)]
     return data[np.isfinite(data["error_deg"])]
 
 
@@ -34,13 +42,25 @@ def _p95(values: pd.Series) -> float:
     return float(np.percentile(values, 95))
 
 
-def methods_table(calibrations: pd.DataFrame) -> pd.DataFrame:
+def _method_order(table: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
+    rank = table["method"].map({m: i for i, m in enumerate(METHOD_ORDER)}).fillna(len(METHOD_ORDER))
+    return (
+        table.assign(method_rank=rank)
+        .sort_values([*keys, "method_rank", "method"])
+        .drop(columns="method_rank")
+    )
+
+
+def methods_table(calibrations: pd.DataFrame, test_retest_k: int | None = None) -> pd.DataFrame:
     """Error to the true mounting (deg) per method x test x segment x sensor set: mean, SD,
-    median, 95th percentile, n, and the median share of the error about the vertical axis.
+    median, 95th percentile, n, and the median share of the error about the vertical axis; with
+    ``test_retest_k``, beside it the method's test-retest angle (:func:`retest_table`: median over
+    subject x IMU units, and their number).
     """
     data = full_set_errors(calibrations)
+    keys = ["segment", "test", "sensor_set", "method"]
     table = (
-        data.groupby(["segment", "test", "sensor_set", "method"])
+        data.groupby(keys)
         .agg(
             mean=("error_deg", "mean"),
             sd=("error_deg", "std"),
@@ -51,10 +71,97 @@ def methods_table(calibrations: pd.DataFrame) -> pd.DataFrame:
         )
         .reset_index()
     )
-    table["method_rank"] = table["method"].map({m: i for i, m in enumerate(METHOD_ORDER)})
-    return table.sort_values(["segment", "test", "sensor_set", "method_rank"]).drop(
-        columns="method_rank"
+    retest = retest_table(calibrations, test_retest_k) if test_retest_k else pd.DataFrame()
+    if len(retest):  # Kong's design (Ricci's functional design has no subsets of repetitions)
+        retest = retest[[*keys, "median", "n"]].rename(
+            columns={"median": "retest_median_deg", "n": "retest_n"}
+        )
+        table = table.merge(retest, on=keys, how="left")
+    return _method_order(_with_not_applicable(table, calibrations, keys), keys[:3])
+
+
+def _with_not_applicable(table: pd.DataFrame, calibrations: pd.DataFrame, keys) -> pd.DataFrame:
+    """Rows (n = 0) for the methods that could not calibrate a segment in a test at all, with
+    the reason in ``note`` (a peer that needs more than the dataset gives: OpenSense's
+    orientations, qmt's second sensor on a joint).
+    """
+    if "note" not in calibrations or "flag" not in calibrations:
+        return table
+    flagged = calibrations[calibrations["flag"].astype(str) == "not_applicable"]
+    if flagged.empty:
+        return table
+    reasons = flagged.groupby(keys)["note"].first().reset_index()
+    done = set(map(tuple, table[keys].to_numpy())) if len(table) else set()
+    extra = reasons[[tuple(r) not in done for r in reasons[keys].to_numpy()]]
+    extra = extra.assign(n=0)
+    return pd.concat([table.assign(note=""), extra], ignore_index=True)
+
+
+def retest_table(calibrations: pd.DataFrame, k: int = 3) -> pd.DataFrame:
+    """Every method's test-retest (Kong Obj 4, Eq. 15, beyond Kong's own method): the angle (deg)
+    between its calibrations from two distinct subsets of ``k`` repetitions, averaged per unit
+    (subject x set x IMU), then mean, SD, median and 95th percentile over the units, per segment,
+    test, sensor set and method. Repeatability, not accuracy: it needs no ground truth.
+    """
+    columns = ["segment", "test", "sensor_set", "method", "mean", "sd", "median", "p95", "n"]
+    if "note" in calibrations:
+        columns.append("note")
+    # calibrations from subsets of repetitions ('R1+R3+R4'), not Ricci's design ('all')
+    calibrations = calibrations[
+        calibrations["repetitions"].astype(str).str.fullmatch(r"R\d+(\+R\d+)*")
+    ]
+    parts = [
+        test_retest_angles(calibrations, k, method).assign(method=method)
+        for method in calibrations["method"].dropna().unique()
+    ]
+    angles = pd.concat([p for p in parts if len(p)] or [pd.DataFrame()], ignore_index=True)
+    if angles.empty:
+        return pd.DataFrame(columns=columns)
+    units = (
+        angles.groupby(["subject", "sensor_set", "imu", "segment", "test", "method"])[
+            "error_angle_deg"
+        ]
+        .mean()
+        .reset_index()
     )
+    keys = ["segment", "test", "sensor_set", "method"]
+    table = (
+        units.groupby(keys)["error_angle_deg"]
+        .agg(mean="mean", sd="std", median="median", p95=_p95, n="count")
+        .reset_index()
+    )
+    return _method_order(_with_not_applicable(table, calibrations, keys), keys[:3])
+
+
+def with_truth(calibrations: pd.DataFrame, ground_truth: pd.DataFrame | None) -> pd.DataFrame:
+    """``error_deg`` and ``error_vertical_share`` (Kong Eq. 11) filled in for rows that lack them
+    (the peers' calibrations, made without the truth) from ``ground_truth`` (indexed by subject,
+    set, IMU, with r11..r33).
+    """
+    if ground_truth is None or calibrations.empty:
+        return calibrations
+    missing = calibrations["error_deg"].isna() if "error_deg" in calibrations else None
+    if missing is None:
+        calibrations = calibrations.assign(error_deg=np.nan, error_vertical_share=np.nan)
+        missing = pd.Series(True, index=calibrations.index)
+    rows = calibrations[missing]
+    keys = list(zip(rows["subject"], rows["sensor_set"], rows["imu"]))
+    known = np.array([key in ground_truth.index for key in keys], dtype=bool)
+    if not known.any():
+        return calibrations
+    chosen = rows[known]
+    R = chosen[R_COLUMNS].to_numpy(float).reshape(-1, 3, 3)
+    truth = (
+        ground_truth.loc[[k for k, ok in zip(keys, known) if ok], R_COLUMNS]
+        .to_numpy(float)
+        .reshape(-1, 3, 3)
+    )
+    valid = np.isfinite(R).all(axis=(1, 2))
+    out = calibrations.copy()
+    index = chosen.index[valid]
+    out.loc[index, "error_deg"] = error_angle_deg(R[valid], truth[valid])
+    out.loc[index, "error_vertical_share"] = vertical_share(R[valid], truth[valid])
+    return out
 
 
 def method_medians(calibrations: pd.DataFrame) -> pd.DataFrame:
@@ -99,10 +206,10 @@ def best_tests(calibrations: pd.DataFrame) -> pd.DataFrame:
     rank = table["segment"].map(
         lambda s: SEGMENT_ORDER.index(s) if s in SEGMENT_ORDER else len(SEGMENT_ORDER)
     )
-    table["method_rank"] = table["method"].map({m: i for i, m in enumerate(METHOD_ORDER)})
+    method_rank = table["method"].map({m: i for i, m in enumerate(METHOD_ORDER)})
     return (
-        table.assign(segment_rank=rank)
-        .sort_values(["segment_rank", "segment", "method_rank"])
+        table.assign(segment_rank=rank, method_rank=method_rank.fillna(len(METHOD_ORDER)))
+        .sort_values(["segment_rank", "segment", "method_rank", "method"])
         .drop(columns=["segment_rank", "method_rank"])
     )
 

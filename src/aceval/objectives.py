@@ -177,18 +177,18 @@ def unflagged(table: pd.DataFrame) -> pd.Series:
     return flag.isna() | (flag.astype(str) == "")
 
 
-def usable(calibrations: pd.DataFrame) -> pd.DataFrame:
-    """Kong calibrations that are not flagged (Objectives 1-5 are about Kong's method; the axis
-    methods' rows, ``method`` != 'kong', are compared in :mod:`aceval.comparison`).
+def usable(calibrations: pd.DataFrame, method: str = "kong") -> pd.DataFrame:
+    """A method's calibrations that are not flagged (Objectives 1-5 are about Kong's method; the
+    other methods are compared in :mod:`aceval.methods_comparison`).
     """
-    calibrations = kong_rows(calibrations)
+    calibrations = kong_rows(calibrations, method)
     return calibrations[unflagged(calibrations)]
 
 
-def kong_rows(calibrations: pd.DataFrame) -> pd.DataFrame:
-    """The rows of Kong's method (all rows of a table without ``method``)."""
+def kong_rows(calibrations: pd.DataFrame, method: str = "kong") -> pd.DataFrame:
+    """The rows of Kong's method, or of ``method`` (all rows of a table without ``method``)."""
     return (
-        calibrations[calibrations["method"] == "kong"]
+        calibrations[calibrations["method"] == method]
         if "method" in calibrations.columns
         else calibrations
     )
@@ -236,11 +236,11 @@ def _angle_rows(
     return out[ANGLE_COLUMNS]
 
 
-def _subset_groups(calibrations: pd.DataFrame):
-    """The usable calibrations (positional index) and, per (subject, set, IMU, test),
-    ``({subset: position}, all repetitions)``.
+def _subset_groups(calibrations: pd.DataFrame, method: str = "kong"):
+    """The usable calibrations of ``method`` (positional index) and, per (subject, set, IMU,
+    test), ``({subset: position}, all repetitions)``.
     """
-    table = usable(calibrations).reset_index(drop=True)
+    table = usable(calibrations, method).reset_index(drop=True)
     groups = []
     for _, group in table.groupby(CALIBRATION_KEY, sort=True):
         by_subset = {parse_subset(rep): pos for pos, rep in zip(group.index, group["repetitions"])}
@@ -280,11 +280,13 @@ def to_last_angles(calibrations: pd.DataFrame) -> pd.DataFrame:
     return _angle_rows("to_last", table, pairs, ks)
 
 
-def test_retest_angles(calibrations: pd.DataFrame, k: int = 3) -> pd.DataFrame:
+def test_retest_angles(
+    calibrations: pd.DataFrame, k: int = 3, method: str = "kong"
+) -> pd.DataFrame:
     """Obj 4 (Kong Eq. 15): the angle between R(A) and R(A') for every pair of distinct subsets of
-    ``k`` repetitions (45 pairs for 3 of 5).
+    ``k`` repetitions (45 pairs for 3 of 5), of Kong's calibrations or another ``method``'s.
     """
-    table, groups = _subset_groups(calibrations)
+    table, groups = _subset_groups(calibrations, method)
     pairs = []
     for by_subset, _ in groups:
         same_size = sorted(s for s in by_subset if len(s) == k)

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 #: ground truth (ground_truth_method.tsv) or a loose reference (loose_reference.tsv)
 INPUT_KINDS = ("calibrations", "axes", "correlations", "angles", "truth_method", "loose_reference")
 #: the analyses a dataset can ask for (config ``analyses``), and the ones aceval adds itself
-ANALYSES = ("kong", "box", "ricci", "methods", "truth", "loose_reference")
+ANALYSES = ("kong", "box", "ricci", "methods", "retest", "truth", "loose_reference")
 
 
 @dataclass(frozen=True)
@@ -348,8 +348,20 @@ _ENTRIES = [
         ("calibrations",),
         "Every method against the ground truth: error angle to the true mounting (deg)",
         "subjects (each IMU's calibration from all repetitions of the test; Ricci's design: from "
-        "all its axes)",
-        _named("methods_comparison.methods_table", "calibrations"),
+        "all its axes); retest_*: Kong Obj 4 for each method, subject x IMU units (methods_retest)",
+        _named("methods_comparison.methods_table", "calibrations", "test_retest_k"),
+        _named_markdown,
+    ),  # fmt: skip
+    Output(
+        "methods_retest",
+        "table",
+        "retest",
+        "beyond the papers (Kong Obj 4 for every method)",
+        ("calibrations",),
+        "Every method's test-retest: error angle (deg) between its calibrations from two distinct "
+        "subsets of k repetitions of one test (Kong Eq. 15), no ground truth needed",
+        "subject x sensor set x IMU (each the mean over the pairs of k-repetition subsets)",
+        _named("methods_comparison.retest_table", "calibrations", "test_retest_k"),
         _named_markdown,
     ),  # fmt: skip
     Output(

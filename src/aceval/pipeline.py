@@ -94,6 +94,7 @@ def calibrate(
     summaries: pd.DataFrame,
     subsets: str = "all",
     limits: KongLimits = KongLimits(),
+    retest_k: int | None = 3,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Every calibration of the IMUs in ``summaries``: ``(calibrations, axes)``.
 
@@ -102,7 +103,7 @@ def calibrate(
     """
     if dataset.functional_axes is not None:
         return calibrate_functional(dataset, summaries)
-    return calibrate_sagittal(dataset, summaries, subsets, limits)
+    return calibrate_sagittal(dataset, summaries, subsets, limits, retest_k)
 
 
 def _identity(dataset: Dataset, subject: str, sensor_set: str, imu: str) -> dict:
@@ -223,10 +224,13 @@ def calibrate_sagittal(
     summaries: pd.DataFrame,
     subsets: str = "all",
     limits: KongLimits = KongLimits(),
+    retest_k: int | None = 3,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Kong calibrations for every (subject, set, IMU, motion test) in ``summaries`` and every
     subset of its usable repetitions (``subsets='all'``) or all of them together (``'full'``);
-    for all the repetitions together, also the axis methods (:func:`aceval.functional.sagittal_fits`).
+    for all the repetitions together, also the axis methods (:func:`aceval.functional.sagittal_fits`),
+    and, with ``retest_k``, the axis methods from every subset of that many repetitions (Obj 4's
+    test-retest for every method).
 
     z0 comes from the IMU's static recording(s) (Kong Eq. 2; several are averaged). One row per
     calibration: key columns, ``repetitions`` ('R1+R3+R4'), ``n_reps``, ``method``, r11..r33,
@@ -354,8 +358,96 @@ def calibrate_sagittal(
                 fits[method]["first_phase_agreement"] = checked["first_phase_agreement"][0]
                 fits[method]["right_axis_angle_deg"] = checked["right_axis_angle_deg"][0]
         out += _method_rows(base, fits, truth)
+        if subsets == "all" and retest_k and len(reps) > retest_k:
+            out += _retest_rows(group, base, fits, sensor["flag"], z0_imu, rho_static, right,
+                                retest_k, truth)  # fmt: skip
     calibrations = pd.DataFrame(out, columns=None if out else CALIBRATION_COLUMNS)
     return propagate_backward(calibrations), pd.DataFrame(axes, columns=AXES_COLUMNS)
+
+
+def _retest_rows(group, base, fits, sensor_flag, z0, rho_static, right, k, truth) -> list[dict]:
+    """The axis methods from every subset of ``k`` repetitions (Obj 4's test-retest for every
+    method, not only Kong's): each subset's pooled gyroscope axis; flagged as the subset's own fit
+    and, for direction, as the calibration from all repetitions (a property of the mounting).
+    """
+    rows = []
+    for chosen in itertools.combinations(range(len(group)), k):
+        part = group.iloc[list(chosen)]
+        axis = pool(part, orient=right)
+        spread = axis_spread_deg(part[PHASE_COLUMNS].to_numpy(float), axis.axis)
+        sub = sagittal_fits(z0, rho_static, axis.axis, axis.rho, spread, diagnostics=False)
+        for method in AXIS_METHODS:
+            sub[method]["flag"] = _first_flag(
+                sensor_flag, sub[method].get("flag", ""), fits[method].get("flag", "")
+            )
+        reps = [int(r) for r in part["rep"]]
+        rows += _method_rows(
+            {
+                **base,
+                "repetitions": subset_label(reps),
+                "n_reps": k,
+                "rho_motion": axis.rho,
+                "n_samples": int(part["n_samples"].sum()),
+                "axis_spread_deg": spread,
+            },  # fmt: skip
+            sub,
+            truth,
+        )
+    return rows
+
+
+def calibration_plan(dataset: Dataset, summaries: pd.DataFrame, retest_k: int | None = 3) -> dict:
+    """What a peer tool calibrates, in the file interface of workflow/peers/peer_io.py: per (subject,
+    set, IMU, motion test) that Kong's method calibrates, the static and motion recording files
+    this pass found usable, the declared right axis as a vector, and the subsets of repetitions
+    (all of them, then every subset of ``retest_k``); and (``static``) every IMU's quiet-standing
+    files. Ricci's functional design has no calibration here (the peers calibrate from a vertical
+    and one movement axis).
+    """
+    plan = {
+        "dataset": str(dataset.root.resolve()),
+        "fs_hz": dataset.fs_hz,
+        "acc_scale": dataset.acc_scale,
+        "gyr_scale": dataset.gyr_scale,
+        "calibrations": [],
+        "static": [],
+    }
+    if dataset.functional_axes is not None or summaries.empty:
+        return plan
+    usable = summaries[summaries["flag"] == ""]
+    paths = dataset.recordings.set_index(["subject", "sensor_set", "test", "rep", "imu"])["path"]
+    static = usable[usable["kind"] == "static"]
+    static_paths = {
+        key: [paths[(*key[:2], t, r, key[2])] for t, r in zip(g["test"], g["rep"])]
+        for key, g in static.groupby(KEY)
+    }
+    plan["static"] = [  # every IMU's quiet standing, whether a motion test calibrates it or not
+        {
+            **_identity(dataset, *key),
+            "right_axis": axis_vector(dataset.right_axis(*key[1:])).tolist(),
+            "paths": files,
+        }
+        for key, files in sorted(static_paths.items())
+    ]
+    motion = usable[usable["kind"] == "motion"]
+    for (subject, sensor_set, imu, test), group in motion.groupby(KEY + ["test"], sort=True):
+        if (subject, sensor_set, imu) not in static_paths:
+            continue
+        reps = sorted(int(r) for r in group["rep"])
+        chosen = [reps]
+        if retest_k and len(reps) > retest_k:
+            chosen += [list(c) for c in itertools.combinations(reps, retest_k)]
+        plan["calibrations"].append(
+            {
+                **_identity(dataset, subject, sensor_set, imu),
+                "test": test,
+                "right_axis": axis_vector(dataset.right_axis(sensor_set, imu)).tolist(),
+                "static": static_paths[(subject, sensor_set, imu)],
+                "reps": {str(r): paths[(subject, sensor_set, test, r, imu)] for r in reps},
+                "subsets": chosen,
+            }
+        )
+    return plan
 
 
 def propagate_backward(calibrations: pd.DataFrame) -> pd.DataFrame:

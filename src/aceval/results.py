@@ -61,14 +61,36 @@ def _write_text(path: Path, text: str) -> None:
     atomic_file(path, lambda tmp: Path(tmp).write_text(text))
 
 
+def ground_truth_sheet(root) -> pd.DataFrame | None:
+    """The dataset's ground_truth.tsv indexed by subject, set and IMU (None without one)."""
+    path = Path(root) / "ground_truth.tsv"
+    if not path.is_file():
+        return None
+    return pd.read_csv(path, sep="\t").set_index(["subject", "sensor_set", "imu"])
+
+
 def build_data(
-    root, calibrations=None, axes=None, correlations=None, angles=None, paper_names=None
+    root,
+    calibrations=None,
+    axes=None,
+    correlations=None,
+    angles=None,
+    paper_names=None,
+    peers=None,
+    test_retest_k: int = 3,
 ) -> dict:
-    """The ``data`` dict the builders read: the tidy tables, the dataset's truth and reference
-    sheets, its ``paper_names`` (this dataset's test names -> the paper's) and sensor sets.
+    """The ``data`` dict the builders read: the tidy tables (the ``peers``' calibrations joined
+    to aceval's, with their error to the ground truth), the dataset's truth and reference sheets,
+    its ``paper_names`` (this dataset's test names -> the paper's), sensor sets and Obj 4's k.
     """
+    from .methods_comparison import with_truth
+
     meta = dataset_meta(root)
+    if peers is not None and len(peers):
+        peers = with_truth(peers, ground_truth_sheet(root))
+        calibrations = pd.concat([calibrations, peers], ignore_index=True)
     return {
+        "test_retest_k": test_retest_k,
         "calibrations": calibrations,
         "axes": axes,
         "correlations": correlations,
@@ -175,6 +197,7 @@ def summary_text(tables: dict, analyses: list[str], data: dict, notes: list[str]
         bool(meta.get("simulated")),
         notes,
         summary.methods_section(tables)
+        + summary.retest_section(tables)
         + summary.conditioning_section(tables)
         + summary.truth_section(tables)
         + summary.loose_reference_section(tables),

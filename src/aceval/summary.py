@@ -704,13 +704,21 @@ def methods_section(tables: dict) -> list[str]:
     if best is None or best.empty or methods is None:
         return []
     lines = ["## Methods against the ground truth: which test for which segment", ""]
-    overall = methods.groupby("method")["median"].median().sort_values()
+    overall = methods.groupby("method")["median"].median().dropna().sort_values()
     lines.append(
         "Median error to the true mounting (median over segment x test x set cells of the per-cell "
         "medians; table `methods`): "
         + ", ".join(f"{m} {v:.2f} deg" for m, v in overall.items())
         + "."
     )
+    if "note" in methods:
+        never = methods[~methods["method"].isin(overall.index)].groupby("method")["note"].first()
+        lines += [
+            "",
+            "Not applicable on this dataset: "
+            + "; ".join(f"{m} ({note})" for m, note in never.items())
+            + ".",
+        ] if len(never) else []  # fmt: skip
     lines.append("")
     for segment, group in best.groupby("segment", sort=False):
         parts = [
@@ -757,6 +765,32 @@ def _claims_table(found: list[Claim]) -> list[str]:
         ]
     )
     return [table.to_markdown(index=False), ""]
+
+
+def retest_section(tables: dict) -> list[str]:
+    """Every method's test-retest, per segment (table ``methods_retest``): repeatability, which
+    needs no truth, so datasets without one compare the methods here.
+    """
+    retest = tables.get("methods_retest")
+    if retest is None or retest.empty or "median" not in retest:
+        return []
+    data = retest.dropna(subset=["median"])
+    if data.empty:
+        return []
+    lines = [
+        "## Every method's test-retest (Kong Obj 4 beyond Kong's method; no truth needed)",
+        "",
+        "Median over subject x IMU units of the angle between calibrations from two distinct "
+        "subsets of repetitions of one test (table `methods_retest`), per segment: each method's "
+        "best test. Repeatability is not accuracy: a method that ignores the motion (OpenSense's "
+        "static pose) repeats perfectly.",
+        "",
+    ]
+    best = data.loc[data.groupby(["segment", "method"], sort=False)["median"].idxmin()]
+    for segment, group in best.groupby("segment", sort=False):
+        parts = [f"{r['method']} {r['test']} {r['median']:.2f} deg" for _, r in group.iterrows()]
+        lines.append(f"- **{segment}**: " + ", ".join(parts) + ".")
+    return lines + [""]
 
 
 def conditioning_section(tables: dict) -> list[str]:
