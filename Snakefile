@@ -16,6 +16,7 @@ validate(config, os.path.join(workflow.basedir, "workflow", "schemas", "config.s
 include: "workflow/rules/common.smk"
 include: "workflow/rules/datasets.smk"
 include: "workflow/rules/calibration.smk"
+include: "workflow/rules/peers.smk"
 include: "workflow/rules/results.smk"
 
 

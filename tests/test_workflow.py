@@ -16,7 +16,9 @@ pytestmark = pytest.mark.slow  # runs the workflow
 REPO = Path(__file__).resolve().parents[1]
 
 
-def snakemake(workdir: Path, *args: str, config: bool = True) -> subprocess.CompletedProcess:
+def snakemake(
+    workdir: Path, *args: str, config: bool = True, env: dict | None = None
+) -> subprocess.CompletedProcess:
     command = [
         sys.executable,
         "-m",
@@ -31,10 +33,8 @@ def snakemake(workdir: Path, *args: str, config: bool = True) -> subprocess.Comp
     if config:
         command += ["--configfile", str(workdir / "config.yaml"), "--replace-workflow-config"]
     # the rules call `python -m aceval`: make that the interpreter running the tests
-    env = {
-        **os.environ,
-        "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}",
-    }
+    env = env or os.environ
+    env = {**env, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"}
     return subprocess.run(command + list(args), capture_output=True, text=True, env=env)
 
 
@@ -227,4 +227,6 @@ def test_any_folder_name_reaches_the_shell_quoted_and_validation_follows_the_fil
     third = snakemake(work)
     assert third.returncode != 0
     output = third.stderr + third.stdout
-    assert "T1_R2_IMU2.csv" in output and "NaN, inf or non-numeric" in output and "line 41" in output
+    assert (
+        "T1_R2_IMU2.csv" in output and "NaN, inf or non-numeric" in output and "line 41" in output
+    )

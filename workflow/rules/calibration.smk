@@ -16,6 +16,7 @@ rule calibrate:
         pairs="results/{dataset}/calibrations/{subject}_pairs.csv",
         findings="results/{dataset}/calibrations/{subject}_findings.tsv",
         correlations="results/{dataset}/correlations/{subject}.csv",
+        plan="results/{dataset}/calibrations/{subject}_plan.json",
     log:
         "logs/{dataset}/calibrate_{subject}.log",
     conda:
@@ -24,9 +25,11 @@ rule calibrate:
         root=lambda w: dataset_dir(w.dataset),
         subject=lambda w: ["--subject", *subject_batches(w.dataset)[w.subject]],
         files=lambda w: recordings_fingerprint(w.dataset, subject_batches(w.dataset)[w.subject]),
-        options=trim_options() + correlation_options(),
+        options=trim_options()
+        + correlation_options()
+        + [f"--retest-k={config['objectives']['test_retest_k']}"],
     shell:
         "python -m aceval calibrate {params.root:q} {params.subject:q} --allow-empty "
         "--out {output.calibrations:q} --recordings-out {output.recordings:q} --axes-out {output.axes:q} "
         "--pairs-out {output.pairs:q} --findings-out {output.findings:q} "
-        "--correlations-out {output.correlations:q} {params.options:q} 2> {log:q}"
+        "--correlations-out {output.correlations:q} --plan-out {output.plan:q} {params.options:q} 2> {log:q}"

@@ -16,6 +16,25 @@ SIMULATED = [name for name, spec in DATASETS.items() if "simulate" in spec]
 IMPORTED = [name for name, spec in DATASETS.items() if "import" in spec]
 GENERATED = SIMULATED + IMPORTED  # written by the workflow into resources/{dataset}
 DATA_ROOT = config.get("data_root", "../shared/data")
+#: the peer tools (workflow/peers/): method -> (environment, adapter); each environment is built by
+#: `snakemake --cores 2 peer_envs` from workflow/peers/<environment>.txt, never in aceval's own
+PEER_METHODS = {
+    "gaitmap_pca": ("gaitmap", "gaitmap_pca.py"),
+    "qmt_hinge": ("qmt", "qmt_hinge.py"),
+    "opensense_imuplacer": ("opensim", "opensense_imuplacer.py"),
+}
+PEERS_DIR = os.path.join(workflow.basedir, "workflow", "peers")
+PEERS_ROOT = config.get("peers_root", os.path.join(workflow.basedir, ".venv-peers"))
+
+
+def peer_python(method):
+    """The interpreter of a peer's own environment."""
+    return os.path.join(PEERS_ROOT, PEER_METHODS[method][0], "bin", "python")
+
+
+#: the configured peers whose environment exists (run), and the others (said in the summaries)
+PEERS_RUN = [m for m in config.get("peers", list(PEER_METHODS)) if os.path.exists(peer_python(m))]
+PEERS_ABSENT = [m for m in config.get("peers", list(PEER_METHODS)) if m not in PEERS_RUN]
 
 
 def import_source(dataset, key="source"):
@@ -180,11 +199,37 @@ def has_ground_truth(dataset):
 
 def analyses(dataset):
     extra = ["methods"] if has_ground_truth(dataset) else []
+    if {"kong", "box"} & set(DATASETS[dataset].get("analyses", [])):
+        extra.append("retest")  # every method's test-retest, with or without a truth
     return (
         DATASETS[dataset].get("analyses", [])
         + extra
         + (["truth"] if has_truth_method(dataset) else [])
         + (["loose_reference"] if has_loose_reference(dataset) else [])
+    )
+
+
+def peers_of(dataset):
+    """The peers run on a dataset: those with an environment, on Kong's sagittal design (Ricci's
+    functional design has no calibration they make)."""
+    return PEERS_RUN if {"kong", "box"} & set(DATASETS[dataset].get("analyses", [])) else []
+
+
+def peer_files(dataset):
+    return [
+        f"results/{dataset}/peers/{method}/{unit}.csv"
+        for method in peers_of(dataset)
+        for unit in calibration_units(dataset)
+    ]
+
+
+def peers_note(dataset):
+    """What SUMMARY.md says about peers that were not run."""
+    if not PEERS_ABSENT or not {"kong", "box"} & set(DATASETS[dataset].get("analyses", [])):
+        return ""
+    return (
+        f"Peers not run (no environment): {', '.join(PEERS_ABSENT)}; set them up with "
+        f"`snakemake --cores 2 peer_envs` (each in its own environment under .venv-peers/)."
     )
 
 
@@ -250,6 +295,7 @@ def results_inputs(dataset):
             "axes": unit_files(dataset, "calibrations/{unit}_axes.csv"),
             "correlations": unit_files(dataset, "correlations/{unit}.csv"),
             "findings": unit_files(dataset, "calibrations/{unit}_findings.tsv"),
+            "peers": peer_files(dataset),
         }
 
     return inputs
@@ -265,8 +311,8 @@ def results_options(wildcards, input):
     """--calibrations/--axes/--correlations/--findings of `aceval outputs`, as a list, from the
     inputs known so far (before the checkpoint has run, only the sheets gate's)."""
     options = []
-    for kind in ("calibrations", "axes", "correlations"):
-        if kind in input.keys():
+    for kind in ("calibrations", "axes", "correlations", "peers"):
+        if kind in input.keys() and len(input[kind]):
             options += [f"--{kind}", *input[kind]]
     findings = [input[k] for k in ("sheets",) if k in input.keys()]
     findings += list(input.findings) if "findings" in input.keys() else []

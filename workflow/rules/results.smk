@@ -31,10 +31,12 @@ for _dataset in DATASETS:
                 analyses=analyses(_dataset),
                 names=json.dumps(DATASETS[_dataset].get("paper_names", {})),
                 note=DATASETS[_dataset].get("note", ""),
+                peers_note=peers_note(_dataset),
                 k=config["objectives"]["test_retest_k"],
                 data_label=simulated_label(_dataset),
             shell:
                 "python -m aceval outputs --kinds {params.kind:q} --dataset {params.root:q} "
                 "--results {params.results:q} --analyses {params.analyses:q} {params.inputs:q} "
-                "--paper-names {params.names:q} --note={params.note:q} --test-retest-k {params.k:q} "
+                "--paper-names {params.names:q} --note={params.note:q} --note={params.peers_note:q} "
+                "--test-retest-k {params.k:q} "
                 "2> {log:q}"

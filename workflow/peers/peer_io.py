@@ -1,0 +1,113 @@
+"""The file interface between aceval and a peer tool, run with the peer's own interpreter.
+
+aceval cannot share an environment with its peers (gaitmap needs numpy < 2.1, OpenSim >= 2.1,
+aceval's results are made with its own lock), so each peer runs in ``.venv-peers/<peer>`` and
+this module, which needs NumPy only, is all it shares with aceval:
+
+* in: a calibration plan (JSON, written by ``aceval calibrate --plan-out``): the dataset folder,
+  its sampling rate and unit factors, and per calibration the IMU, segment, side, test, the
+  sensor axis declared to point right (``right_axis``, a unit vector: it fixes the signs every
+  method needs, as it does Kong's), the static and motion recording files that aceval's own pass
+  found usable, and the subsets of repetitions to calibrate from (all of them and every k-subset);
+* out: one CSV row per calibration and subset in aceval's convention: ``r11..r33`` of R mapping
+  sensor-frame vectors into Kong's body frame (x forward, y right, z down), ``flag`` and ``note``
+  when the peer cannot give one, and ``seconds`` (the peer's own computation, file reading left
+  out).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+COLUMNS = ["t", "acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z"]
+R_COLUMNS = [f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
+OUT_COLUMNS = [
+    "subject", "sensor_set", "imu", "segment", "side", "test", "repetitions", "n_reps", "method",
+    *R_COLUMNS, "flag", "note", "seconds",
+]  # fmt: skip
+
+
+def read_plan(path: str) -> dict:
+    """The calibration plan (module docstring)."""
+    return json.loads(Path(path).read_text())
+
+
+def read_recording(plan: dict, relative: str) -> tuple[np.ndarray, np.ndarray]:
+    """(acc m/s^2, gyr rad/s), each (N, 3), of a recording of the plan's dataset."""
+    path = Path(plan["dataset"]) / relative
+    with open(path, newline="") as handle:
+        header = next(csv.reader(handle))
+    columns = [header.index(c) for c in COLUMNS[1:]]
+    values = np.loadtxt(path, delimiter=",", skiprows=1, usecols=columns, ndmin=2)
+    return values[:, :3] * plan["acc_scale"], values[:, 3:] * plan["gyr_scale"]
+
+
+def frame_from_axes(down: np.ndarray, right: np.ndarray, right_axis: np.ndarray) -> np.ndarray:
+    """R (sensor -> Kong's body frame: x forward, y right, z down) from the sensor-frame downward
+    vertical and a medial-lateral axis, the latter signed to point along the declared right axis
+    and made orthogonal to the vertical (Kong Eq. 4-5: x = y x z, then y = z x x).
+    """
+    z = np.asarray(down, float) / np.linalg.norm(down)
+    y = np.asarray(right, float)
+    if y @ np.asarray(right_axis, float) < 0:
+        y = -y
+    x = np.cross(y, z)
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    return np.vstack([x, y, z])
+
+
+def subset_label(subset) -> str:
+    """``[1, 3]`` -> ``'R1+R3'`` (aceval's label of a subset of repetitions)."""
+    return "+".join(f"R{r}" for r in subset)
+
+
+def row(entry: dict, subset, method: str, R=None, seconds=float("nan"), flag="", note="") -> dict:
+    """An output row for one calibration (R None: not calibrated, ``flag`` and ``note`` say why)."""
+    values = np.full(9, np.nan) if R is None else np.asarray(R, float).ravel()
+    return {
+        **{k: entry[k] for k in ("subject", "sensor_set", "imu", "segment", "side", "test")},
+        "repetitions": subset_label(subset),
+        "n_reps": len(subset),
+        "method": method,
+        **dict(zip(R_COLUMNS, values)),
+        "flag": flag,
+        "note": note,
+        "seconds": seconds,
+    }
+
+
+def write_rows(path: str, rows: list[dict]) -> None:
+    """The output CSV, written to a temporary file and moved into place (nothing partial)."""
+    out = Path(path)
+    tmp = out.with_name(f".tmp.{out.name}")
+    with open(tmp, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, OUT_COLUMNS)
+        writer.writeheader()
+        writer.writerows(rows)
+    tmp.replace(out)
+
+
+class Timer:
+    """``with Timer() as t: ...`` then ``t.seconds``."""
+
+    def __enter__(self):
+        self.start = time.perf_counter()
+        return self
+
+    def __exit__(self, *exc):
+        self.seconds = time.perf_counter() - self.start
+
+
+def main(calibrate) -> None:
+    """``python <adapter>.py PLAN OUT``: ``calibrate(plan) -> rows`` written to OUT."""
+    if len(sys.argv) != 3:
+        raise SystemExit(f"usage: {Path(sys.argv[0]).name} PLAN.json OUT.csv")
+    plan = read_plan(sys.argv[1])
+    write_rows(sys.argv[2], calibrate(plan))
