@@ -109,7 +109,8 @@ METHODS = {
     "ricci": ["ricci_lm"],
     "align_vectors": ["align_vectors"],
     "triad": ["triad"],
-    "all": ["kong", "ricci_lm", "align_vectors", "triad"],
+    "combined": ["combined"],
+    "all": ["kong", "ricci_lm", "align_vectors", "triad", "combined"],
 }
 
 
@@ -511,7 +512,8 @@ def main(argv: list[str] | None = None) -> int:
         choices=list(METHODS),
         default="all",
         help="kong (every subset of repetitions), ricci (rho-weighted LM), align_vectors, triad "
-        "(the axis methods: all repetitions), or all (default)",
+        "(the axis methods: all repetitions), combined (Kong's plane and the gyroscope axis "
+        "weighted by their conditioning), or all (default)",
     )
     calibrate.add_argument(
         "--tests", nargs="+", help="only these motion tests (default: all; static tests always)"

@@ -95,7 +95,8 @@ def pool_summed(summed: np.ndarray, orient: str | np.ndarray = "mean") -> AxisEs
     return estimate
 
 
-def _seed(*key) -> int:
+def stable_seed(*key) -> int:
+    """A random seed fixed by a calibration's identity (the same results on every run)."""
     return zlib.crc32("|".join(map(str, key)).encode())
 
 
@@ -288,7 +289,9 @@ def functional_fits(
     v_ref = np.stack([axis_vector(a) for a in axes["reference"]])
     v_est = axes[["axis_x", "axis_y", "axis_z"]].to_numpy(float)
     rho = axes["rho"].to_numpy(float)
-    fits = fit_axes(v_ref, v_est, rho, triad_pair(v_ref, rho), random_starts, _seed(*seed_key))
+    fits = fit_axes(
+        v_ref, v_est, rho, triad_pair(v_ref, rho), random_starts, stable_seed(*seed_key)
+    )
     if np.sum(rho >= limits.min_rho) < 2:
         return _flag_all(
             fits,

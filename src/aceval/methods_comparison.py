@@ -21,11 +21,13 @@ from .stats import holm
 
 #: Kong et al. 2016 Sec. 4: the test recommended for each segment
 KONG_RECOMMENDATION = {"head": "T3", "chest": "T3", "waist": "T3", "thigh": "T6", "shank": "T6"}
-#: aceval's methods, then the peers (each run in its own environment: workflow/peers/)
+#: aceval's methods (the papers', then the combined heading), then the peers (each run in its own
+#: environment: workflow/peers/)
 METHOD_ORDER = [
-    "kong", "ricci_lm", "align_vectors", "triad", "gaitmap_pca", "qmt_hinge", "opensense_imuplacer",
+    "kong", "ricci_lm", "align_vectors", "triad", "combined",
+    "gaitmap_pca", "qmt_hinge", "opensense_imuplacer",
 ]  # fmt: skip
-PEERS = METHOD_ORDER[4:]
+PEERS = METHOD_ORDER[5:]
 KEY = ["subject", "sensor_set", "imu", "test", "method"]
 
 
@@ -71,6 +73,9 @@ def methods_table(calibrations: pd.DataFrame, test_retest_k: int | None = None) 
         )
         .reset_index()
     )
+    if "cone95_deg" in data:  # the bootstrap cone (aceval.uncertainty), where the method has one
+        cones = data.groupby(keys)["cone95_deg"].median().rename("cone95_median_deg")
+        table = table.merge(cones.reset_index(), on=keys, how="left")
     retest = retest_table(calibrations, test_retest_k) if test_retest_k else pd.DataFrame()
     if len(retest):  # Kong's design (Ricci's functional design has no subsets of repetitions)
         retest = retest[[*keys, "median", "n"]].rename(
@@ -131,6 +136,43 @@ def retest_table(calibrations: pd.DataFrame, k: int = 3) -> pd.DataFrame:
         .reset_index()
     )
     return _method_order(_with_not_applicable(table, calibrations, keys), keys[:3])
+
+
+def uncertainty_table(calibrations: pd.DataFrame) -> pd.DataFrame:
+    """How often the truth falls inside a calibration's 95 % bootstrap cone
+    (:mod:`aceval.uncertainty`): per segment, test and method, over the unflagged calibrations
+    from all repetitions with a cone and a truth: ``n``, the median cone half-angle and error
+    (deg), ``coverage`` (share with error <= cone), and the same for the heading part of the error
+    (``heading_error_deg``: its component about the body vertical, deg), which is all the cone
+    can see (z0 is held). Coverage well below 0.95 says the error is mostly bias, not spread.
+    """
+    columns = ["segment", "test", "method", "n", "cone95_median_deg", "error_median_deg",
+               "coverage", "heading_error_median_deg", "heading_coverage"]  # fmt: skip
+    if "cone95_deg" not in calibrations:
+        return pd.DataFrame(columns=columns)
+    data = full_set_errors(calibrations)
+    data = data[np.isfinite(data["cone95_deg"])]
+    if data.empty:
+        return pd.DataFrame(columns=columns)
+    heading = data["error_deg"] * data["error_vertical_share"].fillna(0.0)
+    data = data.assign(
+        heading_error_deg=heading,
+        inside=data["error_deg"] <= data["cone95_deg"],
+        heading_inside=heading <= data["cone95_deg"],
+    )
+    table = (
+        data.groupby(["segment", "test", "method"])
+        .agg(
+            n=("error_deg", "count"),
+            cone95_median_deg=("cone95_deg", "median"),
+            error_median_deg=("error_deg", "median"),
+            coverage=("inside", "mean"),
+            heading_error_median_deg=("heading_error_deg", "median"),
+            heading_coverage=("heading_inside", "mean"),
+        )
+        .reset_index()
+    )
+    return _method_order(table, ["segment", "test"])[columns]
 
 
 def with_truth(calibrations: pd.DataFrame, ground_truth: pd.DataFrame | None) -> pd.DataFrame:

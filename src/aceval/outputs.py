@@ -365,6 +365,19 @@ _ENTRIES = [
         _named_markdown,
     ),  # fmt: skip
     Output(
+        "uncertainty",
+        "table",
+        "methods",
+        "beyond the papers (an uncertainty with every calibration)",
+        ("calibrations",),
+        "The 95 % bootstrap cone of a calibration (resampled repetitions; half-angle, deg) against "
+        "its error to the ground truth: coverage, the share of calibrations whose error (and whose "
+        "heading error) lies inside their cone",
+        "calibrations from all repetitions of both sensor sets (unflagged, with a cone)",
+        _named("methods_comparison.uncertainty_table", "calibrations"),
+        _named_markdown,
+    ),  # fmt: skip
+    Output(
         "methods_best",
         "table",
         "methods",

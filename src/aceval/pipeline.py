@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 from scipy.spatial.transform import Rotation
 
+from .calibration.combined import combined_rotation, gyro_weight, horizontal_right, kong_weight
 from .calibration.kong import KongLimits, kong_from_scatters
 from .checks import (
     AGREEMENT_COLUMNS,
@@ -27,11 +28,13 @@ from .functional import (
     AXIS_METHODS,
     MOMENT_COLUMNS,
     PHASE_COLUMNS,
+    AxisLimits,
     axis_spread_deg,
     functional_fits,
     pool,
     pool_summed,
     sagittal_fits,
+    stable_seed,
     subset_axes,
 )
 from .functional import (
@@ -48,6 +51,7 @@ from .objectives import (
 from .reduction import SCATTER_COLUMNS, reduce_recordings
 from .rotations import axis_vector, error_angle_deg, vertical_share
 from .segmentation import TrimParams
+from .uncertainty import bootstrap_cone
 
 KEY = ["subject", "sensor_set", "imu"]
 #: the columns every calibration table has (an empty table keeps them)
@@ -131,10 +135,9 @@ def _truth_columns(truth, R) -> dict:
 
 
 def _method_rows(base: dict, fits: dict, truth) -> list[dict]:
-    """One calibration row per axis method (R, LM diagnostics, flag and error to the truth)."""
+    """One calibration row per method of ``fits`` (R, diagnostics, flag and error to the truth)."""
     rows = []
-    for method in AXIS_METHODS:
-        fit = fits[method]
+    for method, fit in fits.items():
         R = fit.get("R")
         row = {
             **base,
@@ -143,12 +146,12 @@ def _method_rows(base: dict, fits: dict, truth) -> list[dict]:
             "flag": fit.get("flag", ""),
             **{k: float(v) for k, v in _truth_columns(truth, R).items()},
         }
-        row.update({k: v for k, v in fit.items() if k in LM_COLUMNS})
+        row.update({k: v for k, v in fit.items() if k in FIT_COLUMNS})
         rows.append(row)
     return rows
 
 
-LM_COLUMNS = [
+FIT_COLUMNS = [
     "n_iterations",
     "n_rejected",
     "optimum_distance_deg",
@@ -163,6 +166,10 @@ LM_COLUMNS = [
     "random_start_iterations_max",
     "first_phase_agreement",
     "right_axis_angle_deg",
+    "weight_kong",
+    "weight_gyro",
+    "cone95_deg",
+    "cone_vertical_share",
 ]
 
 
@@ -324,6 +331,7 @@ def calibrate_sagittal(
                     **{name: values[k] for name, values in errors.items()},
                 }
             )
+        kong_full = out[-1]  # the calibration from all repetitions (the last subset)
         gyro_axis = pool(group, orient=right)
         axes.append(_axis_row(identity, test, "motion", gyro_axis, "+y", len(reps)))
         spread = axis_spread_deg(group[PHASE_COLUMNS].to_numpy(float), gyro_axis.axis)
@@ -340,9 +348,14 @@ def calibrate_sagittal(
             **sensor_columns,
         }
         fits = sagittal_fits(z0_imu, rho_static, gyro_axis.axis, gyro_axis.rho, spread)
+        axis_flag = fits["triad"].get("flag", "")  # the gyroscope axis's own conditioning
+        kong_at = {subset: k for k, subset in enumerate(chosen)}
+        fits["combined"] = _combined_fit(
+            result, kong_at[tuple(reps)], z0_imu, gyro_axis, axis_flag, right, limits
+        )
         all_reps = np.ones((1, len(reps)))
-        for method in AXIS_METHODS:  # the same direction checks as Kong's
-            if fits[method].get("R") is not None:
+        for method in [*AXIS_METHODS, "combined"]:  # the same direction checks as Kong's
+            if fits[method].get("R") is not None and np.isfinite(fits[method]["R"]).all():
                 checked = _direction(
                     dataset,
                     test,
@@ -357,18 +370,57 @@ def calibrate_sagittal(
                 )
                 fits[method]["first_phase_agreement"] = checked["first_phase_agreement"][0]
                 fits[method]["right_axis_angle_deg"] = checked["right_axis_angle_deg"][0]
+            else:
+                fits[method]["flag"] = _first_flag(sensor["flag"], fits[method].get("flag", ""))
+        cones = bootstrap_cone(
+            group[SCATTER_COLUMNS].to_numpy(float).reshape(-1, 3, 3),
+            group["n_samples"].to_numpy(float),
+            group[UNIT_SCATTER_COLUMNS].to_numpy(float).reshape(-1, 3, 3),
+            z0_imu,
+            right,
+            result.R[kong_at[tuple(reps)]],
+            fits["combined"]["R"],
+            AxisLimits().min_rho,
+            limits,
+            seed=stable_seed(subject, sensor_set, imu, test),
+        )
+        for method, (cone95_deg, cone_share) in cones.items():
+            target = kong_full if method == "kong" else fits[method]
+            target.update(cone95_deg=cone95_deg, cone_vertical_share=cone_share)
         out += _method_rows(base, fits, truth)
         if subsets == "all" and retest_k and len(reps) > retest_k:
             out += _retest_rows(group, base, fits, sensor["flag"], z0_imu, rho_static, right,
-                                retest_k, truth)  # fmt: skip
+                                retest_k, truth, result, kong_at, limits)  # fmt: skip
     calibrations = pd.DataFrame(out, columns=None if out else CALIBRATION_COLUMNS)
     return propagate_backward(calibrations), pd.DataFrame(axes, columns=AXES_COLUMNS)
 
 
-def _retest_rows(group, base, fits, sensor_flag, z0, rho_static, right, k, truth) -> list[dict]:
-    """The axis methods from every subset of ``k`` repetitions (Obj 4's test-retest for every
-    method, not only Kong's): each subset's pooled gyroscope axis; flagged as the subset's own fit
-    and, for direction, as the calibration from all repetitions (a property of the mounting).
+def _combined_fit(kong, index: int, z0, axis, axis_flag: str, right, limits: KongLimits) -> dict:
+    """The combined heading (:mod:`aceval.calibration.combined`) of Kong's calibration ``index``
+    of ``kong`` (a :class:`KongResult`) and the pooled gyroscope ``axis`` of the same repetitions:
+    each weighted by its conditioning, 0 when flagged; both 0: the heading is undetermined
+    (R NaN, flagged as Kong's calibration).
+    """
+    w_kong = (
+        float(kong_weight(kong.normal_ratio[index], kong.planarity[index],
+                          limits.max_normal_ratio, limits.max_planarity))
+        if kong.flag[index] == "" else 0.0
+    )  # fmt: skip
+    w_gyro = float(gyro_weight(axis.rho, AxisLimits().min_rho)) if axis_flag == "" else 0.0
+    R = combined_rotation(
+        z0, kong.R[index, 1], horizontal_right(axis.axis, z0, right), w_kong, w_gyro
+    )
+    flag = "" if w_kong + w_gyro > 0 else (kong.flag[index] or axis_flag or "not_planar")
+    return {"R": R, "flag": flag, "weight_kong": w_kong, "weight_gyro": w_gyro}
+
+
+def _retest_rows(
+    group, base, fits, sensor_flag, z0, rho_static, right, k, truth, kong, kong_at, limits
+) -> list[dict]:
+    """The axis methods and the combined heading from every subset of ``k`` repetitions (Obj 4's
+    test-retest for every method, not only Kong's): each subset's pooled gyroscope axis (and
+    Kong's calibration ``kong_at[subset]`` of ``kong``); flagged as the subset's own fit and, for
+    direction, as the calibration from all repetitions (a property of the mounting).
     """
     rows = []
     for chosen in itertools.combinations(range(len(group)), k):
@@ -376,11 +428,14 @@ def _retest_rows(group, base, fits, sensor_flag, z0, rho_static, right, k, truth
         axis = pool(part, orient=right)
         spread = axis_spread_deg(part[PHASE_COLUMNS].to_numpy(float), axis.axis)
         sub = sagittal_fits(z0, rho_static, axis.axis, axis.rho, spread, diagnostics=False)
-        for method in AXIS_METHODS:
+        reps = [int(r) for r in part["rep"]]
+        sub["combined"] = _combined_fit(
+            kong, kong_at[tuple(reps)], z0, axis, sub["triad"].get("flag", ""), right, limits
+        )
+        for method in [*AXIS_METHODS, "combined"]:
             sub[method]["flag"] = _first_flag(
                 sensor_flag, sub[method].get("flag", ""), fits[method].get("flag", "")
             )
-        reps = [int(r) for r in part["rep"]]
         rows += _method_rows(
             {
                 **base,

@@ -196,8 +196,10 @@ def summary_text(tables: dict, analyses: list[str], data: dict, notes: list[str]
         meta.get("description", ""),
         bool(meta.get("simulated")),
         notes,
-        summary.methods_section(tables)
+        summary.recommendation_section(tables)
+        + summary.methods_section(tables)
         + summary.retest_section(tables)
+        + summary.uncertainty_section(tables)
         + summary.conditioning_section(tables)
         + summary.truth_section(tables)
         + summary.loose_reference_section(tables),

@@ -793,6 +793,87 @@ def retest_section(tables: dict) -> list[str]:
     return lines + [""]
 
 
+def uncertainty_section(tables: dict) -> list[str]:
+    """Table ``uncertainty``: how often the truth lies inside each calibration's 95 % bootstrap
+    cone, per method (all segments and tests).
+    """
+    table = tables.get("uncertainty")
+    if table is None or table.empty:
+        return []
+    lines = [
+        "## How far to trust one calibration: the 95 % bootstrap cone",
+        "",
+        "Each calibration from all repetitions carries `cone95_deg`: the 95th percentile of the "
+        "angle between it and its calibrations from resampled repetitions (table `uncertainty`, "
+        "aceval.uncertainty). Against the ground truth:",
+        "",
+    ]
+    for method, group in table.groupby("method", sort=False):
+        n = int(group["n"].sum())
+        coverage = float((group["coverage"] * group["n"]).sum() / n)
+        heading = float((group["heading_coverage"] * group["n"]).sum() / n)
+        lines.append(
+            f"- **{method}**: median cone {group['cone95_median_deg'].median():.2f} deg, median "
+            f"error {group['error_median_deg'].median():.2f} deg; the truth is inside the cone for "
+            f"{coverage:.0%} of {n} calibrations, the heading part of the error for {heading:.0%}."
+        )
+    lines += [
+        "",
+        "A 95 % cone that holds the truth far less often than 95 % means the error is mostly "
+        "bias shared by all repetitions (the vertical from quiet standing, a sensor that does "
+        "not move in the segment's sagittal plane), which resampling the repetitions cannot see; "
+        "the cone is a floor on the error, not a bound.",
+        "",
+    ]
+    return lines
+
+
+#: methods whose test-retest says nothing about the motion (OpenSense calibrates from a static pose)
+STATIC_METHODS = {"opensense_imuplacer"}
+
+
+def recommendation_section(tables: dict) -> list[str]:
+    """Which method and test for which segment, from this dataset's numbers: the smallest median
+    error to the ground truth (table ``methods``) where there is one, else the smallest
+    test-retest angle (table ``methods_retest``), with the evidence beside it.
+    """
+    methods, retest = tables.get("methods"), tables.get("methods_retest")
+    truth = methods is not None and not methods.empty and methods["median"].notna().any()
+    table = methods if truth else retest
+    if table is None or table.empty or table["median"].isna().all():
+        return []
+    data = table.dropna(subset=["median"])
+    if not truth:
+        data = data[~data["method"].isin(STATIC_METHODS)]
+    lines = [
+        "## Which method for which segment (this dataset's numbers)",
+        "",
+        "By the smallest median error to the ground truth (table `methods`)"
+        if truth
+        else "No ground truth here: by the smallest test-retest angle (table `methods_retest`; "
+        "repeatability, not accuracy; OpenSense's static pose left out, it repeats by design)",
+        "",
+    ]
+    for segment, group in data.groupby("segment", sort=False):
+        best = group.loc[group["median"].idxmin()]
+        what = "error" if truth else "test-retest"
+        evidence = f"median {what} {best['median']:.2f} deg, n = {int(best['n'])}"
+        if truth and pd.notna(best.get("retest_median_deg", np.nan)):
+            evidence += f"; test-retest {best['retest_median_deg']:.2f} deg"
+        if truth and pd.notna(best.get("cone95_median_deg", np.nan)):
+            evidence += f"; cone {best['cone95_median_deg']:.2f} deg"
+        others = group[group["method"] != best["method"]]
+        if len(others):
+            runner = others.loc[others["median"].idxmin()]
+            evidence += f"; next: {runner['method']} {runner['test']} {runner['median']:.2f} deg"
+        caveat = " (one unit: not evidence enough to generalise)" if int(best["n"]) < 2 else ""
+        where = f", {best['sensor_set']} set" if data["sensor_set"].nunique() > 1 else ""
+        lines.append(
+            f"- **{segment}**: {best['method']} from {best['test']}{where} ({evidence}){caveat}."
+        )
+    return lines + [""]
+
+
 def conditioning_section(tables: dict) -> list[str]:
     """Table ``conditioning``: per test and segment, how many IMUs' headings Kong's plane leaves
     undetermined (eigenvalue ratio above 0.5), beside the median ratio.

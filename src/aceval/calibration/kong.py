@@ -120,6 +120,7 @@ def kong_from_scatters(
     subsets: Sequence[Sequence[int]] | None = None,
     limits: KongLimits = KongLimits(),
     strict: bool = True,
+    weights: np.ndarray | None = None,
 ) -> KongResult:
     """Kong calibration for any subsets of repetitions, from per-repetition scatters.
 
@@ -131,6 +132,8 @@ def kong_from_scatters(
     right_axis: signed sensor axis ('+y', ...) or unit vector(s) (..., 3) pointing roughly right.
     subsets: list of repetition-index lists (0-based); default: all repetitions together.
     strict: raise on the first invalid calibration; otherwise return it flagged.
+    weights: (n_subsets, n_rep) how often each repetition counts, instead of ``subsets`` (a
+        bootstrap resample counts a repetition 0, 1, 2... times).
 
     Returns a :class:`KongResult` of leading shape (..., n_subsets). Cost: one 3x3 sum and one
     ``eigh`` per subset, vectorised over IMUs and subsets; samples are never touched again.
@@ -142,9 +145,10 @@ def kong_from_scatters(
             f"scatters {scatters.shape} and counts {counts.shape} do not match (..., n_rep, 3, 3)"
         )
     batch, n_rep = counts.shape[:-1], counts.shape[-1]
-    if subsets is None:
-        subsets = [list(range(n_rep))]
-    membership = _subset_membership(subsets, n_rep)
+    if weights is not None:
+        membership = np.asarray(weights, dtype=float)
+    else:
+        membership = _subset_membership([list(range(n_rep))] if subsets is None else subsets, n_rep)
 
     total = np.einsum("sr,...rij->...sij", membership, scatters)
     n_samples = np.einsum("sr,...r->...s", membership, counts)

@@ -1,0 +1,188 @@
+"""The combined heading, the bootstrap cone and the recommendation (beyond the papers)."""
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.spatial.transform import Rotation
+
+from aceval import summary
+from aceval.calibration.combined import (
+    combined_rotation,
+    gyro_weight,
+    horizontal_right,
+    kong_weight,
+)
+from aceval.calibration.kong import kong_from_scatters
+from aceval.methods_comparison import uncertainty_table
+from aceval.rotations import error_angle_deg
+from aceval.uncertainty import bootstrap_cone, cone, resample_weights
+
+R_TRUE = Rotation.from_euler("zyx", [40, -25, 70], degrees=True).as_matrix()  # sensor -> body
+
+
+def _in_sensor(body_vector):
+    return R_TRUE.T @ np.asarray(body_vector, float)
+
+
+def _body_heading(yaw_deg):
+    """The body's right axis turned by ``yaw_deg`` about the body vertical, in the sensor frame."""
+    yaw = np.radians(yaw_deg)
+    return _in_sensor([-np.sin(yaw), np.cos(yaw), 0.0])
+
+
+def test_combined_heading_is_the_weighted_mean_of_the_two_horizontal_axes():
+    z0, right = _in_sensor([0, 0, 1]), _in_sensor([0, 1, 0])
+    y_kong, y_gyro = _body_heading(10.0), _body_heading(-10.0)
+    # a weight of 0 gives the other estimate exactly; equal weights the bisector, the truth here
+    only_gyro = combined_rotation(z0, y_kong, y_gyro, 0.0, 0.7)
+    assert error_angle_deg(only_gyro, R_TRUE) == pytest.approx(10.0, abs=1e-9)
+    assert np.allclose(only_gyro @ y_gyro, [0, 1, 0])
+    both = combined_rotation(z0, y_kong, y_gyro, 0.5, 0.5)
+    assert error_angle_deg(both, R_TRUE) == pytest.approx(0.0, abs=1e-6)
+    assert np.allclose(both @ both.T, np.eye(3)) and np.linalg.det(both) == pytest.approx(1.0)
+    # weights 3:1 turn the heading a quarter of the way from Kong's estimate to the gyroscope's
+    assert error_angle_deg(combined_rotation(z0, y_kong, y_gyro, 0.75, 0.25), R_TRUE) == (
+        pytest.approx(5.0, abs=0.2)
+    )
+    assert np.isnan(combined_rotation(z0, y_kong, y_gyro, 0.0, 0.0)).all()
+    # a gyroscope axis off the horizontal, or pointing left, is projected and turned right
+    tilted = -(y_gyro + 0.3 * z0)
+    assert np.allclose(horizontal_right(tilted, z0, right), y_gyro)
+
+
+def test_combined_heading_rotates_with_the_sensor():
+    z0, y_kong, y_gyro = _in_sensor([0, 0, 1]), _body_heading(6.0), _body_heading(-2.0)
+    base = combined_rotation(z0, y_kong, y_gyro, 0.3, 0.9)
+    Q = Rotation.from_euler("xyz", [10, 80, -35], degrees=True).as_matrix()  # a remounted sensor
+    turned = combined_rotation(Q @ z0, Q @ y_kong, Q @ y_gyro, 0.3, 0.9)
+    assert np.allclose(turned, base @ Q.T)
+
+
+def test_weights_are_zero_at_the_flag_limits_and_one_when_perfect():
+    assert kong_weight([0.0, 0.25, 0.5, 0.7], [0.01] * 4, 0.5, 0.1) == pytest.approx(
+        [1.0, 0.5, 0.0, 0.0]
+    )
+    assert kong_weight(0.1, 0.2, 0.5, 0.1) == 0.0  # not planar
+    assert gyro_weight([1.0, 0.7, 0.4, 0.35], 0.4) == pytest.approx([1.0, 0.5, 0.0, 0.0])
+
+
+def _scatters(headings_deg, n=500, seed=0):
+    """Per repetition: the scatter of sagittal accelerations (gravity and a fore-aft swing) of
+    a sensor whose plane is turned by ``headings_deg`` about the vertical."""
+    rng = np.random.default_rng(seed)
+    scatters = []
+    for heading in headings_deg:
+        yaw = np.radians(heading)
+        forward = np.array([np.cos(yaw), np.sin(yaw), 0.0])
+        t = rng.uniform(-1, 1, n)
+        body = -9.81 * np.array([0, 0, 1.0]) + 3.0 * t[:, None] * forward
+        body += 0.05 * rng.standard_normal((n, 3))
+        sensor = body @ R_TRUE  # d_sensor = R^T d_body, row-wise
+        scatters.append(sensor.T @ sensor)
+    return np.array(scatters), np.full(len(headings_deg), float(n))
+
+
+def test_weights_instead_of_subsets_give_the_same_calibrations():
+    scatters, counts = _scatters([0, 3, -2, 1, 4])
+    z0, right = _in_sensor([0, 0, 1]), _in_sensor([0, 1, 0])
+    subsets = [[0, 1, 2], [1, 3], [0, 1, 2, 3, 4]]
+    weights = np.zeros((3, 5))
+    for row, subset in enumerate(subsets):
+        weights[row, subset] = 1.0
+    by_subsets = kong_from_scatters(scatters, counts, z0, right, subsets)
+    by_weights = kong_from_scatters(scatters, counts, z0, right, weights=weights)
+    assert np.allclose(by_subsets.R, by_weights.R)
+
+
+def test_the_cone_grows_with_the_repetitions_spread_and_is_about_the_vertical():
+    z0, right = _in_sensor([0, 0, 1]), _in_sensor([0, 1, 0])
+    unit = np.repeat((np.outer(right, right) * 100.0)[None], 5, axis=0)  # a pure hinge about y
+
+    def cones(headings):
+        scatters, counts = _scatters(headings)
+        full = kong_from_scatters(scatters, counts, z0, right)
+        R = full.R[0]
+        return bootstrap_cone(scatters, counts, unit, z0, right, R, R, 0.4, seed=3), R
+
+    tight, _ = cones([0, 0, 0, 0, 0])
+    wide, R = cones([0, 6, -6, 3, -3])
+    assert tight["kong"][0] < 0.5
+    assert wide["kong"][0] > 2.0 * tight["kong"][0] + 1.0
+    assert wide["kong"][1] == pytest.approx(1.0, abs=1e-6)  # z0 is held: all about the vertical
+    # reproducible: the same seed gives the same cone
+    assert bootstrap_cone(*_scatters([0, 6, -6, 3, -3]), unit, z0, right, R, R, 0.4, seed=3) == wide
+
+
+def test_resample_weights_draw_n_repetitions_each_time():
+    weights = resample_weights(5, 200, seed=1)
+    assert weights.shape == (200, 5) and (weights.sum(axis=1) == 5).all()
+    assert np.isnan(cone(np.full((10, 3, 3), np.nan), np.eye(3))[0])
+
+
+def _calibrations(errors, cones, shares, flags=None):
+    n = len(errors)
+    return pd.DataFrame(
+        {
+            "subject": [f"S{i}" for i in range(n)],
+            "sensor_set": "frontal",
+            "imu": "IMU1",
+            "segment": "thigh",
+            "test": "T6",
+            "method": "kong",
+            "repetitions": "R1+R2+R3+R4+R5",
+            "n_reps": 5,
+            "flag": flags or [""] * n,
+            "error_deg": errors,
+            "error_vertical_share": shares,
+            "cone95_deg": cones,
+        }
+    )
+
+
+def test_coverage_counts_errors_inside_their_cone_and_the_heading_part_apart():
+    table = uncertainty_table(
+        _calibrations([1.0, 3.0, 2.0, 9.0], [2.0, 2.0, 2.0, 1.0], [1.0, 0.5, 1.0, 0.0])
+    ).iloc[0]
+    assert table["n"] == 4
+    assert table["coverage"] == pytest.approx(0.5)  # 1 <= 2 and 2 <= 2
+    # heading parts 1, 1.5, 2, 0: all inside
+    assert table["heading_coverage"] == pytest.approx(1.0)
+    flagged = uncertainty_table(
+        _calibrations([1.0, 3.0], [2.0, 2.0], [1.0, 1.0], ["", "not_planar"])
+    )
+    assert flagged.iloc[0]["n"] == 1
+
+
+def test_recommendation_uses_the_truth_where_there_is_one_and_test_retest_otherwise():
+    methods = pd.DataFrame(
+        {
+            "segment": ["thigh"] * 3,
+            "test": ["T3", "T6", "T6"],
+            "sensor_set": "frontal",
+            "method": ["kong", "kong", "combined"],
+            "median": [4.0, 2.0, 2.5],
+            "n": [5, 5, 5],
+            "retest_median_deg": [1.0, 0.5, 0.4],
+        }
+    )
+    retest = methods.assign(
+        median=[
+            0.9,
+            0.3,
+            0.1,
+        ][:3]
+    )
+    lines = "\n".join(
+        summary.recommendation_section({"methods": methods, "methods_retest": retest})
+    )
+    assert "**thigh**: kong from T6 (median error 2.00 deg, n = 5; test-retest 0.50 deg" in lines
+    no_truth = "\n".join(summary.recommendation_section({"methods_retest": retest}))
+    assert "No ground truth here" in no_truth
+    assert "**thigh**: combined from T6 (median test-retest 0.10 deg" in no_truth
+    static = retest.assign(method=["kong", "kong", "opensense_imuplacer"])
+    assert (
+        "opensense"
+        not in "\n".join(summary.recommendation_section({"methods_retest": static})).split(
+            "repeats by design"
+        )[1]
+    )
