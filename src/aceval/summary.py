@@ -828,6 +828,14 @@ def uncertainty_section(tables: dict) -> list[str]:
     return lines
 
 
+def _truth_rows(tables: dict, segment: str) -> pd.DataFrame:
+    """The rows of table ``truth_errors`` (a measured real-data truth) for ``segment``."""
+    table = tables.get("truth_errors")
+    if table is None or table.empty:
+        return pd.DataFrame()
+    return table[table["segment"] == segment].drop_duplicates(["subject", "sensor_set", "imu"])
+
+
 #: methods whose test-retest says nothing about the motion (OpenSense calibrates from a static pose)
 STATIC_METHODS = {"opensense_imuplacer"}
 
@@ -862,6 +870,12 @@ def recommendation_section(tables: dict) -> list[str]:
             evidence += f"; test-retest {best['retest_median_deg']:.2f} deg"
         if truth and pd.notna(best.get("cone95_median_deg", np.nan)):
             evidence += f"; cone {best['cone95_median_deg']:.2f} deg"
+        truth_rows = _truth_rows(tables, segment)
+        if truth and len(truth_rows):  # the truth is a measurement: its own uncertainty beside
+            evidence += (
+                f"; the truth +- {truth_rows['truth_split_half_deg'].max():.1f} deg (split-half), "
+                f"its two methods up to {truth_rows['methods_differ_deg'].max():.1f} deg apart"
+            )
         others = group[group["method"] != best["method"]]
         if len(others):
             runner = others.loc[others["median"].idxmin()]
