@@ -83,8 +83,21 @@ def lab_config(workdir: Path, dataset: Path, subjects_per_job: int) -> Path:
 
 def simulate(out: Path, subjects: int) -> tuple[float, float]:
     return run(
-        [sys.executable, "-m", "aceval", "simulate", "kong", "--out", str(out), "--seed", "1",
-         "--subjects", str(subjects), "--jobs", "2"]  # fmt: skip
+        [
+            sys.executable,
+            "-m",
+            "aceval",
+            "simulate",
+            "kong",
+            "--out",
+            str(out),
+            "--seed",
+            "1",
+            "--subjects",
+            str(subjects),
+            "--jobs",
+            "2",
+        ]  # fmt: skip
     )
 
 
