@@ -51,6 +51,16 @@ def test_known_mounting_comes_back(q):
     assert result.planarity < 1e-12  # exactly planar, noise-free
 
 
+def test_repetitions_of_different_lengths_are_joined():
+    """A list of repetitions (each its own length, as recorded) is one calibration of them all."""
+    R_mount = Rotation.from_euler("zyx", [30, -20, 110], degrees=True).as_matrix()
+    motion = to_sensor(R_mount, pitch_motion())
+    parts = [motion[:150], motion[150:390], motion[390:]]
+    joined = kong_calibrate(static_samples(R_mount), motion, right_axis_of(R_mount))
+    by_parts = kong_calibrate(static_samples(R_mount), parts, right_axis_of(R_mount))
+    assert np.allclose(by_parts.R, joined.R) and by_parts.n_samples == joined.n_samples
+
+
 def test_R_maps_sensor_to_body():
     R_mount = Rotation.from_euler("zyx", [30, -20, 110], degrees=True).as_matrix()
     motion_body = pitch_motion()

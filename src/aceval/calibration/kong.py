@@ -254,7 +254,8 @@ def kong_calibrate(
     2.4.1). Returns a :class:`KongResult` with ``R`` of shape (3, 3); raises on bad input.
     """
     z0 = vertical_axis(acc_static, limits)
-    repetitions = [acc_motion] if np.ndim(acc_motion) == 2 else list(acc_motion)
+    # a list or tuple holds repetitions (of any lengths); anything else is one (N, 3) array
+    repetitions = list(acc_motion) if isinstance(acc_motion, (list, tuple)) else [acc_motion]
     scatters = np.stack([scatter(rep) for rep in repetitions])
     counts = np.array([len(rep) for rep in repetitions])
     result = kong_from_scatters(scatters, counts, z0, right_axis, limits=limits, strict=True)
