@@ -110,7 +110,8 @@ METHODS = {
     "align_vectors": ["align_vectors"],
     "triad": ["triad"],
     "combined": ["combined"],
-    "all": ["kong", "ricci_lm", "align_vectors", "triad", "combined"],
+    "step_harmonic": ["step_harmonic"],
+    "all": ["kong", "ricci_lm", "align_vectors", "triad", "combined", "step_harmonic"],
 }
 
 
@@ -513,7 +514,8 @@ def main(argv: list[str] | None = None) -> int:
         default="all",
         help="kong (every subset of repetitions), ricci (rho-weighted LM), align_vectors, triad "
         "(the axis methods: all repetitions), combined (Kong's plane and the gyroscope axis "
-        "weighted by their conditioning), or all (default)",
+        "weighted by their conditioning), step_harmonic (walking: the anterior-posterior axis "
+        "from the acceleration at the step frequency), or all (default)",
     )
     calibrate.add_argument(
         "--tests", nargs="+", help="only these motion tests (default: all; static tests always)"

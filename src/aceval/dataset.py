@@ -186,7 +186,7 @@ class Dataset:
 
     @cached_property
     def test_kinds(self) -> dict[str, str]:
-        """tests.tsv ``first_phase`` of ``test`` ('-y', '+y', 'gait' or '': no direction check)."""
+        """tests.tsv ``kind`` of each test ('static' or 'motion')."""
         return self.tests["kind"].to_dict()
 
     @cached_property

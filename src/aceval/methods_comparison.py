@@ -24,10 +24,9 @@ KONG_RECOMMENDATION = {"head": "T3", "chest": "T3", "waist": "T3", "thigh": "T6"
 #: aceval's methods (the papers', then the combined heading), then the peers (each run in its own
 #: environment: workflow/peers/)
 METHOD_ORDER = [
-    "kong", "ricci_lm", "align_vectors", "triad", "combined",
+    "kong", "ricci_lm", "align_vectors", "triad", "combined", "step_harmonic",
     "gaitmap_pca", "qmt_hinge", "opensense_imuplacer",
 ]  # fmt: skip
-PEERS = METHOD_ORDER[5:]
 KEY = ["subject", "sensor_set", "imu", "test", "method"]
 
 

@@ -17,6 +17,8 @@ from scipy.spatial.transform import Rotation
 
 from .calibration.combined import combined_rotation, gyro_weight, horizontal_right, kong_weight
 from .calibration.kong import KongLimits, kong_from_scatters
+from .calibration.step_harmonic import MAX_STEP_RATIO, step_harmonic_rotation
+from .calibration.step_harmonic import SCATTER_COLUMNS as STEP_COLUMNS
 from .checks import (
     AGREEMENT_COLUMNS,
     THIRD_MOMENT_COLUMNS,
@@ -25,7 +27,6 @@ from .checks import (
 )
 from .dataset import R_COLUMNS, Dataset
 from .functional import (
-    AXIS_METHODS,
     MOMENT_COLUMNS,
     PHASE_COLUMNS,
     AxisLimits,
@@ -170,6 +171,8 @@ FIT_COLUMNS = [
     "weight_gyro",
     "cone95_deg",
     "cone_vertical_share",
+    "step_ratio",
+    "step_hz",
 ]
 
 
@@ -353,8 +356,11 @@ def calibrate_sagittal(
         fits["combined"] = _combined_fit(
             result, kong_at[tuple(reps)], z0_imu, gyro_axis, axis_flag, right, limits
         )
+        steps = _step_scatters(group)
+        if steps is not None:  # walking: the step-harmonic heading
+            fits["step_harmonic"] = _step_fit(steps.sum(axis=0), z0_imu, right, group)
         all_reps = np.ones((1, len(reps)))
-        for method in [*AXIS_METHODS, "combined"]:  # the same direction checks as Kong's
+        for method in fits:  # the same direction checks as Kong's
             if fits[method].get("R") is not None and np.isfinite(fits[method]["R"]).all():
                 checked = _direction(
                     dataset,
@@ -383,6 +389,8 @@ def calibrate_sagittal(
             AxisLimits().min_rho,
             limits,
             seed=stable_seed(subject, sensor_set, imu, test),
+            step_scatters=steps,
+            R_step=fits["step_harmonic"]["R"] if steps is not None else None,
         )
         for method, (cone95_deg, cone_share) in cones.items():
             target = kong_full if method == "kong" else fits[method]
@@ -414,10 +422,35 @@ def _combined_fit(kong, index: int, z0, axis, axis_flag: str, right, limits: Kon
     return {"R": R, "flag": flag, "weight_kong": w_kong, "weight_gyro": w_gyro}
 
 
+def _step_scatters(group: pd.DataFrame) -> np.ndarray | None:
+    """The step-harmonic scatters (n_rep, 3, 3) of a walking test's repetitions; None when the
+    test is not walking or a repetition has none.
+    """
+    if STEP_COLUMNS[0] not in group:
+        return None
+    steps = group[STEP_COLUMNS].to_numpy(float)
+    return steps.reshape(-1, 3, 3) if np.isfinite(steps).all() else None
+
+
+def _step_fit(H: np.ndarray, z0, right, group: pd.DataFrame) -> dict:
+    """The step-harmonic calibration from the summed scatter ``H`` of ``group``'s repetitions,
+    flagged ``no_step_heading`` when no horizontal direction dominates.
+    """
+    R, ratio = step_harmonic_rotation(H, z0, right)
+    ok = bool(ratio <= MAX_STEP_RATIO)
+    return {
+        "R": R,
+        "flag": "" if ok else "no_step_heading",
+        "step_ratio": float(ratio),
+        "step_hz": float(group["step_hz"].median()),
+    }
+
+
 def _retest_rows(
     group, base, fits, sensor_flag, z0, rho_static, right, k, truth, kong, kong_at, limits
 ) -> list[dict]:
-    """The axis methods and the combined heading from every subset of ``k`` repetitions (Obj 4's
+    """The axis methods, the combined and (walking) the step-harmonic heading from every subset of
+    ``k`` repetitions (Obj 4's
     test-retest for every method, not only Kong's): each subset's pooled gyroscope axis (and
     Kong's calibration ``kong_at[subset]`` of ``kong``); flagged as the subset's own fit and, for
     direction, as the calibration from all repetitions (a property of the mounting).
@@ -432,7 +465,10 @@ def _retest_rows(
         sub["combined"] = _combined_fit(
             kong, kong_at[tuple(reps)], z0, axis, sub["triad"].get("flag", ""), right, limits
         )
-        for method in [*AXIS_METHODS, "combined"]:
+        steps = _step_scatters(part)
+        if steps is not None and "step_harmonic" in fits:
+            sub["step_harmonic"] = _step_fit(steps.sum(axis=0), z0, right, part)
+        for method in sub:
             sub[method]["flag"] = _first_flag(
                 sensor_flag, sub[method].get("flag", ""), fits[method].get("flag", "")
             )

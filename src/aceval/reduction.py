@@ -24,6 +24,8 @@ import numpy as np
 import pandas as pd
 
 from .calibration.kong import scatter, vertical_axis
+from .calibration.step_harmonic import SCATTER_COLUMNS as STEP_COLUMNS
+from .calibration.step_harmonic import step_scatter
 from .checks import agreement_moments, third_moments
 from .dataset import (
     Dataset,
@@ -154,7 +156,9 @@ def summarise(
 ) -> dict:
     """The summary row of one recording (module docstring). Static tests: ``z0_x, z0_y, z0_z``
     and the unit moments of the accelerometer. Motion tests: ``n_samples`` kept by the trimmer
-    (``moving``; None when it found no movement) and the scatter ``s11..s33`` (m^2/s^4).
+    (``moving``; None when it found no movement) and the scatter ``s11..s33`` (m^2/s^4);
+    walking tests (``first_phase`` gait) also ``step_hz`` and the scatter ``h11..h33`` of the
+    acceleration band-passed around it (:mod:`aceval.calibration.step_harmonic`).
     Samples clipped at the declared accelerometer range, or at a plateau found in the data
     (``n_clipped``), carry a wrong direction and are left out of the scatter; above
     :data:`MAX_CLIPPED_FRACTION` the recording is left out. A recording that cannot be used gets
@@ -186,6 +190,9 @@ def summarise(
         row["n_samples"] = int(mask.sum())
         row["n_segments"] = len(mask_to_ranges(mask))
         row.update(zip(SCATTER_COLUMNS, scatter(data.acc[mask]).ravel()))
+        if dataset.first_phase(rec["test"]) == "gait":  # walking: the step-harmonic scatter
+            step, row["step_hz"] = step_scatter(data.acc, dataset.fs_hz, mask)
+            row.update(zip(STEP_COLUMNS, step.ravel()))
         row.update(recording_moments(data.gyr[mask], dataset.fs_hz, motion=True))
         row.update(third_moments(data.gyr[mask]))
     except CalibrationError as exc:

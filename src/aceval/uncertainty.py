@@ -1,4 +1,5 @@
-"""An uncertainty with a calibration: a bootstrap over its repetitions (beyond the papers).
+"""An uncertainty with a calibration: a bootstrap over its repetitions (beyond the papers), for
+Kong's, the combined and the step-harmonic calibrations.
 
 Every repetition of a motion test is reduced to a 3x3 acceleration scatter and a 3x3 unit
 gyroscope scatter (:mod:`aceval.reduction`), so a calibration from any resample of repetitions
@@ -22,6 +23,7 @@ import numpy as np
 
 from .calibration.combined import combined_rotation, gyro_weight, horizontal_right, kong_weight
 from .calibration.kong import KongLimits, kong_from_scatters
+from .calibration.step_harmonic import MAX_STEP_RATIO, step_harmonic_rotation
 from .functional import subset_axes
 from .rotations import error_angle_deg, vertical_share
 
@@ -65,9 +67,12 @@ def bootstrap_cone(
     limits: KongLimits = KongLimits(),
     n_boot: int = N_BOOT,
     seed: int = 0,
+    step_scatters=None,
+    R_step=None,
 ) -> dict[str, tuple[float, float]]:
     """The 95 % cones of Kong's and the combined calibration of one IMU and test from all its
-    repetitions: ``{'kong': (cone95_deg, vertical_share), 'combined': (...)}``.
+    repetitions: ``{'kong': (cone95_deg, vertical_share), 'combined': (...)}``; with
+    ``step_scatters`` (n_rep, 3, 3) and ``R_step``, also ``'step_harmonic'``.
 
     ``scatters``, ``unit_scatters``: (n_rep, 3, 3) per repetition (acceleration, m^2/s^4; unit
     gyroscope); ``counts``: (n_rep,) samples; ``z0``, ``right``: (3,); ``R_kong``, ``R_combined``:
@@ -94,4 +99,11 @@ def bootstrap_cone(
         ),
         gyro_weight(rho, rho_min),
     )
-    return {"kong": cone(R, R_kong), "combined": cone(combined, R_combined)}
+    cones = {"kong": cone(R, R_kong), "combined": cone(combined, R_combined)}
+    if step_scatters is not None and R_step is not None:
+        step, ratio = step_harmonic_rotation(
+            np.einsum("br,rij->bij", weights, step_scatters), z0, right
+        )
+        step = np.where((ratio <= MAX_STEP_RATIO)[:, None, None], step, np.nan)
+        cones["step_harmonic"] = cone(step, R_step)
+    return cones

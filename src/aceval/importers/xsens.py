@@ -15,8 +15,10 @@ Rules (documented in config/README.md "Real datasets"):
   a stride during which the waist sensor's heading turns by 20 deg or more is left out), grouped
   into at most 5 repetitions of equal numbers of whole strides
   (:func:`aceval.importers.common.walking_bouts`).
-* Kong Table 2: T6 may calibrate thighs, shanks and feet (not the pelvis, which Kong calibrates
-  from the trunk tests T1-T3, absent here).
+* Kong Table 2: T6 may calibrate thighs, shanks and feet. The pelvis too, as in the qmt import:
+  Kong calibrates it from the trunk tests T1-T3, absent here, and walking is what this recording
+  has to compare methods on the pelvis with (its Kong calibration from walking is expected to be
+  flagged: the pelvis does not move in a plane; the step-harmonic heading is made for it).
 """
 
 from __future__ import annotations
@@ -44,8 +46,8 @@ QUATERNION = ["Quat_q0", "Quat_q1", "Quat_q2", "Quat_q3"]
 SHEET_COLUMNS = ["sensor_id", "imu", "sensor_set", "segment", "side", "region", "right_axis"]
 STANDING_MARGIN_S = 1.0
 MIN_STANDING_S = 2.0
-#: Kong Table 2: which segments T6 (walking) may calibrate
-T6_SEGMENTS = ("thigh", "shank", "foot")
+#: which segments T6 (walking) may calibrate: Kong Table 2's, and the pelvis (module docstring)
+T6_SEGMENTS = ("thigh", "shank", "foot", "waist")
 #: Xsens MTw datasheet: +-160 m/s^2 (16 g), +-2000 deg/s
 ACC_RANGE_G = 16.0
 GYR_RANGE_DPS = 2000.0

@@ -1,0 +1,85 @@
+"""The step-harmonic heading: a known mounting comes back from a synthetic walking trunk."""
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from aceval.calibration.step_harmonic import (
+    MAX_STEP_RATIO,
+    step_frequency,
+    step_harmonic_rotation,
+    step_scatter,
+)
+from aceval.rotations import error_angle_deg
+
+FS = 100.0
+STEP_HZ = 1.8
+R_TRUE = Rotation.from_euler("zyx", [-60, 15, 100], degrees=True).as_matrix()  # sensor -> body
+
+
+def walking_trunk(ap=2.0, ml=0.8, seconds=12.0, seed=0):
+    """Specific force (body frame, m/s^2) of a trunk walking at STEP_HZ: fore-aft at the step
+    frequency, sideways at the stride frequency (half of it), vertical at the step frequency,
+    plus noise; standing still for 2 s at each end."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0, seconds, 1 / FS)
+    walking = (t > 2) & (t < seconds - 2)
+    w = 2 * np.pi * STEP_HZ
+    body = np.zeros((len(t), 3))
+    body[:, 0] = ap * np.sin(w * t)
+    body[:, 1] = ml * np.sin(0.5 * w * t + 0.3)
+    body[:, 2] = 2.5 * np.cos(w * t)
+    body *= walking[:, None]
+    body[:, 2] -= 9.81  # at rest the specific force points up (z down)
+    return body + 0.1 * rng.standard_normal(body.shape), walking
+
+
+def calibrate(body, mask, R_mount):
+    acc = body @ R_mount  # d_sensor = R^T d_body, row-wise
+    z0 = R_mount.T @ np.array([0.0, 0.0, 1.0])
+    right = R_mount.T @ np.array([0.0, 1.0, 0.0])
+    H, step_hz = step_scatter(acc, FS, mask)
+    R, ratio = step_harmonic_rotation(H, z0, right)
+    return R, ratio, step_hz
+
+
+def test_a_known_mounting_comes_back_and_the_step_frequency_is_found():
+    body, walking = walking_trunk()
+    R, ratio, step_hz = calibrate(body, walking, R_TRUE)
+    assert step_hz == pytest.approx(STEP_HZ, abs=0.05)
+    assert error_angle_deg(R, R_TRUE) < 1.0
+    assert ratio < 0.1 <= MAX_STEP_RATIO
+    assert np.allclose(R @ R.T, np.eye(3)) and np.linalg.det(R) == pytest.approx(1.0)
+
+
+def test_a_rotated_sensor_gives_the_correspondingly_rotated_calibration():
+    body, walking = walking_trunk(seed=2)
+    R, _, _ = calibrate(body, walking, R_TRUE)
+    Q = Rotation.from_euler("xyz", [30, -70, 5], degrees=True).as_matrix()
+    remounted, _, _ = calibrate(body, walking, R_TRUE @ Q.T)  # the sensor turned by Q
+    assert np.allclose(remounted, R @ Q.T, atol=1e-6)
+
+
+def test_the_sideways_sway_at_the_stride_frequency_does_not_turn_the_heading():
+    # a sway larger than the fore-aft swing, but at half the step frequency: filtered out
+    body, walking = walking_trunk(ap=1.0, ml=3.0, seed=3)
+    R, ratio, _ = calibrate(body, walking, R_TRUE)
+    assert error_angle_deg(R, R_TRUE) < 2.0 and ratio < MAX_STEP_RATIO
+
+
+def test_no_preferred_horizontal_direction_is_flagged_by_its_ratio():
+    body, walking = walking_trunk(ap=1.5, ml=0.0, seed=4)
+    w = 2 * np.pi * STEP_HZ
+    t = np.arange(len(body)) / FS
+    body[:, 1] += 1.5 * np.cos(w * t) * walking  # as much sideways power at the step frequency
+    _, ratio, _ = calibrate(body, walking, R_TRUE)
+    assert ratio > MAX_STEP_RATIO
+
+
+def test_too_short_or_unfinite_input_gives_nan_not_a_number():
+    body, walking = walking_trunk(seconds=4.5)
+    assert np.isnan(step_frequency(body[:50], FS))
+    R, ratio = step_harmonic_rotation(np.full((3, 3), np.nan), np.array([0, 0, 1.0]), [0, 1, 0])
+    assert np.isnan(R).all() and np.isnan(ratio)
+    H, step_hz = step_scatter(body, FS, np.zeros(len(body), dtype=bool))
+    assert np.isnan(H).all() and np.isnan(step_hz)
