@@ -194,3 +194,13 @@ def test_recommendation_uses_the_truth_where_there_is_one_and_test_retest_otherw
             "repeats by design"
         )[1]
     )
+
+
+def test_an_undetermined_calibration_has_no_error_to_the_truth_rather_than_a_crash():
+    from aceval.pipeline import _truth_columns
+
+    both_flagged = combined_rotation(
+        _in_sensor([0, 0, 1]), _body_heading(3.0), _body_heading(-3.0), 0.0, 0.0
+    )
+    errors = _truth_columns(R_TRUE, both_flagged)
+    assert np.isnan(errors["error_deg"]) and np.isnan(errors["error_vertical_share"])

@@ -126,7 +126,7 @@ def _truth_columns(truth, R) -> dict:
     """``error_deg`` and ``error_vertical_share`` of ``R`` (3x3 or a stack) against the ground
     truth (NaN without).
     """
-    if truth is None or R is None:
+    if truth is None or R is None or not np.isfinite(R).all():  # an undetermined R: no error
         shape = np.shape(R)[:-2] if R is not None else ()
         return {"error_deg": np.full(shape, np.nan), "error_vertical_share": np.full(shape, np.nan)}
     return {
