@@ -105,7 +105,9 @@ def retest_table(calibrations: pd.DataFrame, k: int = 3) -> pd.DataFrame:
     """Every method's test-retest (Kong Obj 4, Eq. 15, beyond Kong's own method): the angle (deg)
     between its calibrations from two distinct subsets of ``k`` repetitions, averaged per unit
     (subject x set x IMU), then mean, SD, median and 95th percentile over the units, per segment,
-    test, sensor set and method. Repeatability, not accuracy: it needs no ground truth.
+    test, sensor set and method; beside it the median 95 % bootstrap cone of the unflagged
+    calibrations from all repetitions (methods with one). Repeatability, not accuracy: it needs
+    no ground truth.
     """
     columns = ["segment", "test", "sensor_set", "method", "mean", "sd", "median", "p95", "n"]
     if "note" in calibrations:
@@ -134,6 +136,11 @@ def retest_table(calibrations: pd.DataFrame, k: int = 3) -> pd.DataFrame:
         .agg(mean="mean", sd="std", median="median", p95=_p95, n="count")
         .reset_index()
     )
+    if "cone95_deg" in calibrations:  # beside it, the bootstrap cone of the full-set calibrations
+        most = calibrations.groupby(KEY)["n_reps"].transform("max")
+        full = calibrations[(calibrations["n_reps"] == most) & unflagged(calibrations)]
+        cones = full.groupby(keys)["cone95_deg"].median().rename("cone95_median_deg")
+        table = table.merge(cones.reset_index(), on=keys, how="left")
     return _method_order(_with_not_applicable(table, calibrations, keys), keys[:3])
 
 

@@ -868,7 +868,7 @@ def recommendation_section(tables: dict) -> list[str]:
         evidence = f"median {what} {best['median']:.2f} deg, n = {int(best['n'])}"
         if truth and pd.notna(best.get("retest_median_deg", np.nan)):
             evidence += f"; test-retest {best['retest_median_deg']:.2f} deg"
-        if truth and pd.notna(best.get("cone95_median_deg", np.nan)):
+        if pd.notna(best.get("cone95_median_deg", np.nan)):
             evidence += f"; cone {best['cone95_median_deg']:.2f} deg"
         truth_rows = _truth_rows(tables, segment)
         if truth and len(truth_rows):  # the truth is a measurement: its own uncertainty beside
