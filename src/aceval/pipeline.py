@@ -173,6 +173,7 @@ FIT_COLUMNS = [
     "cone_vertical_share",
     "step_ratio",
     "step_hz",
+    "note",
 ]
 
 
@@ -359,6 +360,8 @@ def calibrate_sagittal(
         steps = _step_scatters(group)
         if steps is not None:  # walking: the step-harmonic heading
             fits["step_harmonic"] = _step_fit(steps.sum(axis=0), z0_imu, right, group)
+        elif dataset.first_phase(test) == "gait":
+            fits["step_harmonic"] = {"R": None, "flag": "not_applicable", "note": STEP_TOO_SHORT}
         all_reps = np.ones((1, len(reps)))
         for method in fits:  # the same direction checks as Kong's
             if fits[method].get("R") is not None and np.isfinite(fits[method]["R"]).all():
@@ -376,7 +379,7 @@ def calibrate_sagittal(
                 )
                 fits[method]["first_phase_agreement"] = checked["first_phase_agreement"][0]
                 fits[method]["right_axis_angle_deg"] = checked["right_axis_angle_deg"][0]
-            else:
+            elif fits[method].get("flag") != "not_applicable":
                 fits[method]["flag"] = _first_flag(sensor["flag"], fits[method].get("flag", ""))
         cones = bootstrap_cone(
             group[SCATTER_COLUMNS].to_numpy(float).reshape(-1, 3, 3),
@@ -420,6 +423,13 @@ def _combined_fit(kong, index: int, z0, axis, axis_flag: str, right, limits: Kon
     )
     flag = "" if w_kong + w_gyro > 0 else (kong.flag[index] or axis_flag or "not_planar")
     return {"R": R, "flag": flag, "weight_kong": w_kong, "weight_gyro": w_gyro}
+
+
+#: why a walking test has no step-harmonic calibration (aceval.calibration.step_harmonic)
+STEP_TOO_SHORT = (
+    "needs walking recordings of at least two cycles of the slowest step (3.3 s) to find the "
+    "step frequency; this dataset's repetitions are shorter"
+)
 
 
 def _step_scatters(group: pd.DataFrame) -> np.ndarray | None:
