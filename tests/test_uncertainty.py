@@ -204,3 +204,30 @@ def test_an_undetermined_calibration_has_no_error_to_the_truth_rather_than_a_cra
     )
     errors = _truth_columns(R_TRUE, both_flagged)
     assert np.isnan(errors["error_deg"]) and np.isnan(errors["error_vertical_share"])
+
+
+def test_the_axis_methods_cones_follow_the_spread_of_the_repetitions_gyroscope_axes():
+    from aceval.functional import sagittal_fits, subset_axes
+
+    z0, right = _in_sensor([0, 0, 1]), _in_sensor([0, 1, 0])
+    scatters, counts = _scatters([0, 0, 0, 0, 0])
+
+    def unit(headings_deg):  # each repetition's hinge axis turned about the vertical
+        return np.array([np.outer(a, a) * 100.0 for a in map(_body_heading, headings_deg)])
+
+    def axis_cones(headings_deg):
+        units = unit(headings_deg)
+        rho, axes = subset_axes(units, np.ones((1, 5)))
+        axis = axes[0] * np.sign(axes[0] @ right)
+        fits = sagittal_fits(z0, 1.0, axis, float(rho[0]))
+        R_axis = {m: fits[m]["R"] for m in ("ricci_lm", "align_vectors", "triad")}
+        R = kong_from_scatters(scatters, counts, z0, right).R[0]
+        return bootstrap_cone(scatters, counts, units, z0, right, R, R, 0.4, seed=5,
+                              rho_static=1.0, R_axis=R_axis)  # fmt: skip
+
+    still, spread = axis_cones([0, 0, 0, 0, 0]), axis_cones([0, 8, -8, 4, -4])
+    for method in ("ricci_lm", "align_vectors", "triad"):
+        assert still[method][0] < 0.01
+        assert spread[method][0] > 2.0
+    # the LM reaches the same optimum: the same resamples, measured from its own R
+    assert spread["ricci_lm"] == pytest.approx(spread["align_vectors"], abs=1e-6)

@@ -27,6 +27,7 @@ from .checks import (
 )
 from .dataset import R_COLUMNS, Dataset
 from .functional import (
+    AXIS_METHODS,
     MOMENT_COLUMNS,
     PHASE_COLUMNS,
     AxisLimits,
@@ -394,6 +395,8 @@ def calibrate_sagittal(
             seed=stable_seed(subject, sensor_set, imu, test),
             step_scatters=steps,
             R_step=fits["step_harmonic"]["R"] if steps is not None else None,
+            rho_static=rho_static,
+            R_axis={m: fits[m].get("R") for m in AXIS_METHODS},
         )
         for method, (cone95_deg, cone_share) in cones.items():
             target = kong_full if method == "kong" else fits[method]

@@ -1,5 +1,7 @@
 """An uncertainty with a calibration: a bootstrap over its repetitions (beyond the papers), for
-Kong's, the combined and the step-harmonic calibrations.
+every calibration aceval makes from a motion test's repetitions: Kong's, the axis methods', the
+combined and the step-harmonic (not the peers', which run in their own environments, nor Ricci's
+functional design, whose axes pool all trials of several tests).
 
 Every repetition of a motion test is reduced to a 3x3 acceleration scatter and a 3x3 unit
 gyroscope scatter (:mod:`aceval.reduction`), so a calibration from any resample of repetitions
@@ -23,8 +25,10 @@ import numpy as np
 
 from .calibration.combined import combined_rotation, gyro_weight, horizontal_right, kong_weight
 from .calibration.kong import KongLimits, kong_from_scatters
+from .calibration.ricci import wahba_fit
 from .calibration.step_harmonic import MAX_STEP_RATIO, step_harmonic_rotation
-from .functional import subset_axes
+from .calibration.triad import triad
+from .functional import subset_axes, triad_pair
 from .rotations import error_angle_deg, vertical_share
 
 #: resamples per calibration (the 95th percentile of 200 angles: its 10th largest)
@@ -55,6 +59,36 @@ def cone(resampled: np.ndarray, R: np.ndarray) -> tuple[float, float]:
     )
 
 
+def _axis_method_cones(rho, axes, z0, right, rho_static, R_axis, rho_min) -> dict:
+    """The cones of the axis methods from the resampled gyroscope axes (``rho``, ``axes``: one per
+    resample): TRIAD (the more reliable axis exact, Ricci's choice) and the weighted Wahba
+    optimum (``align_vectors``). Ricci's LM minimises the same cost and reaches that optimum
+    (``optimum_distance_deg`` in its calibration), so its cone is the optimum's resampled spread,
+    not 200 LM runs. A resample whose axis would be flagged ``low_rho`` counts as NaN.
+    """
+    if not R_axis:
+        return {}
+    v_ref = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
+    signs = np.where(axes @ np.asarray(right, float) < 0, -1.0, 1.0)
+    resampled = {"align_vectors": [], "triad": []}
+    for rho_b, axis in zip(rho, axes * signs[:, None]):
+        usable = rho_b >= rho_min and abs(float(axis @ z0)) < 0.999
+        v_est, weights = np.array([z0, axis]), np.array([rho_static, rho_b])
+        resampled["align_vectors"].append(
+            wahba_fit(v_ref, v_est, weights).as_matrix() if usable else np.full((3, 3), np.nan)
+        )
+        pair = list(triad_pair(v_ref, weights))
+        resampled["triad"].append(
+            triad(v_ref[pair], v_est[pair]) if usable else np.full((3, 3), np.nan)
+        )
+    resampled["ricci_lm"] = resampled["align_vectors"]
+    return {
+        method: cone(np.array(resampled[method]), R_axis[method])
+        for method in resampled
+        if R_axis.get(method) is not None
+    }
+
+
 def bootstrap_cone(
     scatters,
     counts,
@@ -69,10 +103,13 @@ def bootstrap_cone(
     seed: int = 0,
     step_scatters=None,
     R_step=None,
+    rho_static: float = 1.0,
+    R_axis: dict | None = None,
 ) -> dict[str, tuple[float, float]]:
     """The 95 % cones of Kong's and the combined calibration of one IMU and test from all its
     repetitions: ``{'kong': (cone95_deg, vertical_share), 'combined': (...)}``; with
-    ``step_scatters`` (n_rep, 3, 3) and ``R_step``, also ``'step_harmonic'``.
+    ``step_scatters`` (n_rep, 3, 3) and ``R_step``, also ``'step_harmonic'``; with ``R_axis``
+    (method -> R from all repetitions of the axis methods), theirs (:func:`_axis_method_cones`).
 
     ``scatters``, ``unit_scatters``: (n_rep, 3, 3) per repetition (acceleration, m^2/s^4; unit
     gyroscope); ``counts``: (n_rep,) samples; ``z0``, ``right``: (3,); ``R_kong``, ``R_combined``:
@@ -100,6 +137,7 @@ def bootstrap_cone(
         gyro_weight(rho, rho_min),
     )
     cones = {"kong": cone(R, R_kong), "combined": cone(combined, R_combined)}
+    cones.update(_axis_method_cones(rho, axes, z0, right, rho_static, R_axis or {}, rho_min))
     if step_scatters is not None and R_step is not None:
         step, ratio = step_harmonic_rotation(
             np.einsum("br,rij->bij", weights, step_scatters), z0, right
