@@ -28,7 +28,8 @@ from .calibration.kong import KongLimits, kong_from_scatters
 from .calibration.ricci import wahba_fit
 from .calibration.step_harmonic import MAX_STEP_RATIO, step_harmonic_rotation
 from .calibration.triad import triad
-from .functional import subset_axes, triad_pair
+from .errors import CalibrationError
+from .functional import AxisLimits, subset_axes, triad_pair
 from .rotations import error_angle_deg, vertical_share
 
 #: resamples per calibration (the 95th percentile of 200 angles: its 10th largest)
@@ -64,23 +65,28 @@ def _axis_method_cones(rho, axes, z0, right, rho_static, R_axis, rho_min) -> dic
     resample): TRIAD (the more reliable axis exact, Ricci's choice) and the weighted Wahba
     optimum (``align_vectors``). Ricci's LM minimises the same cost and reaches that optimum
     (``optimum_distance_deg`` in its calibration), so its cone is the optimum's resampled spread,
-    not 200 LM runs. A resample whose axis would be flagged ``low_rho`` counts as NaN.
+    not 200 LM runs. A resample whose axis would be flagged (``low_rho``, ``axis_near_vertical``:
+    :class:`aceval.functional.AxisLimits`) or that TRIAD cannot use counts as NaN.
     """
     if not R_axis:
         return {}
     v_ref = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
     signs = np.where(axes @ np.asarray(right, float) < 0, -1.0, 1.0)
     resampled = {"align_vectors": [], "triad": []}
+    min_cos = np.cos(np.radians(AxisLimits().min_vertical_angle_deg))
+    nan = np.full((3, 3), np.nan)
     for rho_b, axis in zip(rho, axes * signs[:, None]):
-        usable = rho_b >= rho_min and abs(float(axis @ z0)) < 0.999
+        if rho_b < rho_min or abs(float(axis @ z0)) > min_cos:
+            resampled["align_vectors"].append(nan)
+            resampled["triad"].append(nan)
+            continue
         v_est, weights = np.array([z0, axis]), np.array([rho_static, rho_b])
-        resampled["align_vectors"].append(
-            wahba_fit(v_ref, v_est, weights).as_matrix() if usable else np.full((3, 3), np.nan)
-        )
+        resampled["align_vectors"].append(wahba_fit(v_ref, v_est, weights).as_matrix())
         pair = list(triad_pair(v_ref, weights))
-        resampled["triad"].append(
-            triad(v_ref[pair], v_est[pair]) if usable else np.full((3, 3), np.nan)
-        )
+        try:
+            resampled["triad"].append(triad(v_ref[pair], v_est[pair]))
+        except CalibrationError:
+            resampled["triad"].append(nan)
     resampled["ricci_lm"] = resampled["align_vectors"]
     return {
         method: cone(np.array(resampled[method]), R_axis[method])
