@@ -231,3 +231,26 @@ def test_the_axis_methods_cones_follow_the_spread_of_the_repetitions_gyroscope_a
         assert spread[method][0] > 2.0
     # the LM reaches the same optimum: the same resamples, measured from its own R
     assert spread["ricci_lm"] == pytest.approx(spread["align_vectors"], abs=1e-6)
+
+
+def test_the_batched_wahba_and_triad_equal_the_single_calls():
+    from aceval.calibration.ricci import wahba_fit
+    from aceval.calibration.triad import triad
+    from aceval.functional import triad_pair
+    from aceval.uncertainty import triad_batch, wahba_batch
+
+    rng = np.random.default_rng(7)
+    z0 = _in_sensor([0, 0, 1])
+    axes = np.array([_body_heading(h) for h in rng.uniform(-20, 20, 12)])
+    axes = axes + 0.2 * rng.standard_normal(axes.shape)  # off the horizontal too
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    rho = rng.uniform(0.5, 1.0, 12)
+    rho_static = 0.8  # some resamples' axes are more reliable than z0: TRIAD keeps them exact
+    v_ref = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
+    v_est = np.stack([np.broadcast_to(z0, axes.shape), axes], axis=1)
+    weights = np.column_stack([np.full(12, rho_static), rho])
+    batched, triads = wahba_batch(v_ref, v_est, weights), triad_batch(z0, axes, rho_static, rho)
+    for k in range(12):
+        assert np.allclose(batched[k], wahba_fit(v_ref, v_est[k], weights[k]).as_matrix())
+        pair = list(triad_pair(v_ref, weights[k]))
+        assert np.allclose(triads[k], triad(v_ref[pair], v_est[k][pair]))

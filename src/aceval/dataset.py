@@ -226,7 +226,7 @@ class Dataset:
         )
 
     def ground_truth_matrix(self, subject: str, sensor_set: str, imu: str) -> np.ndarray | None:
-        """The static tests (quiet standing: they give z0)."""
+        """The true R (3x3, sensor -> body) of an IMU from ground_truth.tsv; None without one."""
         if self.ground_truth is None:
             return None
         try:

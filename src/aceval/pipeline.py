@@ -42,6 +42,7 @@ from .functional import (
 from .functional import (
     SCATTER_COLUMNS as UNIT_SCATTER_COLUMNS,
 )
+from .methods_comparison import with_truth
 from .objectives import (
     CORRELATION_MODES,
     correlation_from_moments,
@@ -401,11 +402,12 @@ def calibrate_sagittal(
         for method, (cone95_deg, cone_share) in cones.items():
             target = kong_full if method == "kong" else fits[method]
             target.update(cone95_deg=cone95_deg, cone_vertical_share=cone_share)
-        out += _method_rows(base, fits, truth)
+        out += _method_rows(base, fits, None)  # errors to the truth below, all rows at once
         if subsets == "all" and retest_k and len(reps) > retest_k:
             out += _retest_rows(group, base, fits, sensor["flag"], z0_imu, rho_static, right,
-                                retest_k, truth, result, kong_at, limits)  # fmt: skip
+                                retest_k, result, kong_at, limits)  # fmt: skip
     calibrations = pd.DataFrame(out, columns=None if out else CALIBRATION_COLUMNS)
+    calibrations = with_truth(calibrations, dataset.ground_truth)
     return propagate_backward(calibrations), pd.DataFrame(axes, columns=AXES_COLUMNS)
 
 
@@ -460,7 +462,7 @@ def _step_fit(H: np.ndarray, z0, right, group: pd.DataFrame) -> dict:
 
 
 def _retest_rows(
-    group, base, fits, sensor_flag, z0, rho_static, right, k, truth, kong, kong_at, limits
+    group, base, fits, sensor_flag, z0, rho_static, right, k, kong, kong_at, limits
 ) -> list[dict]:
     """The axis methods, the combined and (walking) the step-harmonic heading from every subset of
     ``k`` repetitions (Obj 4's
@@ -495,7 +497,7 @@ def _retest_rows(
                 "axis_spread_deg": spread,
             },  # fmt: skip
             sub,
-            truth,
+            None,  # errors to the truth: calibrate_sagittal, all rows at once
         )
     return rows
 

@@ -25,11 +25,8 @@ import numpy as np
 
 from .calibration.combined import combined_rotation, gyro_weight, horizontal_right, kong_weight
 from .calibration.kong import KongLimits, kong_from_scatters
-from .calibration.ricci import wahba_fit
 from .calibration.step_harmonic import MAX_STEP_RATIO, step_harmonic_rotation
-from .calibration.triad import triad
-from .errors import CalibrationError
-from .functional import AxisLimits, subset_axes, triad_pair
+from .functional import AxisLimits, subset_axes
 from .rotations import error_angle_deg, vertical_share
 
 #: resamples per calibration (the 95th percentile of 200 angles: its 10th largest)
@@ -60,36 +57,63 @@ def cone(resampled: np.ndarray, R: np.ndarray) -> tuple[float, float]:
     )
 
 
+def wahba_batch(v_ref: np.ndarray, v_est: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """The weighted Wahba optimum (R with ``R v_est ~ v_ref``, as ``Rotation.align_vectors``) of
+    each row: ``v_ref`` (n, 3), ``v_est`` (B, n, 3), ``weights`` (B, n); by the SVD of
+    ``sum w v_ref v_est^T`` with the determinant made +1 (Kabsch), all rows at once.
+    """
+    profile = np.einsum("bi,ij,bik->bjk", weights, v_ref, v_est)
+    U, _, Vt = np.linalg.svd(profile)
+    scale = np.ones((len(profile), 3))
+    scale[:, 2] = np.sign(np.linalg.det(U @ Vt))
+    return U @ (scale[:, :, None] * Vt)
+
+
+def _frames(primary: np.ndarray, secondary: np.ndarray) -> np.ndarray:
+    """TRIAD's frames (B, 3, 3; columns t1, t2, t3) of rows of primary and secondary axes."""
+    t1 = primary / np.linalg.norm(primary, axis=-1, keepdims=True)
+    t2 = np.cross(t1, secondary)
+    t2 = t2 / np.linalg.norm(t2, axis=-1, keepdims=True)
+    return np.stack([t1, t2, np.cross(t1, t2)], axis=-1)
+
+
+def triad_batch(z0: np.ndarray, axes: np.ndarray, rho_static: float, rho: np.ndarray) -> np.ndarray:
+    """TRIAD (:func:`aceval.calibration.triad.triad`) of Kong's protocol for each resampled
+    gyroscope axis: the more reliable of z0 (body z) and the axis (body y) kept exactly, as
+    :func:`aceval.functional.triad_pair` chooses (z0 on a tie).
+    """
+    z_first = (rho_static >= rho)[:, None]
+    ez, ey = np.array([0.0, 0.0, 1.0]), np.array([0.0, 1.0, 0.0])
+    z0s = np.broadcast_to(z0, axes.shape)
+    reference = _frames(np.where(z_first, ez, ey), np.where(z_first, ey, ez))
+    measured = _frames(np.where(z_first, z0s, axes), np.where(z_first, axes, z0s))
+    return reference @ np.swapaxes(measured, -1, -2)
+
+
 def _axis_method_cones(rho, axes, z0, right, rho_static, R_axis, rho_min) -> dict:
     """The cones of the axis methods from the resampled gyroscope axes (``rho``, ``axes``: one per
     resample): TRIAD (the more reliable axis exact, Ricci's choice) and the weighted Wahba
     optimum (``align_vectors``). Ricci's LM minimises the same cost and reaches that optimum
     (``optimum_distance_deg`` in its calibration), so its cone is the optimum's resampled spread,
     not 200 LM runs. A resample whose axis would be flagged (``low_rho``, ``axis_near_vertical``:
-    :class:`aceval.functional.AxisLimits`) or that TRIAD cannot use counts as NaN.
+    :class:`aceval.functional.AxisLimits`) counts as NaN.
     """
     if not R_axis:
         return {}
-    v_ref = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
-    signs = np.where(axes @ np.asarray(right, float) < 0, -1.0, 1.0)
-    resampled = {"align_vectors": [], "triad": []}
+    axes = axes * np.where(axes @ np.asarray(right, float) < 0, -1.0, 1.0)[:, None]
     min_cos = np.cos(np.radians(AxisLimits().min_vertical_angle_deg))
-    nan = np.full((3, 3), np.nan)
-    for rho_b, axis in zip(rho, axes * signs[:, None]):
-        if rho_b < rho_min or abs(float(axis @ z0)) > min_cos:
-            resampled["align_vectors"].append(nan)
-            resampled["triad"].append(nan)
-            continue
-        v_est, weights = np.array([z0, axis]), np.array([rho_static, rho_b])
-        resampled["align_vectors"].append(wahba_fit(v_ref, v_est, weights).as_matrix())
-        pair = list(triad_pair(v_ref, weights))
-        try:
-            resampled["triad"].append(triad(v_ref[pair], v_est[pair]))
-        except CalibrationError:
-            resampled["triad"].append(nan)
-    resampled["ricci_lm"] = resampled["align_vectors"]
+    usable = ((rho >= rho_min) & (np.abs(axes @ z0) <= min_cos))[:, None, None]
+    v_est = np.stack([np.broadcast_to(z0, axes.shape), axes], axis=1)
+    weights = np.column_stack([np.full(len(rho), rho_static), rho])
+    v_ref = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
+    optimum = np.where(usable, wahba_batch(v_ref, v_est, weights), np.nan)
+    resampled = {
+        "align_vectors": optimum,
+        "ricci_lm": optimum,
+        "triad": np.where(usable, triad_batch(z0, axes, rho_static, rho), np.nan),
+    }
     return {
-        method: cone(np.array(resampled[method]), R_axis[method])
+        method: cone(resampled[method], R_axis[method])
         for method in resampled
         if R_axis.get(method) is not None
     }
