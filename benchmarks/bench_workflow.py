@@ -63,7 +63,8 @@ def snakemake(workdir: Path, config: Path | None = None) -> list[str]:
 
 
 def lab_config(workdir: Path, dataset: Path, subjects_per_job: int) -> Path:
-    """A config running one dataset on disk with Kong's analyses, as a lab would."""
+    """A config running one dataset on disk with Kong's analyses, as a lab would; aceval's own
+    analyses only (the peers are timed apart: bench_peers.py)."""
     default = yaml.safe_load((REPO / "config" / "config.yaml").read_text())
     config = {
         "datasets": {
@@ -75,6 +76,7 @@ def lab_config(workdir: Path, dataset: Path, subjects_per_job: int) -> Path:
         },
         "calibration": default["calibration"],
         "objectives": default["objectives"],
+        "peers": [],
     }
     path = workdir / "config.yaml"
     path.write_text(yaml.safe_dump(config))
