@@ -234,10 +234,9 @@ def test_the_axis_methods_cones_follow_the_spread_of_the_repetitions_gyroscope_a
 
 
 def test_the_batched_wahba_and_triad_equal_the_single_calls():
-    from aceval.calibration.ricci import wahba_fit
-    from aceval.calibration.triad import triad
+    from aceval.calibration.ricci import wahba_batch, wahba_fit
+    from aceval.calibration.triad import triad, triad_batch
     from aceval.functional import triad_pair
-    from aceval.uncertainty import triad_batch, wahba_batch
 
     rng = np.random.default_rng(7)
     z0 = _in_sensor([0, 0, 1])

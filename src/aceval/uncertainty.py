@@ -25,7 +25,9 @@ import numpy as np
 
 from .calibration.combined import combined_rotation, gyro_weight, horizontal_right, kong_weight
 from .calibration.kong import KongLimits, kong_from_scatters
+from .calibration.ricci import wahba_batch
 from .calibration.step_harmonic import MAX_STEP_RATIO, step_harmonic_rotation
+from .calibration.triad import triad_batch
 from .functional import AxisLimits, subset_axes
 from .rotations import error_angle_deg, vertical_share
 
@@ -55,39 +57,6 @@ def cone(resampled: np.ndarray, R: np.ndarray) -> tuple[float, float]:
         float(np.percentile(angles, 100 * LEVEL)),
         float(np.median(share)) if len(share) else float("nan"),
     )
-
-
-def wahba_batch(v_ref: np.ndarray, v_est: np.ndarray, weights: np.ndarray) -> np.ndarray:
-    """The weighted Wahba optimum (R with ``R v_est ~ v_ref``, as ``Rotation.align_vectors``) of
-    each row: ``v_ref`` (n, 3), ``v_est`` (B, n, 3), ``weights`` (B, n); by the SVD of
-    ``sum w v_ref v_est^T`` with the determinant made +1 (Kabsch), all rows at once.
-    """
-    profile = np.einsum("bi,ij,bik->bjk", weights, v_ref, v_est)
-    U, _, Vt = np.linalg.svd(profile)
-    scale = np.ones((len(profile), 3))
-    scale[:, 2] = np.sign(np.linalg.det(U @ Vt))
-    return U @ (scale[:, :, None] * Vt)
-
-
-def _frames(primary: np.ndarray, secondary: np.ndarray) -> np.ndarray:
-    """TRIAD's frames (B, 3, 3; columns t1, t2, t3) of rows of primary and secondary axes."""
-    t1 = primary / np.linalg.norm(primary, axis=-1, keepdims=True)
-    t2 = np.cross(t1, secondary)
-    t2 = t2 / np.linalg.norm(t2, axis=-1, keepdims=True)
-    return np.stack([t1, t2, np.cross(t1, t2)], axis=-1)
-
-
-def triad_batch(z0: np.ndarray, axes: np.ndarray, rho_static: float, rho: np.ndarray) -> np.ndarray:
-    """TRIAD (:func:`aceval.calibration.triad.triad`) of Kong's protocol for each resampled
-    gyroscope axis: the more reliable of z0 (body z) and the axis (body y) kept exactly, as
-    :func:`aceval.functional.triad_pair` chooses (z0 on a tie).
-    """
-    z_first = (rho_static >= rho)[:, None]
-    ez, ey = np.array([0.0, 0.0, 1.0]), np.array([0.0, 1.0, 0.0])
-    z0s = np.broadcast_to(z0, axes.shape)
-    reference = _frames(np.where(z_first, ez, ey), np.where(z_first, ey, ez))
-    measured = _frames(np.where(z_first, z0s, axes), np.where(z_first, axes, z0s))
-    return reference @ np.swapaxes(measured, -1, -2)
 
 
 def _axis_method_cones(rho, axes, z0, right, rho_static, R_axis, rho_min) -> dict:

@@ -298,3 +298,15 @@ def wahba_fit(v_ref, v_est, weights=None) -> Rotation:
     v_ref, v_est, weights = _check_axes(v_ref, v_est, weights)
     rotation, _ = Rotation.align_vectors(v_ref, v_est, weights=weights)
     return rotation
+
+
+def wahba_batch(v_ref: np.ndarray, v_est: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """The weighted Wahba optimum (R with ``R v_est ~ v_ref``, as ``Rotation.align_vectors``) of
+    each row: ``v_ref`` (n, 3), ``v_est`` (B, n, 3), ``weights`` (B, n); by the SVD of
+    ``sum w v_ref v_est^T`` with the determinant made +1 (Kabsch), all rows at once.
+    """
+    profile = np.einsum("bi,ij,bik->bjk", weights, v_ref, v_est)
+    U, _, Vt = np.linalg.svd(profile)
+    scale = np.ones((len(profile), 3))
+    scale[:, 2] = np.sign(np.linalg.det(U @ Vt))
+    return U @ (scale[:, :, None] * Vt)

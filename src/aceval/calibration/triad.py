@@ -40,3 +40,25 @@ def triad(v_ref, v_est, min_angle_deg: float = 5.0) -> np.ndarray:
     ref_frame = _frame(v_ref[0], v_ref[1], min_sin, "reference")
     est_frame = _frame(v_est[0], v_est[1], min_sin, "measured")
     return ref_frame @ est_frame.T
+
+
+def _frames(primary: np.ndarray, secondary: np.ndarray) -> np.ndarray:
+    """TRIAD's frames (B, 3, 3; columns t1, t2, t3) of rows of primary and secondary axes."""
+    t1 = primary / np.linalg.norm(primary, axis=-1, keepdims=True)
+    t2 = np.cross(t1, secondary)
+    t2 = t2 / np.linalg.norm(t2, axis=-1, keepdims=True)
+    return np.stack([t1, t2, np.cross(t1, t2)], axis=-1)
+
+
+def triad_batch(z0: np.ndarray, axes: np.ndarray, rho_static: float, rho: np.ndarray) -> np.ndarray:
+    """:func:`triad` of Kong's protocol for a stack of gyroscope axes (B, 3) at once (the bootstrap
+    of :mod:`aceval.uncertainty`): the more reliable of z0 (body z) and the axis (body y) kept
+    exactly, as :func:`aceval.functional.triad_pair` chooses (z0 on a tie); no aligned-axes check
+    (the caller leaves out axes near z0).
+    """
+    z_first = (rho_static >= rho)[:, None]
+    ez, ey = np.array([0.0, 0.0, 1.0]), np.array([0.0, 1.0, 0.0])
+    z0s = np.broadcast_to(z0, axes.shape)
+    reference = _frames(np.where(z_first, ez, ey), np.where(z_first, ey, ez))
+    measured = _frames(np.where(z_first, z0s, axes), np.where(z_first, axes, z0s))
+    return reference @ np.swapaxes(measured, -1, -2)
