@@ -147,3 +147,35 @@ def test_functional_axes_sheet_is_validated(ricci_child, tmp_path):
     assert "test 'XX' is not defined" in text
     assert "segment 'pelvis'" in text
     assert "given twice" in text
+
+
+def test_batched_sagittal_fits_equal_the_single_calls():
+    """The Obj 4 subsets' axis methods at once: the same rotations, diagnostics and flags as
+    sagittal_fits one at a time, including the axes it must hand to the single call (within
+    TRIAD's 5 deg of z0) and the flagged ones (low rho, near vertical, disagreeing repetitions)."""
+    from aceval.functional import sagittal_fits_batch
+
+    rng = np.random.default_rng(11)
+    z0 = np.array([0.1, -0.05, 1.0])
+    z0 /= np.linalg.norm(z0)
+    axes = rng.standard_normal((40, 3)) * [0.2, 1.0, 0.2]
+    axes[3] = z0 + [0.0, 0.02, 0.0]  # 1 deg from z0: TRIAD refuses, the single call says why
+    axes[4] = z0 + [0.0, 0.5, 0.0]  # near vertical: flagged
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    rho = rng.uniform(0.3, 0.9, 40)  # some below min_rho: flagged low_rho
+    spread = rng.uniform(0.0, 50.0, 40)  # some above max_spread_deg: flagged axes_disagree
+    batch = sagittal_fits_batch(z0, 0.95, axes, rho, spread)
+    flags = set()
+    for k in range(40):
+        single = sagittal_fits(z0, 0.95, axes[k], rho[k], spread[k], diagnostics=False)
+        assert batch[k].keys() == single.keys()
+        for method, fit in single.items():
+            assert batch[k][method].get("flag", "") == fit.get("flag", "")
+            flags.add(fit.get("flag", ""))
+            if fit["R"] is None:
+                assert batch[k][method]["R"] is None
+                continue
+            np.testing.assert_allclose(batch[k][method]["R"], fit["R"], atol=1e-12)
+            for key in ("n_iterations", "n_rejected", "converged"):
+                assert batch[k][method].get(key) == fit.get(key)
+    assert {"", "low_rho", "axis_near_vertical", "axes_disagree", "aligned_axes"} <= flags

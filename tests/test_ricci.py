@@ -199,3 +199,36 @@ def test_adaptive_damping_follows_hartley_zisserman_worked_by_hand():
     assert fixed.trial_accepted.all() and set(fixed.damping_history) == {1e-3}
     optimum = cost(wahba_fit(v_ref, v_est, weights).as_quat(scalar_first=True))
     assert optimum <= fit.cost < fixed.cost  # the fixed rule, taking every step, stalls higher
+
+
+def test_batched_lm_takes_the_single_fits_steps():
+    """lm_fit_batch (the Obj 4 subsets of one IMU at once) = lm_fit of each problem: the same
+    accepted and rejected steps, the same rotation to rounding."""
+    from aceval.calibration.ricci import lm_fit_batch
+
+    rng = np.random.default_rng(3)
+    v_ref = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
+    axes = rng.standard_normal((60, 3))
+    angles = np.radians(rng.uniform(0.0, 179.0, 60))  # far from the identity start: rejections
+    truth = Rotation.from_rotvec(axes / np.linalg.norm(axes, axis=1)[:, None] * angles[:, None])
+    v_est = np.einsum("bji,nj->bni", truth.as_matrix(), v_ref) + 0.2 * rng.standard_normal(
+        (60, 2, 3)
+    )
+    weights = rng.uniform(0.3, 1.0, (60, 2))
+    batch = lm_fit_batch(v_ref, v_est, weights)
+    for k in range(60):
+        single = lm_fit(v_ref, v_est[k], weights[k])
+        assert batch.n_iterations[k] == single.n_iterations
+        assert batch.n_rejected[k] == single.n_rejected
+        assert batch.converged[k] == single.converged
+        np.testing.assert_allclose(batch.R[k], single.R, atol=1e-12)
+        assert batch.cost[k] == pytest.approx(single.cost, rel=1e-9, abs=1e-15)
+    assert batch.n_rejected.sum() > 0 and len(set(batch.n_iterations)) > 3
+
+
+def test_batched_jacobian_is_the_single_one_per_problem():
+    rng = np.random.default_rng(5)
+    q, v_est = rng.standard_normal((4, 4)), rng.standard_normal((4, 3, 3))
+    stacked = _residual_jacobian(q, v_est)
+    for k in range(4):
+        np.testing.assert_allclose(stacked[k], _residual_jacobian(q[k], v_est[k]), atol=1e-15)

@@ -33,10 +33,12 @@ from .calibration.ricci import (
     axis_from_moments,
     first_phase_sign,
     lm_fit,
+    lm_fit_batch,
     unit_moments,
+    wahba_batch,
     wahba_fit,
 )
-from .calibration.triad import triad
+from .calibration.triad import triad, triad_batch
 from .errors import CalibrationError
 from .rotations import axis_vector, error_angle_deg
 
@@ -231,34 +233,99 @@ def sagittal_fits(
     Flagged (every method) beyond :class:`AxisLimits`: ``low_rho``, ``axis_near_vertical``,
     ``axes_disagree`` (``spread_deg``: :func:`axis_spread_deg` of the repetitions).
     """
-    v_ref = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
     v_est = np.array([z0, motion_axis])
     fits = fit_axes(
-        v_ref, v_est, np.array([rho_static, rho_motion]), (0, 1), diagnostics=diagnostics
+        SAGITTAL_REFERENCE,
+        v_est,
+        np.array([rho_static, rho_motion]),
+        (0, 1),
+        diagnostics=diagnostics,
     )
+    problem = _sagittal_problem(z0, motion_axis, rho_motion, spread_deg, limits)
+    return _flag_all(fits, *problem) if problem else fits
+
+
+#: body z (down) and y (right): the references of Kong's protocol for the axis methods
+SAGITTAL_REFERENCE = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
+#: TRIAD's smallest angle between its two axes (deg; :func:`aceval.calibration.triad.triad`)
+TRIAD_MIN_ANGLE_DEG = 5.0
+
+
+def _sagittal_problem(z0, motion_axis, rho_motion, spread_deg, limits) -> tuple[str, str] | None:
+    """The flag and message of :func:`sagittal_fits` beyond :class:`AxisLimits`, or None."""
     vertical_angle = float(np.degrees(np.arccos(min(1.0, abs(float(np.dot(z0, motion_axis)))))))
     if rho_motion < limits.min_rho:
-        return _flag_all(
-            fits,
+        return (
             "low_rho",
             f"rho of the movement axis {rho_motion:.2f} < {limits.min_rho}: "
             f"no preferred rotation axis",
         )
     if vertical_angle < limits.min_vertical_angle_deg:
-        return _flag_all(
-            fits,
+        return (
             "axis_near_vertical",
             f"movement axis {vertical_angle:.0f} deg from z0 "
             f"(< {limits.min_vertical_angle_deg:g}): not a sagittal motion",
         )
     if spread_deg > limits.max_spread_deg:
-        return _flag_all(
-            fits,
+        return (
             "axes_disagree",
             f"the repetitions' axes are {spread_deg:.0f} deg (median) from "
             f"the pooled one (> {limits.max_spread_deg:g})",
         )
-    return fits
+    return None
+
+
+def sagittal_fits_batch(
+    z0: np.ndarray,
+    rho_static: float,
+    motion_axes: np.ndarray,
+    rho_motion: np.ndarray,
+    spread_deg: np.ndarray,
+    limits: AxisLimits = AxisLimits(),
+) -> list[dict[str, dict]]:
+    """:func:`sagittal_fits` (``diagnostics=False``) of a stack of gyroscope axes (B, 3) with their
+    rho and spread (B,) at once: the LM (:func:`lm_fit_batch`), the weighted Wahba optimum
+    (:func:`wahba_batch`) and TRIAD (:func:`triad_batch`) of all of them, flagged as
+    :func:`sagittal_fits` flags; an axis that is not finite or within TRIAD's 5 deg of z0 is
+    fitted alone by :func:`sagittal_fits` (its errors as there). Equal to the single calls to
+    rounding (tested).
+    """
+    motion_axes = np.asarray(motion_axes, float)
+    rho_motion = np.asarray(rho_motion, float)
+    finite = np.isfinite(motion_axes).all(axis=1) & np.isfinite(rho_motion)
+    cos = np.abs(np.where(finite[:, None], motion_axes, 0.0) @ z0)
+    regular = np.flatnonzero(finite & (cos < np.cos(np.radians(TRIAD_MIN_ANGLE_DEG))))
+    out: list[dict[str, dict] | None] = [None] * len(motion_axes)
+    if len(regular):
+        axes = motion_axes[regular]
+        v_est = np.stack([np.broadcast_to(z0, axes.shape), axes], axis=1)
+        weights = np.column_stack([np.full(len(regular), rho_static), rho_motion[regular]])
+        optimum = wahba_batch(SAGITTAL_REFERENCE, v_est, weights)
+        lm = lm_fit_batch(SAGITTAL_REFERENCE, v_est, weights)
+        triads = triad_batch(z0, axes, rho_static, rho_motion[regular])
+        distance = error_angle_deg(lm.R, optimum)
+        for k, row in enumerate(regular):
+            fits = {
+                "align_vectors": {"R": optimum[k]},
+                "ricci_lm": {
+                    "R": lm.R[k],
+                    "n_iterations": int(lm.n_iterations[k]),
+                    "n_rejected": int(lm.n_rejected[k]),
+                    "converged": bool(lm.converged[k]),
+                    "cost": float(lm.cost[k]),
+                    "optimum_distance_deg": float(distance[k]),
+                },
+                "triad": {"R": triads[k]},
+            }
+            problem = _sagittal_problem(
+                z0, motion_axes[row], rho_motion[row], spread_deg[row], limits
+            )
+            out[row] = _flag_all(fits, *problem) if problem else fits
+    for row in [r for r, fits in enumerate(out) if fits is None]:
+        out[row] = sagittal_fits(
+            z0, rho_static, motion_axes[row], rho_motion[row], spread_deg[row], limits, False
+        )
+    return out
 
 
 def triad_pair(v_ref: np.ndarray, rho: np.ndarray, min_angle_deg: float = 30.0) -> tuple[int, int]:

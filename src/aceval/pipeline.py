@@ -10,6 +10,7 @@ correlated from the moments alone.
 from __future__ import annotations
 
 import itertools
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -29,13 +30,13 @@ from .dataset import R_COLUMNS, Dataset
 from .functional import (
     AXIS_METHODS,
     MOMENT_COLUMNS,
-    PHASE_COLUMNS,
     AxisLimits,
     axis_spread_deg,
     functional_fits,
     pool,
     pool_summed,
     sagittal_fits,
+    sagittal_fits_batch,
     stable_seed,
     subset_axes,
 )
@@ -211,20 +212,54 @@ def imu_checks(dataset: Dataset, summaries: pd.DataFrame) -> dict[tuple, dict]:
     return out
 
 
+@dataclass(frozen=True)
+class _Repetitions:
+    """The summaries of one IMU's repetitions of one motion test (sorted by ``rep``) as arrays: read
+    from the table once, so that every subset of them is a row selection, not a pandas lookup.
+    """
+
+    rep: np.ndarray  # (n,) int
+    scatters: np.ndarray  # (n, 3, 3) Kong's sum a a^T
+    n_samples: np.ndarray  # (n,)
+    unit_scatters: np.ndarray  # (n, 3, 3) Ricci's unit scatters
+    moments: np.ndarray  # (n, 16) MOMENT_COLUMNS
+    third: np.ndarray | None  # (n, 10) THIRD_MOMENT_COLUMNS
+    steps: np.ndarray | None  # (n, 3, 3) step-harmonic scatters; None unless every rep has one
+    step_hz: np.ndarray | None  # (n,)
+
+    @classmethod
+    def of(cls, group: pd.DataFrame) -> _Repetitions:
+        group = group.sort_values("rep")
+        steps = group[STEP_COLUMNS].to_numpy(float) if STEP_COLUMNS[0] in group else None
+        walking = steps is not None and bool(np.isfinite(steps).all())
+        return cls(
+            rep=group["rep"].to_numpy(int),
+            scatters=group[SCATTER_COLUMNS].to_numpy(float).reshape(-1, 3, 3),
+            n_samples=group["n_samples"].to_numpy(float),
+            unit_scatters=group[UNIT_SCATTER_COLUMNS].to_numpy(float).reshape(-1, 3, 3),
+            moments=group[MOMENT_COLUMNS].to_numpy(float),
+            third=group[THIRD_MOMENT_COLUMNS].to_numpy(float)
+            if THIRD_MOMENT_COLUMNS[0] in group
+            else None,
+            steps=steps.reshape(-1, 3, 3) if walking else None,
+            step_hz=group["step_hz"].to_numpy(float) if walking else None,
+        )
+
+    @property
+    def phases(self) -> np.ndarray:
+        """(n, 3) each repetition's first-phase axis (PHASE_COLUMNS, the last of MOMENT_COLUMNS)."""
+        return self.moments[:, -3:]
+
+    def pooled_axis(self, rows, orient: np.ndarray):
+        """:func:`aceval.functional.pool` of the repetitions at ``rows`` (NaN phases skipped)."""
+        return pool_summed(np.nansum(self.moments[rows], axis=0), orient)
+
+
 def _direction(
-    dataset: Dataset, test: str, segment: str, group: pd.DataFrame, membership, R, right
+    dataset: Dataset, test: str, segment: str, reps: _Repetitions, membership, R, right
 ) -> dict:
-    third = (
-        group[THIRD_MOMENT_COLUMNS].to_numpy(float) if THIRD_MOMENT_COLUMNS[0] in group else None
-    )
     return direction_checks(
-        dataset.first_phase(test),
-        segment,
-        group[PHASE_COLUMNS].to_numpy(float),
-        third,
-        membership,
-        R,
-        right,
+        dataset.first_phase(test), segment, reps.phases, reps.third, membership, R, right
     )
 
 
@@ -262,8 +297,8 @@ def calibrate_sagittal(
             _axis_row(_identity(dataset, *key), tests, "static", estimate, "-z", n_recordings)
         )
     for (subject, sensor_set, imu, test), group in motion.groupby(KEY + ["test"], sort=True):
-        group = group.sort_values("rep")
-        reps = [int(r) for r in group["rep"]]
+        data = _Repetitions.of(group)
+        reps = [int(r) for r in data.rep]
         if (subject, sensor_set, imu) not in z0.index:
             continue  # no static test: validation reports it; nothing to calibrate from
         chosen = all_subsets(reps) if subsets == "all" else [tuple(reps)]
@@ -272,8 +307,8 @@ def calibrate_sagittal(
         z0_imu = z0.loc[(subject, sensor_set, imu)].to_numpy(float)
         members = [[index[r] for r in subset] for subset in chosen]
         result = kong_from_scatters(
-            group[SCATTER_COLUMNS].to_numpy(float).reshape(-1, 3, 3),
-            group["n_samples"].to_numpy(float),
+            data.scatters,
+            data.n_samples,
             z0_imu,
             right,
             members,
@@ -283,9 +318,7 @@ def calibrate_sagittal(
         membership = np.zeros((len(chosen), len(reps)))
         for row, subset in enumerate(members):
             membership[row, subset] = 1.0
-        rho_motion, gyro_axes = subset_axes(
-            group[UNIT_SCATTER_COLUMNS].to_numpy(float).reshape(-1, 3, 3), membership
-        )
+        rho_motion, gyro_axes = subset_axes(data.unit_scatters, membership)
         gyro_angle = np.degrees(
             np.arccos(np.clip(np.abs(np.einsum("ki,ki->k", result.R[:, 1], gyro_axes)), 0.0, 1.0))
         )
@@ -299,12 +332,12 @@ def calibrate_sagittal(
             k: sensor.get(k, np.nan) for k in ("gyro_acc_agreement", "gyro_acc_evidence_deg")
         }
         direction = _direction(
-            dataset, test, identity["segment"], group, membership, result.R, right
+            dataset, test, identity["segment"], data, membership, result.R, right
         )
         # forward or backward is a property of the IMU's mounting: judged on all repetitions together
         # (the largest subset, last), it holds for every subset of them
         full = _direction(
-            dataset, test, identity["segment"], group, np.ones((1, len(reps))), result.R[-1:], right
+            dataset, test, identity["segment"], data, np.ones((1, len(reps))), result.R[-1:], right
         )
         own_mismatch = np.where(
             direction["flag"] == "right_axis_mismatch", "right_axis_mismatch", ""
@@ -338,15 +371,15 @@ def calibrate_sagittal(
                 }
             )
         kong_full = out[-1]  # the calibration from all repetitions (the last subset)
-        gyro_axis = pool(group, orient=right)
+        gyro_axis = data.pooled_axis(slice(None), right)
         axes.append(_axis_row(identity, test, "motion", gyro_axis, "+y", len(reps)))
-        spread = axis_spread_deg(group[PHASE_COLUMNS].to_numpy(float), gyro_axis.axis)
+        spread = axis_spread_deg(data.phases, gyro_axis.axis)
         base = {
             **identity,
             "test": test,
             "repetitions": subset_label(reps),
             "n_reps": len(reps),
-            "n_samples": int(group["n_samples"].sum()),
+            "n_samples": int(data.n_samples.sum()),
             "rho_static": rho_static,
             "rho_motion": gyro_axis.rho,
             "z0_tests": z0_tests,
@@ -359,9 +392,9 @@ def calibrate_sagittal(
         fits["combined"] = _combined_fit(
             result, kong_at[tuple(reps)], z0_imu, gyro_axis, axis_flag, right, limits
         )
-        steps = _step_scatters(group)
+        steps = data.steps
         if steps is not None:  # walking: the step-harmonic heading
-            fits["step_harmonic"] = _step_fit(steps.sum(axis=0), z0_imu, right, group)
+            fits["step_harmonic"] = _step_fit(steps.sum(axis=0), z0_imu, right, data.step_hz)
         elif dataset.first_phase(test) == "gait":
             fits["step_harmonic"] = {"R": None, "flag": "not_applicable", "note": STEP_TOO_SHORT}
         all_reps = np.ones((1, len(reps)))
@@ -371,7 +404,7 @@ def calibrate_sagittal(
                     dataset,
                     test,
                     identity["segment"],
-                    group,
+                    data,
                     all_reps,
                     fits[method]["R"][None],
                     right,
@@ -384,9 +417,9 @@ def calibrate_sagittal(
             elif fits[method].get("flag") != "not_applicable":
                 fits[method]["flag"] = _first_flag(sensor["flag"], fits[method].get("flag", ""))
         cones = bootstrap_cone(
-            group[SCATTER_COLUMNS].to_numpy(float).reshape(-1, 3, 3),
-            group["n_samples"].to_numpy(float),
-            group[UNIT_SCATTER_COLUMNS].to_numpy(float).reshape(-1, 3, 3),
+            data.scatters,
+            data.n_samples,
+            data.unit_scatters,
             z0_imu,
             right,
             result.R[kong_at[tuple(reps)]],
@@ -404,7 +437,7 @@ def calibrate_sagittal(
             target.update(cone95_deg=cone95_deg, cone_vertical_share=cone_share)
         out += _method_rows(base, fits, None)  # errors to the truth below, all rows at once
         if subsets == "all" and retest_k and len(reps) > retest_k:
-            out += _retest_rows(group, base, fits, sensor["flag"], z0_imu, rho_static, right,
+            out += _retest_rows(data, base, fits, sensor["flag"], z0_imu, rho_static, right,
                                 retest_k, result, kong_at, limits)  # fmt: skip
     calibrations = pd.DataFrame(out, columns=None if out else CALIBRATION_COLUMNS)
     calibrations = with_truth(calibrations, dataset.ground_truth)
@@ -437,19 +470,9 @@ STEP_TOO_SHORT = (
 )
 
 
-def _step_scatters(group: pd.DataFrame) -> np.ndarray | None:
-    """The step-harmonic scatters (n_rep, 3, 3) of a walking test's repetitions; None when the
-    test is not walking or a repetition has none.
-    """
-    if STEP_COLUMNS[0] not in group:
-        return None
-    steps = group[STEP_COLUMNS].to_numpy(float)
-    return steps.reshape(-1, 3, 3) if np.isfinite(steps).all() else None
-
-
-def _step_fit(H: np.ndarray, z0, right, group: pd.DataFrame) -> dict:
-    """The step-harmonic calibration from the summed scatter ``H`` of ``group``'s repetitions,
-    flagged ``no_step_heading`` when no horizontal direction dominates.
+def _step_fit(H: np.ndarray, z0, right, step_hz: np.ndarray) -> dict:
+    """The step-harmonic calibration from the summed scatter ``H`` of repetitions whose step
+    frequencies are ``step_hz``, flagged ``no_step_heading`` when no horizontal direction dominates.
     """
     R, ratio = step_harmonic_rotation(H, z0, right)
     ok = bool(ratio <= MAX_STEP_RATIO)
@@ -457,12 +480,12 @@ def _step_fit(H: np.ndarray, z0, right, group: pd.DataFrame) -> dict:
         "R": R,
         "flag": "" if ok else "no_step_heading",
         "step_ratio": float(ratio),
-        "step_hz": float(group["step_hz"].median()),
+        "step_hz": float(np.median(step_hz)),
     }
 
 
 def _retest_rows(
-    group, base, fits, sensor_flag, z0, rho_static, right, k, kong, kong_at, limits
+    data: _Repetitions, base, fits, sensor_flag, z0, rho_static, right, k, kong, kong_at, limits
 ) -> list[dict]:
     """The axis methods, the combined and (walking) the step-harmonic heading from every subset of
     ``k`` repetitions (Obj 4's
@@ -471,18 +494,22 @@ def _retest_rows(
     direction, as the calibration from all repetitions (a property of the mounting).
     """
     rows = []
-    for chosen in itertools.combinations(range(len(group)), k):
-        part = group.iloc[list(chosen)]
-        axis = pool(part, orient=right)
-        spread = axis_spread_deg(part[PHASE_COLUMNS].to_numpy(float), axis.axis)
-        sub = sagittal_fits(z0, rho_static, axis.axis, axis.rho, spread, diagnostics=False)
-        reps = [int(r) for r in part["rep"]]
+    subsets = [list(chosen) for chosen in itertools.combinations(range(len(data.rep)), k)]
+    axes = [data.pooled_axis(rows_at, right) for rows_at in subsets]
+    spreads = [axis_spread_deg(data.phases[at], axis.axis) for at, axis in zip(subsets, axes)]
+    fitted = sagittal_fits_batch(
+        z0, rho_static, np.array([a.axis for a in axes]), np.array([a.rho for a in axes]),
+        np.array(spreads),
+    )  # fmt: skip
+    for rows_at, axis, spread, sub in zip(subsets, axes, spreads, fitted):
+        reps = [int(r) for r in data.rep[rows_at]]
         sub["combined"] = _combined_fit(
             kong, kong_at[tuple(reps)], z0, axis, sub["triad"].get("flag", ""), right, limits
         )
-        steps = _step_scatters(part)
-        if steps is not None and "step_harmonic" in fits:
-            sub["step_harmonic"] = _step_fit(steps.sum(axis=0), z0, right, part)
+        if data.steps is not None and "step_harmonic" in fits:
+            sub["step_harmonic"] = _step_fit(
+                data.steps[rows_at].sum(axis=0), z0, right, data.step_hz[rows_at]
+            )
         for method in sub:
             sub[method]["flag"] = _first_flag(
                 sensor_flag, sub[method].get("flag", ""), fits[method].get("flag", "")
@@ -493,7 +520,7 @@ def _retest_rows(
                 "repetitions": subset_label(reps),
                 "n_reps": k,
                 "rho_motion": axis.rho,
-                "n_samples": int(part["n_samples"].sum()),
+                "n_samples": int(data.n_samples[rows_at].sum()),
                 "axis_spread_deg": spread,
             },  # fmt: skip
             sub,

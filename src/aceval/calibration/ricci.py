@@ -146,27 +146,28 @@ def quaternion_matrix(q_wxyz: np.ndarray) -> np.ndarray:
 
 
 def _residual_jacobian(q: np.ndarray, v_est: np.ndarray) -> np.ndarray:
-    """D e / d q, shape (3N, 4), for e = v_ref - R(q) v_est with R(q) of Eq. 8.
+    """D e / d q, shape (..., 3N, 4), for e = v_ref - R(q) v_est with R(q) of Eq. 8; ``q`` (..., 4)
+    and ``v_est`` (..., N, 3) (one problem, or a stack of them).
 
     R(q) v = (w^2 - |u|^2) v + 2 (u.v) u + 2 w (u x v), u = (x, y, z); differentiated analytically.
     """
-    w, u = q[0], q[1:]
-    n = len(v_est)
-    jac = np.empty((n, 3, 4))
-    jac[:, :, 0] = 2 * w * v_est + 2 * np.cross(u, v_est)
-    u_dot_v = v_est @ u
-    eye = np.eye(3)
-    skew_v = np.zeros((n, 3, 3))
-    skew_v[:, 0, 1], skew_v[:, 0, 2] = -v_est[:, 2], v_est[:, 1]
-    skew_v[:, 1, 0], skew_v[:, 1, 2] = v_est[:, 2], -v_est[:, 0]
-    skew_v[:, 2, 0], skew_v[:, 2, 1] = -v_est[:, 1], v_est[:, 0]
-    jac[:, :, 1:] = (
-        -2 * v_est[:, :, None] * u[None, None, :]
-        + 2 * u[None, :, None] * v_est[:, None, :]
-        + 2 * u_dot_v[:, None, None] * eye
-        - 2 * w * skew_v
+    w, u = q[..., 0, None, None], q[..., None, 1:]  # (..., 1, 1) and (..., 1, 3)
+    x, y, z = v_est[..., 0], v_est[..., 1], v_est[..., 2]
+    zero = np.zeros_like(x)
+    skew_v = np.stack(
+        [np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1), np.stack([-y, x, zero], -1)],
+        -2,
+    )  # (..., N, 3, 3)
+    u_dot_v = np.sum(v_est * u, axis=-1)  # (..., N)
+    jac = np.empty((*v_est.shape, 4))
+    jac[..., 0] = 2 * w * v_est + 2 * np.cross(u, v_est)
+    jac[..., 1:] = (
+        -2 * v_est[..., :, None] * u[..., None, :]
+        + 2 * u[..., :, None] * v_est[..., None, :]
+        + 2 * u_dot_v[..., None, None] * np.eye(3)
+        - 2 * w[..., None] * skew_v
     )
-    return -jac.reshape(3 * n, 4)
+    return -jac.reshape(*v_est.shape[:-2], -1, 4)
 
 
 def _check_axes(v_ref, v_est, weights):
@@ -310,3 +311,106 @@ def wahba_batch(v_ref: np.ndarray, v_est: np.ndarray, weights: np.ndarray) -> np
     scale = np.ones((len(profile), 3))
     scale[:, 2] = np.sign(np.linalg.det(U @ Vt))
     return U @ (scale[:, :, None] * Vt)
+
+
+@dataclass
+class LMBatch:
+    """:func:`lm_fit_batch`'s outcome, one entry per problem: R (B, 3, 3), accepted steps,
+    rejected trial steps, convergence and final cost (as :class:`LMResult`).
+    """
+
+    R: np.ndarray
+    n_iterations: np.ndarray
+    n_rejected: np.ndarray
+    converged: np.ndarray
+    cost: np.ndarray
+
+
+def _quaternion_matrices(q: np.ndarray) -> np.ndarray:
+    """:func:`quaternion_matrix` of each row of ``q`` (B, 4), shape (B, 3, 3)."""
+    return np.moveaxis(quaternion_matrix(q.T), (0, 1), (-2, -1))
+
+
+def lm_fit_batch(
+    v_ref,
+    v_est,
+    weights,
+    damping: float = 1e-3,
+    rel_tol: float = 1e-4,
+    max_iter: int = 100,
+    abs_tol: float = 1e-15,
+    max_rejections: int = 20,
+) -> LMBatch:
+    """:func:`lm_fit` (adaptive damping, q0 = identity) of B problems at once: ``v_ref`` (n, 3)
+    shared, ``v_est`` (B, n, 3) and ``weights`` (B, n) one row per problem (the Obj 4 subsets of
+    one IMU). The same steps as :func:`lm_fit`, each problem stopping on its own rule; equal to
+    B single calls to rounding (tested).
+    """
+    v_ref = np.asarray(v_ref, float)
+    v_ref = v_ref / np.linalg.norm(v_ref, axis=-1, keepdims=True)
+    v_est = np.asarray(v_est, float)
+    v_est = v_est / np.linalg.norm(v_est, axis=-1, keepdims=True)
+    weights = np.asarray(weights, float)
+    if not (np.isfinite(v_est).all() and np.isfinite(weights).all()):
+        raise ValueError("lm_fit_batch: v_est or weights contain NaN or inf")
+    n_batch, n_axes = weights.shape
+    W = np.repeat(weights, 3, axis=1)  # (B, 3n)
+
+    def residual(q, rows):
+        rotated = v_est[rows] @ np.swapaxes(_quaternion_matrices(q), -1, -2)
+        return (v_ref[None] - rotated).reshape(len(q), -1)
+
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (n_batch, 1))
+    e = residual(q, slice(None))
+    cost = np.einsum("bi,bi->b", e, W * e)
+    converged = cost < abs_tol
+    n_iter = np.zeros(n_batch, int)
+    n_rejected = np.zeros(n_batch, int)
+    in_a_row = np.zeros(n_batch, int)
+    lam = np.full(n_batch, float(damping))
+    JtW = np.empty((n_batch, 4, 3 * n_axes))
+    JtWJ = np.empty((n_batch, 4, 4))
+    stale = np.ones(n_batch, bool)  # the Jacobian is recomputed after an accepted step
+    active = ~converged
+    while active.any():
+        renew = np.flatnonzero(active & stale)
+        if len(renew):
+            J = _residual_jacobian(q[renew], v_est[renew])
+            JtW[renew] = np.swapaxes(J, -1, -2) * W[renew, None, :]
+            JtWJ[renew] = JtW[renew] @ J
+        stale[:] = False
+        at = np.flatnonzero(active)
+        F = JtWJ[at] + lam[at, None, None] * (np.eye(4) * np.diagonal(JtWJ[at], 0, -2, -1)[:, None])
+        step = np.linalg.solve(F, (JtW[at] @ e[at][:, :, None]))[:, :, 0]
+        trial = q[at] - step
+        trial = trial / np.linalg.norm(trial, axis=1, keepdims=True)
+        trial_e = residual(trial, at)
+        trial_cost = np.einsum("bi,bi->b", trial_e, W[at] * trial_e)
+        worse = trial_cost > cost[at]
+        rejected, accepted = at[worse], at[~worse]
+        n_rejected[rejected] += 1
+        in_a_row[rejected] += 1
+        lam[rejected] *= 10.0
+        converged[rejected] = in_a_row[rejected] >= max_rejections
+        better = ~worse
+        in_a_row[accepted] = 0
+        n_iter[accepted] += 1
+        converged[accepted] = (
+            np.abs(cost[accepted] - trial_cost[better]) / cost[accepted] < rel_tol
+        ) | (trial_cost[better] < abs_tol)
+        q[accepted], e[accepted], cost[accepted] = (
+            trial[better],
+            trial_e[better],
+            trial_cost[better],
+        )
+        stale[accepted] = True
+        lam[accepted] /= 10.0
+        active = ~converged & (n_iter < max_iter)
+    q = np.where(q[:, :1] < 0, -q, q)
+    return LMBatch(
+        R=Rotation.from_quat(q, scalar_first=True).as_matrix(),
+        n_iterations=n_iter,
+        n_rejected=n_rejected,
+        converged=converged,
+        cost=cost,
+    )
