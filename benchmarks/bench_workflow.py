@@ -114,6 +114,37 @@ for path in dataset.recordings["path"]:
 """
 
 
+def per_step(workdir: Path) -> str:
+    """Where a run's time went, from Snakemake's own per-job benchmark files
+    (logs/<dataset>/benchmarks/<step>[_<subject>].tsv): per dataset and step, the jobs, their
+    summed wall and CPU seconds and the largest job's peak RSS.
+    """
+    import pandas as pd
+
+    rows = []
+    for path in sorted(workdir.glob("logs/*/benchmarks/*.tsv")):
+        step = path.stem
+        for prefix in (
+            "calibrate",
+            "peer_gaitmap_pca",
+            "peer_qmt_hinge",
+            "peer_opensense_imuplacer",
+        ):
+            step = prefix if step.startswith(prefix) else step
+        record = pd.read_csv(path, sep="\t").iloc[0]
+        rows.append(
+            (path.parent.parent.name, step, record["s"], record["cpu_time"], record["max_rss"])
+        )
+    if not rows:
+        return "  (no benchmark files)"
+    table = pd.DataFrame(rows, columns=["dataset", "step", "wall_s", "cpu_s", "rss_mib"])
+    summed = table.groupby(["dataset", "step"]).agg(
+        jobs=("wall_s", "size"), wall_s=("wall_s", "sum"), cpu_s=("cpu_s", "sum"),
+        max_rss_mib=("rss_mib", "max"),
+    )  # fmt: skip
+    return summed.round(1).to_string()
+
+
 def disk(folder: Path) -> tuple[int, float]:
     files = [p for p in folder.rglob("*") if p.is_file()]
     return len(files), sum(p.stat().st_size for p in files) / 1e9
@@ -137,6 +168,8 @@ def main() -> None:
             again, _ = run(snakemake(tmp / "default"))
             say(f"default workflow from clean: {clean:.1f} s (largest process {rss:.0f} MiB); "
                 f"up-to-date re-run: {again:.1f} s")  # fmt: skip
+            say("  its jobs, summed per dataset and step (Snakemake's benchmark files):")
+            say(per_step(tmp / "default"))
 
         kong = tmp / "kong5"
         simulate(kong, 5)
@@ -145,6 +178,7 @@ def main() -> None:
         say(f"Kong simulation, 5 subjects: floor (one process reading every recording once and "
             f"forming its scatter) {floor:.1f} s; workflow from clean {analysis:.1f} s; ratio "
             f"{analysis / floor:.1f}")  # fmt: skip
+        say(per_step(tmp / "kong5_work"))
 
         rows = []
         for n in args.subjects:

@@ -19,6 +19,8 @@ rule calibrate:
         plan="results/{dataset}/calibrations/{subject}_plan.json",
     log:
         "logs/{dataset}/calibrate_{subject}.log",
+    benchmark:
+        "logs/{dataset}/benchmarks/calibrate_{subject}.tsv"
     conda:
         "../envs/aceval.yaml"
     params:

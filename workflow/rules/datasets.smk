@@ -10,6 +10,8 @@ rule simulate:
         directory("resources/{dataset}"),
     log:
         "logs/{dataset}/simulate.log",
+    benchmark:
+        "logs/{dataset}/benchmarks/simulate.tsv"
     wildcard_constraints:
         dataset=only(SIMULATED),
     priority: 10
@@ -36,6 +38,8 @@ rule import_dataset:
         directory("resources/{dataset}"),
     log:
         "logs/{dataset}/import.log",
+    benchmark:
+        "logs/{dataset}/benchmarks/import.tsv"
     wildcard_constraints:
         dataset=only(IMPORTED),
     conda:
@@ -56,6 +60,8 @@ checkpoint validate:
         "results/{dataset}/validation/sheets.tsv",
     log:
         "logs/{dataset}/validate.log",
+    benchmark:
+        "logs/{dataset}/benchmarks/validate.tsv"
     conda:
         "../envs/aceval.yaml"
     params:

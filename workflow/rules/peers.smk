@@ -35,6 +35,8 @@ rule peer_calibrate:
         "results/{dataset}/peers/{peer}/{subject}.csv",
     log:
         "logs/{dataset}/{peer}_{subject}.log",
+    benchmark:
+        "logs/{dataset}/benchmarks/peer_{peer}_{subject}.tsv"
     wildcard_constraints:
         peer="|".join(PEER_METHODS),
     conda:

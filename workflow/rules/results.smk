@@ -21,6 +21,8 @@ for _dataset in DATASETS:
                 **results_outputs(_dataset, _kind),
             log:
                 f"logs/{_dataset}/{_kind}s.log",
+            benchmark:
+                f"logs/{_dataset}/benchmarks/{_kind}s.tsv"
             conda:
                 "../envs/aceval.yaml"
             params:
