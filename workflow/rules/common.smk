@@ -225,6 +225,12 @@ def peer_files(dataset):
 
 def peers_note(dataset):
     """What SUMMARY.md says about peers that were not run."""
+    if "ricci" in DATASETS[dataset].get("analyses", []):
+        return (
+            "The peer tools (gaitmap, qmt, OpenSense) are not run on Ricci's functional design: "
+            "each calibrates from a vertical and one movement axis, which this design does not "
+            "have per calibration (README, \"The peers side by side\")."
+        )
     if not PEERS_ABSENT or not {"kong", "box"} & set(DATASETS[dataset].get("analyses", [])):
         return ""
     return (
