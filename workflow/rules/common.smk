@@ -229,7 +229,7 @@ def peers_note(dataset):
         return (
             "The peer tools (gaitmap, qmt, OpenSense) are not run on Ricci's functional design: "
             "each calibrates from a vertical and one movement axis, which this design does not "
-            "have per calibration (README, \"The peers side by side\")."
+            'have per calibration (README, "The peers side by side").'
         )
     if not PEERS_ABSENT or not {"kong", "box"} & set(DATASETS[dataset].get("analyses", [])):
         return ""
