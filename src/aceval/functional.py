@@ -38,6 +38,7 @@ from .calibration.ricci import (
     wahba_batch,
     wahba_fit,
 )
+from .calibration.triad import MIN_ANGLE_DEG as TRIAD_MIN_ANGLE_DEG
 from .calibration.triad import triad, triad_batch
 from .errors import CalibrationError
 from .rotations import axis_vector, error_angle_deg
@@ -247,8 +248,6 @@ def sagittal_fits(
 
 #: body z (down) and y (right): the references of Kong's protocol for the axis methods
 SAGITTAL_REFERENCE = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
-#: TRIAD's smallest angle between its two axes (deg; :func:`aceval.calibration.triad.triad`)
-TRIAD_MIN_ANGLE_DEG = 5.0
 
 
 def _sagittal_problem(z0, motion_axis, rho_motion, spread_deg, limits) -> tuple[str, str] | None:
@@ -283,9 +282,10 @@ def sagittal_fits_batch(
     spread_deg: np.ndarray,
     limits: AxisLimits = AxisLimits(),
 ) -> list[dict[str, dict]]:
-    """:func:`sagittal_fits` (``diagnostics=False``) of a stack of gyroscope axes (B, 3) with their
-    rho and spread (B,) at once: the LM (:func:`lm_fit_batch`), the weighted Wahba optimum
-    (:func:`wahba_batch`) and TRIAD (:func:`triad_batch`) of all of them, flagged as
+    """:func:`sagittal_fits` (``diagnostics=False``) of a stack of unit gyroscope axes (B, 3), with
+    their rho and spread (B,), against one unit ``z0`` at once: the LM (:func:`lm_fit_batch`),
+    the weighted Wahba optimum (:func:`wahba_batch`) and TRIAD (:func:`triad_batch`) of all of
+    them, flagged as
     :func:`sagittal_fits` flags; an axis that is not finite or within TRIAD's 5 deg of z0 is
     fitted alone by :func:`sagittal_fits` (its errors as there). Equal to the single calls to
     rounding (tested).

@@ -30,6 +30,7 @@ from .dataset import R_COLUMNS, Dataset
 from .functional import (
     AXIS_METHODS,
     MOMENT_COLUMNS,
+    PHASE_COLUMNS,
     AxisLimits,
     axis_spread_deg,
     functional_fits,
@@ -223,6 +224,7 @@ class _Repetitions:
     n_samples: np.ndarray  # (n,)
     unit_scatters: np.ndarray  # (n, 3, 3) Ricci's unit scatters
     moments: np.ndarray  # (n, 16) MOMENT_COLUMNS
+    phases: np.ndarray  # (n, 3) PHASE_COLUMNS: each repetition's first-phase axis
     third: np.ndarray | None  # (n, 10) THIRD_MOMENT_COLUMNS
     steps: np.ndarray | None  # (n, 3, 3) step-harmonic scatters; None unless every rep has one
     step_hz: np.ndarray | None  # (n,)
@@ -238,17 +240,13 @@ class _Repetitions:
             n_samples=group["n_samples"].to_numpy(float),
             unit_scatters=group[UNIT_SCATTER_COLUMNS].to_numpy(float).reshape(-1, 3, 3),
             moments=group[MOMENT_COLUMNS].to_numpy(float),
+            phases=group[PHASE_COLUMNS].to_numpy(float),
             third=group[THIRD_MOMENT_COLUMNS].to_numpy(float)
             if THIRD_MOMENT_COLUMNS[0] in group
             else None,
             steps=steps.reshape(-1, 3, 3) if walking else None,
             step_hz=group["step_hz"].to_numpy(float) if walking else None,
         )
-
-    @property
-    def phases(self) -> np.ndarray:
-        """(n, 3) each repetition's first-phase axis (PHASE_COLUMNS, the last of MOMENT_COLUMNS)."""
-        return self.moments[:, -3:]
 
     def pooled_axis(self, rows, orient: np.ndarray):
         """:func:`aceval.functional.pool` of the repetitions at ``rows`` (NaN phases skipped)."""

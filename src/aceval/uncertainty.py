@@ -28,7 +28,7 @@ from .calibration.kong import KongLimits, kong_from_scatters
 from .calibration.ricci import wahba_batch
 from .calibration.step_harmonic import MAX_STEP_RATIO, step_harmonic_rotation
 from .calibration.triad import triad_batch
-from .functional import AxisLimits, subset_axes
+from .functional import SAGITTAL_REFERENCE, AxisLimits, subset_axes
 from .rotations import error_angle_deg, vertical_share
 
 #: resamples per calibration (the 95th percentile of 200 angles: its 10th largest)
@@ -74,8 +74,7 @@ def _axis_method_cones(rho, axes, z0, right, rho_static, R_axis, rho_min) -> dic
     usable = ((rho >= rho_min) & (np.abs(axes @ z0) <= min_cos))[:, None, None]
     v_est = np.stack([np.broadcast_to(z0, axes.shape), axes], axis=1)
     weights = np.column_stack([np.full(len(rho), rho_static), rho])
-    v_ref = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
-    optimum = np.where(usable, wahba_batch(v_ref, v_est, weights), np.nan)
+    optimum = np.where(usable, wahba_batch(SAGITTAL_REFERENCE, v_est, weights), np.nan)
     resampled = {
         "align_vectors": optimum,
         "ricci_lm": optimum,

@@ -20,7 +20,11 @@ def _frame(primary: np.ndarray, secondary: np.ndarray, min_sin: float, name: str
     return np.column_stack([t1, t2, np.cross(t1, t2)])
 
 
-def triad(v_ref, v_est, min_angle_deg: float = 5.0) -> np.ndarray:
+#: TRIAD's smallest angle (deg) between its two axes: closer, there is no second direction
+MIN_ANGLE_DEG = 5.0
+
+
+def triad(v_ref, v_est, min_angle_deg: float = MIN_ANGLE_DEG) -> np.ndarray:
     """Rotation R (3x3) with ``R @ v_est[0] == v_ref[0]`` exactly and ``R @ v_est[1]`` in the plane
     of ``v_ref[0], v_ref[1]``. ``v_ref`` are axes in the body/functional frame, ``v_est`` the same
     axes measured in the sensor frame, each of shape (2, 3): row 0 primary, row 1 secondary.
