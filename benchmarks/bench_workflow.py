@@ -12,6 +12,9 @@
    processes) and workflow timed apart, peak RSS of the largest process, files and disk; the
    marginal cost per subject; a plot (benchmarks/scaling.png).
 
+For 1 and 2, where the time went: Snakemake's benchmark file of every job
+(logs/<dataset>/benchmarks/), summed per dataset and step.
+
 Everything runs in temporary folders; the repository's results/ are not touched. Peak RSS is
 GNU time's maximum resident set of the command and the processes it waited for.
 """
