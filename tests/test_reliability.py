@@ -1,5 +1,7 @@
 """Ricci tables, the reliability of Kong's tests and the methods table on hand-made inputs."""
 
+import itertools
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -388,3 +390,73 @@ def test_loose_reference_angles_between_right_axes_and_verticals():
     assert row["vertical_angle_deg"] == pytest.approx(0.0, abs=1e-6) and row["flag"] == ""
     text = "\n".join(summary.loose_reference_section({"loose_reference": pd.DataFrame([row])}))
     assert "NOT a ground truth" in text and "kong: median 30.0 deg over 1 calibrations" in text
+
+
+def _subset_calibrations(rng, subjects=("S1", "S2", "S10"), methods=("kong", "triad", "qmt_hinge")):
+    """Every subset of 5 repetitions for each subject, set, IMU, test and method: random
+    rotations within about 10 deg of the truth (identity), some flagged, errors from them."""
+    from scipy.spatial.transform import Rotation
+
+    from aceval.pipeline import all_subsets, subset_label
+
+    rows = []
+    for subject, sensor_set, imu, test, method in itertools.product(
+        subjects, ("front", "side"), ("I1", "I2"), ("T1", "T6"), methods
+    ):
+        for subset in all_subsets([1, 2, 3, 4, 5]):
+            R = Rotation.from_rotvec(rng.normal(scale=0.1, size=3)).as_matrix()
+            rows.append({
+                "subject": subject, "sensor_set": sensor_set, "imu": imu, "segment": "thigh",
+                "side": imu, "test": test, "repetitions": subset_label(subset),
+                "n_reps": len(subset), "method": method,
+                **dict(zip([f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)], R.ravel())),
+                "flag": "" if rng.random() > 0.1 else "gyro_disagrees",
+                "error_deg": np.degrees(np.arccos(np.clip((np.trace(R) - 1) / 2, -1, 1))),
+                "error_vertical_share": rng.random(),
+            })  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+def test_per_subject_angles_and_retest_units_give_the_tables_of_all_subjects_at_once(rng):
+    """The workflow computes Kong's angles and every method's test-retest units per subject
+    (calibrate --angles-out/--retest-out) and the results jobs hold only the calibrations from
+    all repetitions: the angles, in all_angles' order, must be exactly those computed from every
+    calibration at once (subject S10 sorts before S2), and the methods tables equal to the last
+    bits (pandas' grouped mean of one unit can move by 1e-15 with the other units in the frame;
+    the committed results are byte-identical)."""
+    from aceval.objectives import all_angles, full_set_rows, in_angle_order
+
+    calibrations = _subset_calibrations(rng)
+    aceval_rows = calibrations[calibrations["method"] != "qmt_hinge"]
+    peers = calibrations[calibrations["method"] == "qmt_hinge"]
+    per_subject = [aceval_rows[aceval_rows["subject"] == s] for s in ("S1", "S2", "S10")]
+    angles = in_angle_order(pd.concat([all_angles(p) for p in per_subject], ignore_index=True))
+    pd.testing.assert_frame_equal(angles, all_angles(calibrations), check_exact=True)
+
+    units = pd.concat(
+        [methods_comparison.retest_units(p, 3) for p in per_subject], ignore_index=True
+    )
+    held = pd.concat([full_set_rows(aceval_rows), peers], ignore_index=True)
+    every = pd.concat([aceval_rows, peers], ignore_index=True)  # as build_data joins the peers
+    assert len(full_set_rows(aceval_rows)) == len(aceval_rows) // 31  # one of 31 subsets
+    for build in (methods_comparison.retest_table, methods_comparison.methods_table):
+        pd.testing.assert_frame_equal(
+            build(held, 3, units).reset_index(drop=True),
+            build(every, 3).reset_index(drop=True),
+            rtol=1e-13,
+        )
+    assert set(methods_comparison.retest_table(held, 3, units)["method"]) == {
+        "kong", "triad", "qmt_hinge"
+    }  # fmt: skip
+
+
+def test_truth_warning_reads_the_calibrations_from_all_repetitions(rng):
+    """A transposed truth is named from the calibrations every method is judged on (all
+    repetitions), whatever their subsets say; a truth near every calibration is not."""
+    calibrations = _subset_calibrations(rng, subjects=("S1",))
+    assert methods_comparison.truth_warning(calibrations) == ""
+    full = calibrations["n_reps"] == 5
+    far = calibrations.assign(error_deg=np.where(full, 150.0, 1.0))
+    assert "transposed" in methods_comparison.truth_warning(far)
+    near = calibrations.assign(error_deg=np.where(full, 1.0, 150.0))
+    assert methods_comparison.truth_warning(near) == ""

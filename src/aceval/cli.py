@@ -218,6 +218,8 @@ def _calibrate(args) -> int:
         )
     if args.findings_out:
         _write_findings(args.findings_out, report)
+    if args.angles_out or args.retest_out:
+        _write_angles(args, calibrations)
     if args.plan_out:
         from .pipeline import calibration_plan
 
@@ -228,6 +230,23 @@ def _calibrate(args) -> int:
         print("\n".join(map(str, report.warnings)), file=sys.stderr)
     print(calibration_screen(calibrations, len(unusable), args.out), file=sys.stderr)
     return 0
+
+
+def _write_angles(args, calibrations) -> None:
+    """Kong's Obj 3-5 angles (--angles-out) and every method's test-retest units (--retest-out)
+    of this job's subjects, from its calibrations as a reader of ``args.out`` sees them (what the
+    results jobs computed from before): the only tables that need the calibrations from subsets
+    of repetitions, so the results jobs read only those from all repetitions.
+    """
+    from .methods_comparison import retest_units
+    from .objectives import all_angles
+    from .results import read_tables
+
+    calibrations = read_tables([args.out])
+    if args.angles_out:
+        _write_csv(args.angles_out, all_angles(calibrations, args.retest_k))
+    if args.retest_out:
+        _write_csv(args.retest_out, retest_units(calibrations, args.retest_k))
 
 
 def _concat_tables(parts: list) -> pd.DataFrame:
@@ -391,16 +410,22 @@ def _outputs(args) -> int:
     import json
 
     from .dataset import Finding, ValidationReport
+    from .objectives import full_set_rows, in_angle_order
     from .results import build_data, dataset_meta, read_tables, write_results
 
+    # the per-subject angles and test-retest units hold all the subsets are needed for: with
+    # them, only the calibrations from all repetitions are held (7 % of Kong's rows)
+    precomputed = bool(args.angles and args.retest_units)
     data = build_data(
         args.dataset,
-        read_tables(args.calibrations),
+        read_tables(args.calibrations, full_set_rows if precomputed else None),
         read_tables(args.axes),
         read_tables(args.correlations),
+        in_angle_order(read_tables(args.angles)) if precomputed else None,
         paper_names=json.loads(args.paper_names),
         peers=read_tables(args.peers),
         test_retest_k=args.test_retest_k,
+        retest_units=read_tables(args.retest_units) if precomputed else None,
     )
     validation = None
     if args.findings:
@@ -540,6 +565,14 @@ def main(argv: list[str] | None = None) -> int:
     )
     calibrate.add_argument("--findings-out", help="file warnings of the pass (tab-separated)")
     calibrate.add_argument(
+        "--angles-out", help="Kong's Obj 3-5 angles of these subjects (as `aceval angles`, CSV)"
+    )
+    calibrate.add_argument(
+        "--retest-out",
+        help="every method's Obj 4 test-retest per subject x set x IMU x test (CSV; "
+        "`aceval outputs --retest-units`)",
+    )
+    calibrate.add_argument(
         "--plan-out",
         help="what a peer tool calibrates (JSON for workflow/peers/: files, right axes, subsets)",
     )
@@ -643,6 +676,14 @@ def main(argv: list[str] | None = None) -> int:
         "--peers", nargs="*", default=[], help="peer tools' calibrations (workflow/peers/, CSV)"
     )
     outputs.add_argument(
+        "--angles", nargs="*", default=[],
+        help="Obj 3-5 angles of every subject (calibrate --angles-out); with --retest-units, only "
+        "the calibrations from all repetitions are read (default: both computed here)",
+    )  # fmt: skip
+    outputs.add_argument(
+        "--retest-units", nargs="*", default=[], help="CSVs of calibrate --retest-out"
+    )
+    outputs.add_argument(
         "--note", action="append", default=[], help="a line for SUMMARY.md under the counts"
     )
     outputs.set_defaults(run=_outputs)
@@ -670,6 +711,8 @@ OUTPUT_OPTIONS = {
     "correlations_out": "--correlations-out",
     "pairs_out": "--pairs-out",
     "findings_out": "--findings-out",
+    "angles_out": "--angles-out",
+    "retest_out": "--retest-out",
     "plan_out": "--plan-out",
 }
 INPUT_OPTIONS = {
@@ -681,6 +724,7 @@ INPUT_OPTIONS = {
     "correlations": "--correlations",
     "axes": "--axes",
     "angles": "--angles",
+    "retest_units": "--retest-units",
     "findings": "--findings",
     "peers": "--peers",
 }

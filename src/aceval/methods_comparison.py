@@ -52,11 +52,15 @@ def _method_order(table: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
     )
 
 
-def methods_table(calibrations: pd.DataFrame, test_retest_k: int | None = None) -> pd.DataFrame:
+def methods_table(
+    calibrations: pd.DataFrame,
+    test_retest_k: int | None = None,
+    retest_units: pd.DataFrame | None = None,
+) -> pd.DataFrame:
     """Error to the true mounting (deg) per method x test x segment x sensor set: mean, SD,
     median, 95th percentile, n, and the median share of the error about the vertical axis; with
     ``test_retest_k``, beside it the method's test-retest angle (:func:`retest_table`: median over
-    subject x IMU units, and their number).
+    subject x IMU units, and their number; ``retest_units`` as there).
     """
     data = full_set_errors(calibrations)
     keys = ["segment", "test", "sensor_set", "method"]
@@ -75,7 +79,9 @@ def methods_table(calibrations: pd.DataFrame, test_retest_k: int | None = None) 
     if "cone95_deg" in data:  # the bootstrap cone (aceval.uncertainty), where the method has one
         cones = data.groupby(keys)["cone95_deg"].median().rename("cone95_median_deg")
         table = table.merge(cones.reset_index(), on=keys, how="left")
-    retest = retest_table(calibrations, test_retest_k) if test_retest_k else pd.DataFrame()
+    retest = (
+        retest_table(calibrations, test_retest_k, retest_units) if test_retest_k else pd.DataFrame()
+    )
     if len(retest):  # Kong's design (Ricci's functional design has no subsets of repetitions)
         retest = retest[[*keys, "median", "n"]].rename(
             columns={"median": "retest_median_deg", "n": "retest_n"}
@@ -101,17 +107,16 @@ def _with_not_applicable(table: pd.DataFrame, calibrations: pd.DataFrame, keys) 
     return pd.concat([table.assign(note=""), extra], ignore_index=True)
 
 
-def retest_table(calibrations: pd.DataFrame, k: int = 3) -> pd.DataFrame:
-    """Every method's test-retest (Kong Obj 4, Eq. 15, beyond Kong's own method): the angle (deg)
-    between its calibrations from two distinct subsets of ``k`` repetitions, averaged per unit
-    (subject x set x IMU), then mean, SD, median and 95th percentile over the units, per segment,
-    test, sensor set and method; beside it the median 95 % bootstrap cone of the unflagged
-    calibrations from all repetitions (methods with one). Repeatability, not accuracy: it needs
-    no ground truth.
+#: a test-retest unit of :func:`retest_units`
+RETEST_UNIT = ["subject", "sensor_set", "imu", "segment", "test", "method"]
+
+
+def retest_units(calibrations: pd.DataFrame, k: int = 3) -> pd.DataFrame:
+    """Every method's test-retest per unit (subject x set x IMU x test; Kong Obj 4, Eq. 15): the
+    mean angle (deg, ``error_angle_deg``) between its calibrations from two distinct subsets of
+    ``k`` repetitions, sorted by :data:`RETEST_UNIT`. Within a subject, so the workflow computes
+    it per subject (``aceval calibrate --retest-out``).
     """
-    columns = ["segment", "test", "sensor_set", "method", "mean", "sd", "median", "p95", "n"]
-    if "note" in calibrations:
-        columns.append("note")
     # calibrations from subsets of repetitions ('R1+R3+R4'), not Ricci's design ('all')
     calibrations = calibrations[
         calibrations["repetitions"].astype(str).str.fullmatch(r"R\d+(\+R\d+)*")
@@ -122,14 +127,32 @@ def retest_table(calibrations: pd.DataFrame, k: int = 3) -> pd.DataFrame:
     ]
     angles = pd.concat([p for p in parts if len(p)] or [pd.DataFrame()], ignore_index=True)
     if angles.empty:
+        return pd.DataFrame(columns=[*RETEST_UNIT, "error_angle_deg"])
+    return angles.groupby(RETEST_UNIT)["error_angle_deg"].mean().reset_index()
+
+
+def retest_table(
+    calibrations: pd.DataFrame, k: int = 3, units: pd.DataFrame | None = None
+) -> pd.DataFrame:
+    """Every method's test-retest (Kong Obj 4, Eq. 15, beyond Kong's own method): the angle (deg)
+    between its calibrations from two distinct subsets of ``k`` repetitions, averaged per unit
+    (subject x set x IMU, :func:`retest_units`), then mean, SD, median and 95th percentile over
+    the units, per segment, test, sensor set and method; beside it the median 95 % bootstrap cone
+    of the unflagged calibrations from all repetitions (methods with one). Repeatability, not
+    accuracy: it needs no ground truth. ``units``: the units of the methods it holds, computed
+    beforehand (the workflow's per-subject files); the other methods' from ``calibrations``.
+    """
+    columns = ["segment", "test", "sensor_set", "method", "mean", "sd", "median", "p95", "n"]
+    if "note" in calibrations:
+        columns.append("note")
+    if units is not None and len(units):
+        rest = retest_units(calibrations[~calibrations["method"].isin(units["method"])], k)
+        units = pd.concat([units, rest] if len(rest) else [units], ignore_index=True)
+        units = units.sort_values(RETEST_UNIT, kind="stable", ignore_index=True)
+    else:
+        units = retest_units(calibrations, k)
+    if units.empty:
         return pd.DataFrame(columns=columns)
-    units = (
-        angles.groupby(["subject", "sensor_set", "imu", "segment", "test", "method"])[
-            "error_angle_deg"
-        ]
-        .mean()
-        .reset_index()
-    )
     keys = ["segment", "test", "sensor_set", "method"]
     table = (
         units.groupby(keys)["error_angle_deg"]
@@ -268,12 +291,13 @@ SUSPECT_TRUTH_DEG = 90.0
 
 def truth_warning(calibrations: pd.DataFrame) -> str:
     """A warning when, for most IMUs with a ground truth, the median error of their valid
-    calibrations exceeds 90 deg: a transposed matrix (sensor <- body instead of body <- sensor) or
-    rows given to the wrong IMUs is likelier than a method that far off. '' otherwise.
+    calibrations from all repetitions (:func:`full_set_errors`) exceeds 90 deg: a transposed
+    matrix (sensor <- body instead of body <- sensor) or rows given to the wrong IMUs is likelier
+    than a method that far off. '' otherwise.
     """
     if "error_deg" not in calibrations:
         return ""
-    data = calibrations[(unflagged(calibrations)) & np.isfinite(calibrations["error_deg"])]
+    data = full_set_errors(calibrations)
     per_imu = data.groupby(["subject", "sensor_set", "imu"])["error_deg"].median()
     if per_imu.empty or (per_imu > SUSPECT_TRUTH_DEG).mean() <= 0.5:
         return ""

@@ -194,6 +194,17 @@ def kong_rows(calibrations: pd.DataFrame, method: str = "kong") -> pd.DataFrame:
     )
 
 
+def full_set_rows(calibrations: pd.DataFrame) -> pd.DataFrame:
+    """Every method's calibrations from the most repetitions of each (subject, set, IMU, test),
+    flagged ones included: all that the tables and figures read besides the Obj 3-5 angles and
+    the methods' test-retest units (:func:`all_angles`, :func:`aceval.methods_comparison.
+    retest_units`), which are computed per subject from the subsets (7 % of Kong's rows).
+    """
+    key = [*CALIBRATION_KEY, "method"] if "method" in calibrations else CALIBRATION_KEY
+    most = calibrations.groupby(key)["n_reps"].transform("max")
+    return calibrations[calibrations["n_reps"] == most]
+
+
 def full_sets(calibrations: pd.DataFrame) -> pd.DataFrame:
     """The calibration from all usable repetitions of each (subject, set, IMU, test); left out when
     that calibration itself is flagged.
@@ -321,6 +332,21 @@ def all_angles(calibrations: pd.DataFrame, test_retest_k: int = 3) -> pd.DataFra
             cross_test_angles(calibrations),
         ]
     )
+
+
+#: the order of :func:`all_angles`' comparisons
+COMPARISONS = ["incremental", "to_last", "test_retest", "cross_test"]
+
+
+def in_angle_order(angles: pd.DataFrame) -> pd.DataFrame:
+    """Angles of several subjects, each computed by :func:`all_angles` on its own calibrations,
+    in the row order :func:`all_angles` gives on all of them at once (comparison, then subject;
+    within a subject its own order): the same table, so the same sums and tables.
+    """
+    rank = angles["comparison"].map({name: k for k, name in enumerate(COMPARISONS)})
+    order = pd.DataFrame({"rank": rank, "subject": angles["subject"]})
+    order = order.sort_values(["rank", "subject"], kind="stable").index
+    return angles.loc[order].reset_index(drop=True)
 
 
 def _concat(parts: list[pd.DataFrame]) -> pd.DataFrame:

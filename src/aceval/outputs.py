@@ -349,7 +349,12 @@ _ENTRIES = [
         "Every method against the ground truth: error angle to the true mounting (deg)",
         "subjects (each IMU's calibration from all repetitions of the test; Ricci's design: from "
         "all its axes); retest_*: Kong Obj 4 for each method, subject x IMU units (methods_retest)",
-        _named("methods_comparison.methods_table", "calibrations", "test_retest_k"),
+        _named(
+            "methods_comparison.methods_table",
+            "calibrations",
+            "test_retest_k",
+            optional=("retest_units",),
+        ),
         _named_markdown,
     ),  # fmt: skip
     Output(
@@ -361,7 +366,12 @@ _ENTRIES = [
         "Every method's test-retest: error angle (deg) between its calibrations from two distinct "
         "subsets of k repetitions of one test (Kong Eq. 15), no ground truth needed",
         "subject x sensor set x IMU (each the mean over the pairs of k-repetition subsets)",
-        _named("methods_comparison.retest_table", "calibrations", "test_retest_k"),
+        _named(
+            "methods_comparison.retest_table",
+            "calibrations",
+            "test_retest_k",
+            optional=("retest_units",),
+        ),
         _named_markdown,
     ),  # fmt: skip
     Output(

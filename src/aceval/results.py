@@ -20,18 +20,20 @@ from .outputs import Output, outputs_of
 from .safety import atomic_file
 
 
-def read_tables(paths) -> pd.DataFrame | None:
+def read_tables(paths, keep: Callable | None = None) -> pd.DataFrame | None:
     """The CSV tables at ``paths`` concatenated (an empty file, e.g. a subject with nothing to
-    calibrate, is skipped but keeps its columns when all are empty); None for no paths.
+    calibrate, is skipped but keeps its columns when all are empty); None for no paths. ``keep``:
+    a table -> its rows to hold, applied file by file (memory holds no more).
     """
     if not paths:
         return None
     parts = []
     for path in paths:
         try:
-            parts.append(pd.read_csv(path))
+            part = pd.read_csv(path)
         except pd.errors.EmptyDataError:
             continue
+        parts.append(keep(part) if keep is not None and len(part) else part)
     non_empty = [p for p in parts if len(p)] or parts[:1]
     return pd.concat(non_empty, ignore_index=True) if non_empty else pd.DataFrame()
 
@@ -78,10 +80,13 @@ def build_data(
     paper_names=None,
     peers=None,
     test_retest_k: int = 3,
+    retest_units=None,
 ) -> dict:
     """The ``data`` dict the builders read: the tidy tables (the ``peers``' calibrations joined
     to aceval's, with their error to the ground truth), the dataset's truth and reference sheets,
-    its ``paper_names`` (this dataset's test names -> the paper's), sensor sets and Obj 4's k.
+    its ``paper_names`` (this dataset's test names -> the paper's), sensor sets and Obj 4's k;
+    ``retest_units``: aceval's methods' test-retest units, computed per subject
+    (:func:`aceval.methods_comparison.retest_units`; None: from the calibrations).
     """
     from .methods_comparison import with_truth
 
@@ -95,6 +100,7 @@ def build_data(
         "axes": axes,
         "correlations": correlations,
         "angles": angles,
+        "retest_units": retest_units,
         "truth_method": dataset_sheet(root, "ground_truth_method.tsv"),
         "loose_reference": dataset_sheet(root, "loose_reference.tsv"),
         "sensor_sets": list(meta["sensor_sets"])[:2],
@@ -155,8 +161,10 @@ def write_results(
             atomic_file(path, lambda tmp: angles.to_csv(tmp, index=False))
             del angles
             data["angles"] = pd.read_csv(path)
-        if "table" in kinds:
-            progress("angles.csv")
+    elif "kong" in analyses and "table" in kinds:  # computed per subject (calibrate --angles-out)
+        atomic_file(results / "angles.csv", lambda tmp: data["angles"].to_csv(tmp, index=False))
+    if "kong" in analyses and "table" in kinds:
+        progress("angles.csv")
     tables = {}
     for output in chosen:
         (results / f"{output.kind}s").mkdir(parents=True, exist_ok=True)

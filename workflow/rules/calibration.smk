@@ -1,8 +1,9 @@
 # Stage 2: one pass per subject (or per batch of subjects, `subjects_per_job`): each recording file read
 # once, checked (every problem named with its file and line; an error stops the workflow), and reduced
 # to the statistics every analysis needs; from them every calibration (Kong for every subset of
-# repetitions, the axis methods, or Ricci's functional design) and the correlations of Kong's Obj 1-2
-# (from the moments of each time-aligned recording pair). Every parameter reaches the shell quoted
+# repetitions, the axis methods, or Ricci's functional design), the correlations of Kong's Obj 1-2
+# (from the moments of each time-aligned recording pair), and what needs the calibrations from subsets
+# of repetitions: Kong's Obj 3-5 angles and every method's test-retest units. Every parameter reaches the shell quoted
 # ({...:q}): dataset folders may hold spaces, quotes or any letters.
 
 
@@ -16,6 +17,8 @@ rule calibrate:
         pairs="results/{dataset}/calibrations/{subject}_pairs.csv",
         findings="results/{dataset}/calibrations/{subject}_findings.tsv",
         correlations="results/{dataset}/correlations/{subject}.csv",
+        angles="results/{dataset}/calibrations/{subject}_angles.csv",
+        retest="results/{dataset}/calibrations/{subject}_retest.csv",
         plan="results/{dataset}/calibrations/{subject}_plan.json",
     log:
         "logs/{dataset}/calibrate_{subject}.log",
@@ -34,4 +37,5 @@ rule calibrate:
         "python -m aceval calibrate {params.root:q} {params.subject:q} --allow-empty "
         "--out {output.calibrations:q} --recordings-out {output.recordings:q} --axes-out {output.axes:q} "
         "--pairs-out {output.pairs:q} --findings-out {output.findings:q} "
-        "--correlations-out {output.correlations:q} --plan-out {output.plan:q} {params.options:q} 2> {log:q}"
+        "--correlations-out {output.correlations:q} --angles-out {output.angles:q} "
+        "--retest-out {output.retest:q} --plan-out {output.plan:q} {params.options:q} 2> {log:q}"

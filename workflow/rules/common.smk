@@ -300,6 +300,8 @@ def results_inputs(dataset):
             "calibrations": unit_files(dataset, "calibrations/{unit}.csv"),
             "axes": unit_files(dataset, "calibrations/{unit}_axes.csv"),
             "correlations": unit_files(dataset, "correlations/{unit}.csv"),
+            "angles": unit_files(dataset, "calibrations/{unit}_angles.csv"),
+            "retest_units": unit_files(dataset, "calibrations/{unit}_retest.csv"),
             "findings": unit_files(dataset, "calibrations/{unit}_findings.tsv"),
             "peers": peer_files(dataset),
         }
@@ -314,12 +316,13 @@ def results_folder(output):
 
 
 def results_options(wildcards, input):
-    """--calibrations/--axes/--correlations/--findings of `aceval outputs`, as a list, from the
+    """--calibrations/--axes/--correlations/--angles/--retest-units/--peers/--findings of `aceval
+    outputs`, as a list, from the
     inputs known so far (before the checkpoint has run, only the sheets gate's)."""
     options = []
-    for kind in ("calibrations", "axes", "correlations", "peers"):
+    for kind in ("calibrations", "axes", "correlations", "angles", "retest_units", "peers"):
         if kind in input.keys() and len(input[kind]):
-            options += [f"--{kind}", *input[kind]]
+            options += [f"--{kind.replace('_', '-')}", *input[kind]]
     findings = [input[k] for k in ("sheets",) if k in input.keys()]
     findings += list(input.findings) if "findings" in input.keys() else []
     return options + ["--findings", *findings]
