@@ -10,7 +10,8 @@
    of that dataset from clean (the dataset already on disk, as a lab's would be).
 3. Scaling: the Kong protocol with 5, 20, 50 and 200 simulated subjects, simulation (2
    processes) and workflow timed apart, peak RSS of the largest process, files and disk; the
-   marginal cost per subject; a plot (benchmarks/scaling.png).
+   marginal cost per subject, where each workflow's time and memory went; a plot
+   (benchmarks/scaling.png).
 
 For 1 and 2, where the time went: Snakemake's benchmark file of every job
 (logs/<dataset>/benchmarks/), summed per dataset and step.
@@ -196,6 +197,7 @@ def main() -> None:
             say(f"{n} subjects: simulate {sim:.0f} s + workflow {wall:.0f} s = {sim + wall:.0f} s; "
                 f"peak RSS {max(sim_rss, rss):.0f} MiB; {files} files, {gigabytes:.2f} GB "
                 f"({per_job} subject(s) per calibration job)")  # fmt: skip
+            say(per_step(work))
             for folder in (data, work):
                 subprocess.run(["rm", "-rf", str(folder)], check=True)
         if len(rows) >= 2:
