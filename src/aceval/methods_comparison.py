@@ -15,7 +15,14 @@ import pandas as pd
 from .calibration.kong import KongLimits
 from .dataset import R_COLUMNS
 from .kong2016 import SEGMENT_ORDER
-from .objectives import CALIBRATION_KEY, full_sets, kong_rows, test_retest_angles, unflagged
+from .objectives import (
+    CALIBRATION_KEY,
+    full_set_rows,
+    full_sets,
+    kong_rows,
+    test_retest_angles,
+    unflagged,
+)
 from .rotations import error_angle_deg, vertical_share
 from .stats import holm
 
@@ -27,16 +34,14 @@ METHOD_ORDER = [
     "kong", "ricci_lm", "align_vectors", "triad", "combined", "step_harmonic",
     "gaitmap_pca", "qmt_hinge", "opensense_imuplacer",
 ]  # fmt: skip
-KEY = ["subject", "sensor_set", "imu", "test", "method"]
 
 
 def full_set_errors(calibrations: pd.DataFrame) -> pd.DataFrame:
     """The calibrations from all repetitions, when not flagged, with a finite error to the truth
     (a flagged calibration from all repetitions is left out, not replaced by its subsets).
     """
-    most = calibrations.groupby(KEY[:-1] + ["method"])["n_reps"].transform("max")
-    data = calibrations[(calibrations["n_reps"] == most) & unflagged(calibrations)]
-    return data[np.isfinite(data["error_deg"])]
+    data = full_set_rows(calibrations)
+    return data[unflagged(data) & np.isfinite(data["error_deg"])]
 
 
 def _p95(values: pd.Series) -> float:
@@ -160,8 +165,8 @@ def retest_table(
         .reset_index()
     )
     if "cone95_deg" in calibrations:  # beside it, the bootstrap cone of the full-set calibrations
-        most = calibrations.groupby(KEY)["n_reps"].transform("max")
-        full = calibrations[(calibrations["n_reps"] == most) & unflagged(calibrations)]
+        full = full_set_rows(calibrations)
+        full = full[unflagged(full)]
         cones = full.groupby(keys)["cone95_deg"].median().rename("cone95_median_deg")
         table = table.merge(cones.reset_index(), on=keys, how="left")
     return _method_order(_with_not_applicable(table, calibrations, keys), keys[:3])
@@ -328,10 +333,7 @@ def truth_errors(calibrations: pd.DataFrame, method_sheet: pd.DataFrame | None) 
     from .rotations import error_angle_deg
 
     key = ["subject", "sensor_set", "imu"]
-    full = calibrations[
-        calibrations["n_reps"]
-        == calibrations.groupby(key + ["test", "method"])["n_reps"].transform("max")
-    ]
+    full = full_set_rows(calibrations)
     sheet = method_sheet.astype({"subject": str})
     data = full.merge(sheet, on=key, how="inner", suffixes=("", "_truth"))
     marker = data[[f"marker_frame_{c}" for c in R_COLUMNS]].to_numpy(float).reshape(-1, 3, 3)
@@ -372,10 +374,7 @@ def loose_reference_angles(
     from .dataset import R_COLUMNS
 
     key = ["subject", "sensor_set", "imu"]
-    full = calibrations[
-        calibrations["n_reps"]
-        == calibrations.groupby(key + ["test", "method"])["n_reps"].transform("max")
-    ]
+    full = full_set_rows(calibrations)
     data = full.merge(reference.astype({"subject": str}), on=key, how="inner")
     R = data[R_COLUMNS].to_numpy(float).reshape(-1, 3, 3)
     right = data[["right_x", "right_y", "right_z"]].to_numpy(float)
@@ -467,7 +466,7 @@ def conditioning_table(calibrations: pd.DataFrame) -> pd.DataFrame:
     kong = kong_rows(calibrations)
     if kong.empty or "normal_ratio" not in kong:
         return pd.DataFrame(columns=columns)
-    full = kong[kong["n_reps"] == kong.groupby(CALIBRATION_KEY)["n_reps"].transform("max")].copy()
+    full = full_set_rows(kong).copy()
     full["heading"] = heading_status(full["normal_ratio"])
     full["flag"] = full["flag"].astype(object).fillna("")
     return full.sort_values(CALIBRATION_KEY)[columns].reset_index(drop=True)

@@ -196,9 +196,10 @@ def kong_rows(calibrations: pd.DataFrame, method: str = "kong") -> pd.DataFrame:
 
 def full_set_rows(calibrations: pd.DataFrame) -> pd.DataFrame:
     """Every method's calibrations from the most repetitions of each (subject, set, IMU, test),
-    flagged ones included: all that the tables and figures read besides the Obj 3-5 angles and
-    the methods' test-retest units (:func:`all_angles`, :func:`aceval.methods_comparison.
-    retest_units`), which are computed per subject from the subsets (7 % of Kong's rows).
+    flagged ones included: the one definition of "the calibration from all repetitions", and all
+    that the tables and figures read besides the Obj 3-5 angles and the methods' test-retest units
+    (:func:`all_angles`, :func:`aceval.methods_comparison.retest_units`), which are computed per
+    subject from the subsets (7 % of Kong's rows).
     """
     key = [*CALIBRATION_KEY, "method"] if "method" in calibrations else CALIBRATION_KEY
     most = calibrations.groupby(key)["n_reps"].transform("max")
@@ -209,9 +210,7 @@ def full_sets(calibrations: pd.DataFrame) -> pd.DataFrame:
     """The calibration from all usable repetitions of each (subject, set, IMU, test); left out when
     that calibration itself is flagged.
     """
-    calibrations = kong_rows(calibrations)
-    most = calibrations.groupby(CALIBRATION_KEY)["n_reps"].transform("max")
-    return usable(calibrations[calibrations["n_reps"] == most])
+    return usable(full_set_rows(kong_rows(calibrations)))
 
 
 def _angle_rows(

@@ -49,6 +49,7 @@ from .objectives import (
     CORRELATION_MODES,
     correlation_from_moments,
     frontal_lateral_plan,
+    full_set_rows,
     full_sets,
     segment_pair_plan,
     unflagged,
@@ -590,7 +591,7 @@ def propagate_backward(calibrations: pd.DataFrame) -> pd.DataFrame:
     if calibrations.empty or "first_phase_agreement" not in calibrations:
         return calibrations
     kong = calibrations[calibrations["method"] == "kong"]
-    full = kong[kong["n_reps"] == kong.groupby(KEY + ["test"])["n_reps"].transform("max")]
+    full = full_set_rows(kong)
     flags = np.where(unflagged(calibrations), "", calibrations["flag"].astype(str)).astype(object)
     for _, imu in full.groupby(KEY, sort=False):
         backward = imu[imu["flag"] == "backward"]

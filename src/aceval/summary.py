@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 
 from .calibration.kong import KongLimits
-from .objectives import kong_rows, unflagged
+from .objectives import full_set_rows, kong_rows, unflagged
 
 HOLDS, FAILS, UNTESTABLE = "holds", "does not hold", "not testable on this dataset"
 UPPER, LOWER = ["head", "chest", "waist"], ["thigh", "shank", "foot"]
@@ -482,10 +482,7 @@ def ground_truth_checks(calibrations: pd.DataFrame | None) -> list[Claim]:
     ):
         return []
     calibrations = kong_rows(calibrations)
-    full = calibrations[
-        calibrations["n_reps"]
-        == calibrations.groupby(["subject", "sensor_set", "imu", "test"])["n_reps"].transform("max")
-    ]
+    full = full_set_rows(calibrations)
     error = full[unflagged(full)].groupby(["segment", "test"])["error_deg"].mean()
     checks = [
         (
