@@ -2,9 +2,9 @@
 # once, checked (every problem named with its file and line; an error stops the workflow), and reduced
 # to the statistics every analysis needs; from them every calibration (Kong for every subset of
 # repetitions, the axis methods, or Ricci's functional design), the correlations of Kong's Obj 1-2
-# (from the moments of each time-aligned recording pair), and what needs the calibrations from subsets
-# of repetitions: Kong's Obj 3-5 angles and every method's test-retest units. Every parameter reaches the shell quoted
-# ({...:q}): dataset folders may hold spaces, quotes or any letters.
+# (from the moments of each time-aligned recording pair), and what needs the calibrations from
+# subsets of repetitions: Kong's Obj 3-5 angles and every method's test-retest units. Every parameter
+# reaches the shell quoted ({...:q}): dataset folders may hold spaces, quotes or any letters.
 
 
 rule calibrate:

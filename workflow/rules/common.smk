@@ -317,8 +317,8 @@ def results_folder(output):
 
 def results_options(wildcards, input):
     """--calibrations/--axes/--correlations/--angles/--retest-units/--peers/--findings of `aceval
-    outputs`, as a list, from the
-    inputs known so far (before the checkpoint has run, only the sheets gate's)."""
+    outputs`, as a list, from the inputs known so far (before the checkpoint has run, only the
+    sheets gate's)."""
     options = []
     for kind in ("calibrations", "axes", "correlations", "angles", "retest_units", "peers"):
         if kind in input.keys() and len(input[kind]):
