@@ -38,13 +38,14 @@ def plot(
     sns.set_theme(style="whitegrid", context="paper")
     if number in (6, 8):
         objective = "frontal_lateral" if number == 6 else "segment_pair"
-        data = correlations[
+        panel = "segment" if number == 6 else "pair"
+        keys = ["subject", "sensor_set", "imu", panel, "t_ex", "t_ap"]
+        chosen = (
             (correlations["objective"] == objective)
             & (correlations["signal"] == "acc")
             & unflagged(correlations)
-        ].copy()
-        panel = "segment" if number == 6 else "pair"
-        keys = ["subject", "sensor_set", "imu", panel, "t_ex", "t_ap"]
+        )  # the columns drawn, not copies of all (memory: benchmarks/README.md)
+        data = correlations.loc[chosen, [*keys, "correlation"]]
         data = data.groupby(keys, as_index=False)["correlation"].mean()
         x, y, order_panels = (
             "t_ap",
@@ -53,8 +54,9 @@ def plot(
         )
         ylabel = "acceleration correlation"
     elif number in (9, 10):
-        data = angles[angles["comparison"] == ("incremental" if number == 9 else "to_last")].copy()
         panel, x, y = "segment", "k", "error_angle_deg"
+        chosen = angles["comparison"] == ("incremental" if number == 9 else "to_last")
+        data = angles.loc[chosen, [panel, x, y, "test"]]
         order_panels = _segments(data[panel])
         ylabel = "error angle (deg)"
     else:

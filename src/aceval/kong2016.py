@@ -204,12 +204,10 @@ def correlation_sensitivity(correlations: pd.DataFrame | None) -> pd.DataFrame:
     ]
     if correlations is None or correlations.empty:
         return pd.DataFrame(columns=columns)
-    data = correlations[
-        (correlations["objective"] == "frontal_lateral_sensitivity") & unflagged(correlations)
-    ]
-    units = data.groupby(
-        ["subject", "imu", "t_ex", "t_ap", "mode", "heading_error_deg"], as_index=False
-    )["correlation"].mean()
+    keys = ["subject", "imu", "t_ex", "t_ap", "mode", "heading_error_deg"]
+    chosen = (correlations["objective"] == "frontal_lateral_sensitivity") & unflagged(correlations)
+    data = correlations.loc[chosen, [*keys, "correlation"]]  # not copies of the other columns
+    units = data.groupby(keys, as_index=False)["correlation"].mean()
     table = _summary(units, ["mode", "heading_error_deg"], "correlation")
     at_zero = table[table["heading_error_deg"] == 0].set_index("mode")
     table["drop"] = table["mode"].map(at_zero["mean"]) - table["mean"]

@@ -172,8 +172,12 @@ def matrices(table: pd.DataFrame) -> np.ndarray:
 
 
 def unflagged(table: pd.DataFrame) -> pd.Series:
-    """True for the rows whose ``flag`` is empty (read back from a CSV, an empty flag is NaN)."""
+    """True for the rows whose ``flag`` is empty (read back from a CSV, an empty flag is NaN; a
+    column with no flag at all is read as numbers, and is not turned into a million strings).
+    """
     flag = table["flag"]
+    if pd.api.types.is_numeric_dtype(flag):
+        return flag.isna()
     return flag.isna() | (flag.astype(str) == "")
 
 
