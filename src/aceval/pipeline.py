@@ -769,6 +769,9 @@ def correlations(
     lookup = pairs[keys].assign(imu_b=pairs["imu_b"].fillna(""), rep=pairs["rep"].astype(int))
     index = {key: k for k, key in enumerate(lookup.itertuples(index=False, name=None))}
     reps = lookup.groupby(keys[:4] + ["test"])["rep"].unique().to_dict()
+    # each pair's alignment as arrays, read by position (not a pandas row per pair)
+    lags, n_overlaps = pairs["lag_samples"].to_numpy(), pairs["n_overlap"].to_numpy()
+    pair_flags = pairs["flag"].to_numpy(dtype=object)
     turns = {h: Rotation.from_euler("z", h, degrees=True).as_matrix() for h in headings_deg}
     rows: list[dict] = []
     wanted: list[tuple] = []  # (row, pair row, R_a, R_b, mode)
@@ -782,11 +785,10 @@ def correlations(
             for signal in signals:
                 key = (*unit, imu_b, t_ap, rep, signal)
                 k = index[(*key, window(mode))]
-                pair = pairs.iloc[k]
                 row = {**base, "t_ap": t_ap, "rep": rep, "signal": signal, "mode": mode,
-                       "heading_error_deg": 0.0, "lag_samples": int(pair["lag_samples"]),
-                       "n_samples": int(pair["n_overlap"]), "correlation": np.nan,
-                       "flag": pair["flag"] if isinstance(pair["flag"], str) else ""}  # fmt: skip
+                       "heading_error_deg": 0.0, "lag_samples": int(lags[k]),
+                       "n_samples": int(n_overlaps[k]), "correlation": np.nan,
+                       "flag": pair_flags[k] if isinstance(pair_flags[k], str) else ""}  # fmt: skip
                 rows.append(row)
                 if row["flag"]:
                     continue
