@@ -421,11 +421,11 @@ def _outputs(args) -> int:
         read_tables(args.calibrations, full_set_rows if precomputed else None),
         read_tables(args.axes),
         read_tables(args.correlations),
-        in_angle_order(read_tables(args.angles)) if precomputed else None,
+        in_angle_order(read_tables(args.angles)) if args.angles else None,
         paper_names=json.loads(args.paper_names),
         peers=read_tables(args.peers),
         test_retest_k=args.test_retest_k,
-        retest_units=read_tables(args.retest_units) if precomputed else None,
+        retest_units=read_tables(args.retest_units) if args.retest_units else None,
     )
     validation = None
     if args.findings:
@@ -677,11 +677,15 @@ def main(argv: list[str] | None = None) -> int:
     )
     outputs.add_argument(
         "--angles", nargs="*", default=[],
-        help="Obj 3-5 angles of every subject (calibrate --angles-out); with --retest-units, only "
-        "the calibrations from all repetitions are read (default: both computed here)",
+        help="Obj 3-5 angles of every subject (calibrate --angles-out; default: computed here); "
+        "with --retest-units too, only the calibrations from all repetitions are read",
     )  # fmt: skip
     outputs.add_argument(
-        "--retest-units", nargs="*", default=[], help="CSVs of calibrate --retest-out"
+        "--retest-units",
+        nargs="*",
+        default=[],
+        help="every method's test-retest units, CSVs of calibrate --retest-out (default: computed "
+        "here)",
     )
     outputs.add_argument(
         "--note", action="append", default=[], help="a line for SUMMARY.md under the counts"
