@@ -427,6 +427,7 @@ def _outputs(args) -> int:
         test_retest_k=args.test_retest_k,
         retest_units=read_tables(args.retest_units) if args.retest_units else None,
     )
+    print("aceval outputs: read the inputs", file=sys.stderr)
     validation = None
     if args.findings:
         report = ValidationReport(str(dataset_meta(args.dataset).get("name", args.dataset)))
