@@ -251,3 +251,20 @@ def test_segment_pair_plan_needs_a_common_calibrating_test():
 def test_empty_inputs_give_empty_tables_not_errors():
     assert objectives.all_angles(pd.DataFrame()).empty
     assert list(objectives.all_angles(pd.DataFrame()).columns) == objectives.ANGLE_COLUMNS
+
+
+def test_unflagged_reads_an_empty_flag_however_the_csv_reader_typed_the_column(tmp_path):
+    """A flag column with no flag at all is read back as numbers (NaN), one with flags as strings
+    (an empty flag NaN); written by hand, an empty flag is ''. Each way, the rows without a flag
+    are the unflagged ones."""
+    from aceval.results import read_tables
+
+    (tmp_path / "a.csv").write_text("x,flag\n1,\n2,\n")
+    (tmp_path / "b.csv").write_text("x,flag\n3,low_rho\n4,\n")
+    no_flags = read_tables([tmp_path / "a.csv"])
+    assert pd.api.types.is_numeric_dtype(no_flags["flag"])
+    assert objectives.unflagged(no_flags).tolist() == [True, True]
+    joined = read_tables([tmp_path / "a.csv", tmp_path / "b.csv"])
+    assert objectives.unflagged(joined).tolist() == [True, True, False, True]
+    by_hand = pd.DataFrame({"flag": ["", "no_overlap", np.nan]})
+    assert objectives.unflagged(by_hand).tolist() == [True, False, True]
