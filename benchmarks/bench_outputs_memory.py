@@ -28,6 +28,12 @@ def memory_mib() -> tuple[float, float]:
     return fields["VmRSS"], fields["VmHWM"]
 
 
+def report(start: float, what: str) -> str:
+    """A line: seconds since ``start``, the resident set and its peak, then ``what``."""
+    now, peak = memory_mib()
+    return f"{time.perf_counter() - start:7.1f} s  RSS {now:5.0f} MiB  peak {peak:5.0f} MiB  {what}"
+
+
 class _WithMemory:
     """stderr that adds the time and memory to each of `aceval outputs`' progress lines."""
 
@@ -35,12 +41,8 @@ class _WithMemory:
         self.start = start
 
     def write(self, text: str) -> int:
-        if text.startswith("aceval outputs: "):
-            now, peak = memory_mib()
-            text = (
-                f"{time.perf_counter() - self.start:7.1f} s  RSS {now:5.0f} MiB  peak {peak:5.0f} "
-                f"MiB  {text.removeprefix('aceval outputs: ')}"
-            )  # print() writes the line's end apart
+        if text.startswith("aceval outputs: "):  # print() writes the line's end apart
+            text = report(self.start, text.removeprefix("aceval outputs: "))
         return sys.__stderr__.write(text)
 
     def flush(self) -> None:
@@ -71,16 +73,13 @@ def main() -> None:
                 "--correlations", *[str(p) for p in sorted(args.results.glob("correlations/*.csv"))],
                 "--angles", *files("*_angles.csv"), "--retest-units", *files("*_retest.csv"),
                 "--findings", *[f"{u}_findings.tsv" for u in units]]  # fmt: skip
-        now, peak = memory_mib()
-        print(f"{time.perf_counter() - start:7.1f} s  RSS {now:5.0f} MiB  peak {peak:5.0f} MiB  "
-              f"start", file=sys.stderr)  # fmt: skip
+        print(report(start, "start"), file=sys.stderr)
         sys.stderr = _WithMemory(start)
         try:
             aceval(argv)
         finally:
             sys.stderr = sys.__stderr__
-    now, peak = memory_mib()
-    print(f"{time.perf_counter() - start:7.1f} s  RSS {now:5.0f} MiB  peak {peak:5.0f} MiB  end")
+    print(report(start, "end"))
 
 
 if __name__ == "__main__":
