@@ -219,7 +219,7 @@ def _calibrate(args) -> int:
     if args.findings_out:
         _write_findings(args.findings_out, report)
     if args.angles_out or args.retest_out:
-        _write_angles(args, calibrations)
+        _write_angles(args)
     if args.plan_out:
         from .pipeline import calibration_plan
 
@@ -232,7 +232,7 @@ def _calibrate(args) -> int:
     return 0
 
 
-def _write_angles(args, calibrations) -> None:
+def _write_angles(args) -> None:
     """Kong's Obj 3-5 angles (--angles-out) and every method's test-retest units (--retest-out)
     of this job's subjects, from its calibrations as a reader of ``args.out`` sees them (what the
     results jobs computed from before): the only tables that need the calibrations from subsets
