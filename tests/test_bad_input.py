@@ -420,6 +420,26 @@ CASES = [
         "error",
         no_output=("out.csv",),
     ),
+    # names that a CSV reader takes for missing: their rows would drop out of every results table
+    Case(
+        "a subject named NA",
+        lambda lab: [
+            edit(lab / sheet, "S1\t", "NA\t")
+            for sheet in ("subjects.tsv", "recordings.tsv", "ground_truth.tsv")
+        ],
+        validate,
+        1,
+        ("subjects.tsv line 2", "subject 'NA' reads as a missing value"),
+        "error",
+    ),
+    sheet_case(
+        "the chest's side written n/a",
+        "imus.tsv",
+        "\tchest\tcenter\t",
+        "\tchest\tn/a\t",
+        "imus.tsv line 2",
+        "side 'n/a' reads as a missing value",
+    ),
     # crashes, now clear errors
     Case(
         "right_axis empty",

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from aceval.cli import main
-from aceval.dataset import DatasetError, load_dataset, validate
+from aceval.dataset import DatasetError, load_dataset, read_as_missing, validate
 from aceval.pipeline import calibrate, summarise_recordings
 
 from .minidataset import make_dataset, write_csv
@@ -16,6 +16,11 @@ def mini(tmp_path):
 def errors_of(root):
     _, report = validate(root)
     return [str(f) for f in report.errors], [str(f) for f in report.warnings]
+
+
+def test_read_as_missing_names_what_pandas_reads_back_as_nan():
+    names = ["S1", "NA", "n/a", "null", "nan", "None", "", "NaN_1", "N.A.", "na", 'a,"b"', " "]
+    assert read_as_missing(names) == {"NA", "n/a", "null", "nan", "None", ""}
 
 
 def test_valid_dataset_reads_in_SI(mini):

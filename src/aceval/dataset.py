@@ -8,7 +8,9 @@ config/README.md for the user-facing description.
 
 from __future__ import annotations
 
+import csv
 import gzip
+import io
 import os
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -302,6 +304,55 @@ def _line(index: int) -> str:
     return f"line {index + 2}"  # header is line 1
 
 
+#: the sheets' name columns: every results table is keyed by them
+NAME_COLUMNS = {
+    "subjects.tsv": ["subject"],
+    "tests.tsv": ["test"],
+    "imus.tsv": ["imu", "segment", "side", "sensor_set"],
+}
+
+
+def read_as_missing(names) -> set[str]:
+    """The ``names`` that a CSV reader with its default settings (:func:`pandas.read_csv`, as
+    every reader of aceval's results tables) takes for a missing value: '', 'NA', 'N/A', 'null',
+    'nan', 'None' and the like. As a subject, test, IMU, segment or side such a name would come
+    back as NaN and its rows would silently drop out of every grouping.
+    """
+    unique = sorted(set(names))
+    text = io.StringIO()
+    writer = csv.writer(text)
+    writer.writerow(["position", "name"])
+    writer.writerows(enumerate(unique))
+    read = pd.read_csv(io.StringIO(text.getvalue()), dtype={"name": str})["name"]
+    return {unique[k] for k in np.flatnonzero(read.isna().to_numpy())}
+
+
+def _check_names(sheets: dict[str, pd.DataFrame], sensor_sets: list[str], report) -> None:
+    """An error for each name of :data:`NAME_COLUMNS` (and of dataset.yaml sensor_sets) that is
+    empty or :func:`read_as_missing` (an empty sensor_set of imus.tsv means every set: allowed).
+    """
+    for sheet, columns in NAME_COLUMNS.items():
+        table = sheets[sheet]
+        for column in [c for c in columns if c in table.columns]:
+            values = table[column]
+            missing = read_as_missing(values) - ({""} if column == "sensor_set" else set())
+            for index in table.index[values.isin(missing)]:
+                if values[index] == "":
+                    report.error(f"{sheet} {_line(index)}", f"{column} is empty")
+                    continue
+                report.error(
+                    f"{sheet} {_line(index)}",
+                    f"{column} {values[index]!r} reads as a missing value in CSV readers "
+                    "(pandas.read_csv takes '', NA, N/A, null, nan, None and the like for "
+                    "missing): its rows would drop out of every results table; rename it",
+                )
+    for name in sorted(read_as_missing(str(s) for s in sensor_sets)):
+        report.error(
+            "dataset.yaml",
+            f"sensor_sets: {name!r} reads as a missing value in CSV readers; rename it",
+        )
+
+
 #: keys of dataset.yaml that aceval reads (others are kept but get a warning: a typo disables a check)
 META_KEYS = (
     "name",
@@ -408,6 +459,7 @@ def read_sheets(
     if meta is None or any(sheet is None for sheet in sheets.values()):
         return None, report
     report.dataset = str(meta.get("name", root.name))
+    _check_names(sheets, meta["sensor_sets"], report)
 
     imus = _expand_imus(sheets["imus.tsv"], meta["sensor_sets"], report)
     regions = set(imus["region"])
