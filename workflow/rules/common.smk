@@ -1,11 +1,10 @@
 # Helpers shared by the rules (functions only; the rules are in the other .smk files): where each
 # dataset lives, which subjects, tables and figures it has, and the command-line options of each job.
+import csv
 import functools
 import hashlib
 import json
 import os
-
-import pandas as pd
 
 from aceval.outputs import outputs_of
 from aceval.safety import path_problem
@@ -97,24 +96,33 @@ def dataset_dir(dataset):
     return f"resources/{dataset}" if dataset in GENERATED else spec["path"]
 
 
-def _recording_paths(root, table):
-    """The recording files of a lab dataset's recordings.tsv rows (paths that would leave the
-    folder are not followed: the validation reports them)."""
-    return [os.path.join(root, p) for p in table["path"].str.strip() if not path_problem(p)]
-
-
 @functools.cache
+def _sheet(path, size, mtime_ns):
+    """A tab-separated sheet's rows as dicts of stripped strings, read as aceval.dataset reads its
+    sheets: names and header stripped, no missing-value parsing (the validation rejects names such
+    as 'NA'; they never reach a job's wildcards as 'nan'). Cached per size and modification time:
+    subjects.tsv is asked for once per job, and a sheet a job rewrites is read again."""
+    with open(path, newline="", encoding="utf-8-sig") as handle:
+        lines = [line for line in csv.reader(handle, delimiter="\t") if line]
+    header = [name.strip() for name in lines[0]] if lines else []
+    return [  # a short line's missing cells are empty, as in aceval's reading
+        dict(zip(header, [value.strip() for value in line] + [""] * (len(header) - len(line))))
+        for line in lines[1:]
+    ]
+
+
+def read_sheet(path):
+    """:func:`_sheet` of the file at ``path`` as it is now."""
+    stat = os.stat(path)
+    return _sheet(path, stat.st_size, stat.st_mtime_ns)
+
+
 def _recordings_sheet(dataset):
-    """A lab dataset's recordings.tsv as strings (None when absent or unreadable: the validation
+    """A lab dataset's recordings.tsv rows (None when absent or unreadable: the validation
     reports it)."""
     try:
-        return pd.read_csv(
-            os.path.join(dataset_dir(dataset), "recordings.tsv"),
-            sep="\t",
-            dtype=str,
-            keep_default_na=False,
-        )
-    except (OSError, ValueError, KeyError):
+        return read_sheet(os.path.join(dataset_dir(dataset), "recordings.tsv"))
+    except (OSError, UnicodeDecodeError, csv.Error):
         return None
 
 
@@ -139,13 +147,17 @@ def recordings_fingerprint(dataset, chosen=None):
     the ``chosen`` subjects; all when None), a param of the jobs that read them: a file changed
     after a good run reruns its jobs (Snakemake's params rerun trigger), without a hundred
     thousand files in the DAG. '' for a generated dataset (its folder is the input)."""
-    table = None if dataset in GENERATED else _recordings_sheet(dataset)
-    if table is None or "path" not in table or "subject" not in table:
+    rows = None if dataset in GENERATED else _recordings_sheet(dataset)
+    if not rows or "path" not in rows[0] or "subject" not in rows[0]:
         return ""
-    if chosen is not None:
-        table = table[table["subject"].str.strip().isin(chosen)]
+    chosen = None if chosen is None else set(chosen)
+    paths = [
+        os.path.join(dataset_dir(dataset), row["path"])
+        for row in rows
+        if (chosen is None or row["subject"] in chosen) and not path_problem(row["path"])
+    ]  # paths that would leave the folder are not followed: the validation reports them
     digest = hashlib.sha1()
-    for path in _recording_paths(dataset_dir(dataset), table):
+    for path in paths:
         try:
             stat = os.stat(path)
             digest.update(f"{path}\0{stat.st_size}\0{stat.st_mtime_ns}\n".encode())
@@ -157,8 +169,9 @@ def recordings_fingerprint(dataset, chosen=None):
 def subjects(dataset):
     """Subjects of a dataset, known once it is validated (checkpoint)."""
     checkpoints.validate.get(dataset=dataset)
-    table = pd.read_csv(os.path.join(dataset_dir(dataset), "subjects.tsv"), sep="\t", dtype=str)
-    return list(table["subject"].str.strip())
+    return [
+        row["subject"] for row in read_sheet(os.path.join(dataset_dir(dataset), "subjects.tsv"))
+    ]
 
 
 def subject_batches(dataset):
