@@ -5,8 +5,8 @@
 
 1. The default workflow (`snakemake --cores 2`, config/config.yaml: simulate kong, box and ricci,
    then everything) from clean, and three up-to-date re-runs; the same from clean without the peer
-   tools (`--config peers=[]`), to show what they cost. The Snakemake executor plugins installed
-   are listed: Snakemake imports each at every start (the SLURM one about 0.5 s).
+   tools (`--config peers=[]`), to show what they cost; the Snakemake executor plugins installed
+   (the environment measured: Snakemake imports each at every start).
 2. The floor: one Python process reading every recording of the simulated Kong dataset (5
    subjects) once with aceval's reader and forming the scatter of each; against it, the workflow
    of that dataset from clean (the dataset already on disk, as a lab's would be).
