@@ -100,8 +100,10 @@ def dataset_dir(dataset):
 def _sheet(path, size, mtime_ns):
     """A tab-separated sheet's rows as dicts of stripped strings, read as aceval.dataset reads its
     sheets: names and header stripped, no missing-value parsing (the validation rejects names such
-    as 'NA'; they never reach a job's wildcards as 'nan'). Cached per size and modification time:
-    subjects.tsv is asked for once per job, and a sheet a job rewrites is read again."""
+    as 'NA'; they never reach a job's wildcards as 'nan'). Not aceval.dataset's reader itself:
+    importing it (SciPy, pandas) would cost every Snakemake start about 0.6 s. Cached per size and
+    modification time: subjects.tsv is asked for once per job, a sheet a job rewrites is read again.
+    """
     with open(path, newline="", encoding="utf-8-sig") as handle:
         lines = [line for line in csv.reader(handle, delimiter="\t") if line]
     header = [name.strip() for name in lines[0]] if lines else []
