@@ -321,7 +321,7 @@ def read_as_missing(names) -> set[str]:
     unique = sorted(set(names))
     text = io.StringIO()
     writer = csv.writer(text)
-    writer.writerow(["position", "name"])
+    writer.writerow(["position", "name"])  # a second column: an empty name is a line, not skipped
     writer.writerows(enumerate(unique))
     read = pd.read_csv(io.StringIO(text.getvalue()), dtype={"name": str})["name"]
     return {unique[k] for k in np.flatnonzero(read.isna().to_numpy())}
