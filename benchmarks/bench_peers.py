@@ -108,7 +108,7 @@ def main() -> None:
     missing = [env for env in METHODS.values() if not (ENVS / env / "bin" / "python").exists()]
     if missing:
         raise SystemExit(f"the peers' environments are missing ({', '.join(missing)}): "
-                         "run `snakemake --cores 2 peer_envs` first")  # fmt: skip
+                         "build them with `snakemake --cores 2 peer_envs`")  # fmt: skip
     from aceval.dataset import load_dataset
     from aceval.pipeline import calibration_plan
     from aceval.reduction import reduce_recordings

@@ -3,34 +3,39 @@
 # each other's), so each runs in its own (.venv-peers/<environment>, from the pinned
 # workflow/peers/<environment>.txt) behind a file interface: each calibration job's plan (which
 # recordings, right axes, subsets) in, rotations in aceval's convention out (peer_io.py).
-# `snakemake --cores 2 peer_envs` builds the environments (from the package index; aceval's own
-# environment is never touched); a peer without one is not run.
+# The workflow builds each environment (from the package index; aceval's own environment is never
+# touched) the first time a peer job needs it, beside the simulations; later runs reuse it, and a
+# change of the pins rebuilds it. `--config peers=[]` leaves the peers out (said on screen).
 
 
 rule peer_envs:
     input:
-        [os.path.join(PEERS_ROOT, env) for env, _ in PEER_METHODS.values()],
+        [peer_env_stamp(env) for env, _ in PEER_METHODS.values()],
 
 
 rule peer_env:
     input:
         os.path.join(PEERS_DIR, "{env}.txt"),
     output:
-        directory(os.path.join(PEERS_ROOT, "{env}")),
+        os.path.join(PEERS_ROOT, "{env}", "aceval-pins.txt"),
     log:
         "logs/peers/{env}_env.log",
     wildcard_constraints:
         env="|".join(env for env, _ in PEER_METHODS.values()),
     conda:
         "../envs/aceval.yaml"
+    params:
+        env=lambda w: os.path.join(PEERS_ROOT, w.env),
     shell:
-        "python3 -m venv {output:q} > {log:q} 2>&1 && "
-        "{output:q}/bin/python -m pip install --quiet -r {input:q} >> {log:q} 2>&1"
+        "python3 -m venv --clear {params.env:q} > {log:q} 2>&1 && "
+        "{params.env:q}/bin/python -m pip install --quiet -r {input:q} >> {log:q} 2>&1 && "
+        "cp {input:q} {output:q}"
 
 
 rule peer_calibrate:
     input:
         plan="results/{dataset}/calibrations/{subject}_plan.json",
+        env=lambda w: peer_env_stamp(PEER_METHODS[w.peer][0]),
     output:
         "results/{dataset}/peers/{peer}/{subject}.csv",
     log:
