@@ -1,18 +1,15 @@
-"""The committed results/ are what the workflow produces: regenerate them from clean in a temporary
-folder (the default run, about a minute on 2 cores; the real-data run, about 40 s) and compare byte
-for byte."""
+"""The committed results/ are what the workflow produces: every committed configuration is
+regenerated from clean once per session (conftest.py's ``regenerated``: the default run and the
+real-data run, peers included) and compared byte for byte."""
 
 from pathlib import Path
 
 import pytest
 import yaml
 
-from .test_workflow import REPO, snakemake
+from .runner import DATA, REPO, snakemake
 
 pytestmark = pytest.mark.slow  # regenerates every committed result from clean
-
-DATA = REPO.parent / "shared" / "data"
-PEERS = REPO / ".venv-peers"
 
 COMMITTED = [
     "*/SUMMARY.md",
@@ -34,48 +31,31 @@ def files(root: Path, config: str) -> dict[str, bytes]:
     }
 
 
-def compare(tmp_path: Path, config: str) -> None:
-    committed, regenerated = files(REPO / "results", config), files(tmp_path / "results", config)
+def compare(workdir: Path, config: str) -> None:
+    committed, regenerated = files(REPO / "results", config), files(workdir / "results", config)
     assert committed, "no committed results found"
     assert sorted(regenerated) == sorted(committed)
     differing = [name for name in committed if committed[name] != regenerated[name]]
     assert not differing, f"regenerated results differ from the committed ones: {differing}"
 
 
-def _peers_ready() -> None:
-    """The committed results list the peer tools: their environments must exist to regenerate
-    them (a fresh clone builds them with `snakemake --cores 2 peer_envs`; .ci/run does)."""
-    missing = [
-        env
-        for env in ("gaitmap", "qmt", "opensim")
-        if not (PEERS / env / "bin" / "python").exists()
-    ]
-    if missing:
-        pytest.fail(
-            f"the committed results list the peers, whose environments are missing "
-            f"({', '.join(missing)} under {PEERS}): run `snakemake --cores 2 peer_envs` first"
-        )
-
-
-def test_default_workflow_regenerates_the_committed_results(tmp_path):
-    _peers_ready()
-    run = snakemake(tmp_path, config=False)  # the default config/config.yaml
-    assert run.returncode == 0, run.stderr[-3000:]
-    compare(tmp_path, "config.yaml")
+def test_default_workflow_regenerates_the_committed_results(regenerated):
+    print(f"regenerated {', '.join(regenerated.configs)} in {regenerated.seconds:.1f} s")
+    compare(regenerated.workdir, "config.yaml")
 
 
 @pytest.mark.skipif(
     not DATA.is_dir(), reason=f"real recordings not found at {DATA} (see ../shared/data/README.md)"
 )
-def test_real_workflow_regenerates_the_committed_results(tmp_path):
-    _peers_ready()
-    run = snakemake(
-        tmp_path,
-        "--configfile",
-        str(REPO / "config" / "real.yaml"),
-        "--config",
-        f"data_root={DATA}",
-        config=False,
-    )
-    assert run.returncode == 0, run.stderr[-3000:]
-    compare(tmp_path, "real.yaml")
+def test_real_workflow_regenerates_the_committed_results(regenerated):
+    compare(regenerated.workdir, "real.yaml")
+
+
+def test_the_peers_ran_and_a_second_run_has_nothing_to_do(regenerated):
+    """The committed results list the peers: the workflow built their environments and ran them
+    (no summary says a peer was left out), and an up-to-date re-run finds nothing to do."""
+    summaries = (regenerated.workdir / "results").glob("*/SUMMARY.md")
+    assert not [p for p in summaries if "Peers left out" in p.read_text()]
+    again = snakemake(regenerated.workdir, *regenerated.args, "--dry-run", config=False)
+    assert again.returncode == 0, again.stderr[-3000:]
+    assert "Nothing to be done" in again.stdout + again.stderr

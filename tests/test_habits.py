@@ -1,16 +1,19 @@
 """The project's own promises about itself: the paper map points to code that exists, the rules'
-conda environment pins the lock's versions, and the examples run."""
+conda environment pins the lock's versions, the examples run, and the README's commands are the
+ones CI and the tests use."""
 
 import importlib
 import re
+import shlex
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 import yaml
 
-REPO = Path(__file__).resolve().parents[1]
+from .runner import README_WORKFLOW, REPO
+
+README = REPO / "README.md"
 
 
 def test_every_function_file_and_test_in_the_paper_map_exists():
@@ -86,3 +89,20 @@ def test_example_lab_folder_writes_calibrations_and_a_figure(tmp_path):
     ).is_file()
     medians = re.search(r"by method \(deg\): (\{.*\})", run.stdout).group(1)
     assert float(re.search(r"'kong': ([\d.]+)", medians).group(1)) < 10
+
+
+def test_the_readmes_two_commands_are_the_ones_ci_and_the_tests_run():
+    """README's "Commands": `pip install ... && snakemake --cores 2` and `pip install ... &&
+    python -m pytest`. .ci/run runs the second one's lines as they are written, the tests run the
+    workflow by the first one's command (tests/runner.py), and both install the same way."""
+    section = README.read_text().split("## Commands", 1)[1].split("\n## ", 1)[0]
+    workflow, tests = re.findall(r"```bash\n(.*?)\n```", section, re.S)[:2]
+    workflow_install, workflow_run = workflow.split(" && ")
+    test_install, test_run = tests.split(" && ")
+    assert shlex.split(workflow_run) == README_WORKFLOW
+    assert shlex.split(test_run) == ["python", "-m", "pytest"]
+    assert shlex.split(workflow_install) == [
+        "." if word == ".[test]" else word for word in shlex.split(test_install)
+    ]
+    ci = [line.strip() for line in (REPO / ".ci" / "run").read_text().splitlines()]
+    assert test_install in ci and test_run in ci

@@ -4,12 +4,14 @@ files, the Vicon ground truth on analytic cases, and `aceval calibrate` / `aceva
 import subprocess
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
 import pytest
 from scipy.spatial.transform import Rotation
 
+from aceval.cli import main
 from aceval.dataset import load_dataset, validate
 from aceval.importers import FormatError
 from aceval.importers.common import straight_strides, walking_bouts
@@ -216,9 +218,16 @@ def test_body_axes_from_a_tilted_medial_lateral_axis():
 
 
 @pytest.mark.slow
-def test_calibrate_command_options_and_apply(tmp_path):
+def test_calibrate_command_options_and_apply(tmp_path, capsys):
     """`aceval calibrate --method --tests --subsets` on a small simulation, then `aceval apply`:
-    a body-frame copy calibrated again gives the identity."""
+    a body-frame copy calibrated again gives the identity. In this process (``cli``): each command
+    as a subprocess cost about 2 s of imports."""
+
+    def run(*args):
+        code = main([str(a) for a in args])
+        captured = capsys.readouterr()
+        return SimpleNamespace(returncode=code, stdout=captured.out, stderr=captured.err)
+
     data = tmp_path / "box"
     assert run("simulate", "box", "--out", data, "--repetitions", "3").returncode == 0
     every = tmp_path / "all.csv"

@@ -25,10 +25,11 @@ def _correlations(dataset, reductions):
     reduced = list(reductions)
     summaries = pd.concat([r.summaries for r in reduced], ignore_index=True)
     pairs = pd.concat([r.pairs for r in reduced], ignore_index=True)
-    calibrations, _ = calibrate(dataset, summaries)
+    calibrations, _ = calibrate(dataset, summaries, subsets="full")  # Obj 1-2 use the full set
     return correlations(dataset, calibrations, pairs)
 
 
+@pytest.mark.slow  # every calibration of two subjects, three times
 def test_several_subjects_in_one_call_are_each_subjects_own_pairs(boxes, reduced):
     """A job of several subjects correlates each subject's recordings with its own calibrations:
     the same table as one call per subject (a pair is never looked up across subjects)."""

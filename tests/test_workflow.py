@@ -1,7 +1,6 @@
 """The Snakemake workflow end to end on tiny configs in temporary folders (about a minute)."""
 
 import hashlib
-import os
 import shutil
 import subprocess
 import sys
@@ -11,37 +10,18 @@ import pandas as pd
 import pytest
 import yaml
 
+from .runner import snakemake
+
 pytestmark = pytest.mark.slow  # runs the workflow
-
-REPO = Path(__file__).resolve().parents[1]
-
-
-def snakemake(
-    workdir: Path, *args: str, config: bool = True, env: dict | None = None
-) -> subprocess.CompletedProcess:
-    command = [
-        sys.executable,
-        "-m",
-        "snakemake",
-        "-s",
-        str(REPO / "Snakefile"),
-        "--directory",
-        str(workdir),
-        "--cores",
-        "2",
-    ]
-    if config:
-        command += ["--configfile", str(workdir / "config.yaml"), "--replace-workflow-config"]
-    # the rules call `python -m aceval`: make that the interpreter running the tests
-    env = env or os.environ
-    env = {**env, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"}
-    return subprocess.run(command + list(args), capture_output=True, text=True, env=env)
 
 
 def write_config(workdir: Path, datasets: dict, test_retest_k: int = 2) -> None:
+    """A small config of these datasets. The peers are left out: these tests check the workflow's
+    behaviour; the committed regeneration (tests/test_committed_results.py) runs them."""
     workdir.mkdir(parents=True, exist_ok=True)
     config = {
         "datasets": datasets,
+        "peers": [],
         "calibration": {
             "trim": {"threshold": 0.1, "closing_s": 1.0, "window_s": 0.5, "min_peak_deg_s": 20}
         },
@@ -106,9 +86,10 @@ def lab_copy(source: Path, target: Path, drop=None, copy_data=False) -> Path:
 
 
 def test_workflow_end_to_end_then_nothing_to_do(tiny, tmp_path):
-    """A lab dataset whose subject S2 has no T5 and a simulated rigid box: every table, figure and
-    summary is written; T5 analyses count S1 only; a second run has nothing to do; raw data are
-    untouched."""
+    """A lab dataset whose subject S2 has no T5: every table, figure and summary is written; T5
+    analyses count S1 only; a second run has nothing to do; raw data are untouched. (The simulated
+    datasets, the box among them, run in the committed regeneration: tests/test_committed_results.py.)
+    """
     lab = lab_copy(
         tiny, tmp_path / "lab", drop=lambda r: (r["subject"] == "S2") & (r["test"] == "T5")
     )
@@ -116,14 +97,7 @@ def test_workflow_end_to_end_then_nothing_to_do(tiny, tmp_path):
     work = tmp_path / "work"
     write_config(
         work,
-        {
-            "lab": {"path": str(lab), "analyses": ["kong"]},
-            "box": {
-                "simulate": {"protocol": "box", "seed": 0, "repetitions": 3},
-                "analyses": ["box"],
-                "paper_names": {"EDGE": "around_one_edge", "RANDOM": "random_rotation"},
-            },
-        },
+        {"lab": {"path": str(lab), "analyses": ["kong"]}},
     )
     run = snakemake(work)
     assert run.returncode == 0, run.stderr[-3000:]
@@ -132,9 +106,6 @@ def test_workflow_end_to_end_then_nothing_to_do(tiny, tmp_path):
         assert (results / "lab" / "tables" / f"table{n}.md").stat().st_size > 0
     for n in (6, 8, 9, 10):
         assert (results / "lab" / "figures" / f"figure{n}.png").stat().st_size > 0
-    for n in (4, 5):
-        assert (results / "box" / "tables" / f"table{n}.csv").exists()
-    assert "SIMULATED" in (results / "box" / "SUMMARY.md").read_text()
     assert (
         "SIMULATED" in (results / "lab" / "tables" / "table9.md").read_text()
     )  # dataset.yaml says so

@@ -26,7 +26,6 @@ and the lever arm itself (where the sensor sits).
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import butter, sosfiltfilt
 from scipy.spatial.transform import Rotation
 
 from .dataset import GRAVITY
@@ -38,6 +37,8 @@ GRAVITY_UP_WORLD = np.array([0.0, 0.0, -GRAVITY])
 
 def lowpass(x: np.ndarray, fs_hz: float, cutoff_hz: float = LOWPASS_HZ) -> np.ndarray:
     """Zero-phase 2nd-order Butterworth low-pass along the first axis."""
+    from scipy.signal import butter, sosfiltfilt  # here: its import costs about 1 s (SciPy 1.17)
+
     return sosfiltfilt(butter(2, cutoff_hz, fs=fs_hz, output="sos"), x, axis=0)
 
 

@@ -17,7 +17,6 @@ the heading is undetermined (flag ``no_step_heading`` above :data:`MAX_STEP_RATI
 from __future__ import annotations
 
 import numpy as np
-from scipy import signal
 
 #: walking step frequencies searched (Hz): 36-210 steps/min, beyond slow and fast walking
 STEP_BAND_HZ = (0.6, 3.5)
@@ -60,6 +59,8 @@ def step_scatter(acc: np.ndarray, fs_hz: float, mask: np.ndarray) -> tuple[np.nd
     low, high = PASS_BAND[0] * step_hz, PASS_BAND[1] * step_hz
     if not np.isfinite(step_hz) or high >= 0.5 * fs_hz:
         return nan
+    from scipy import signal  # here, not above: its import costs every job about 1 s (SciPy 1.17)
+
     sos = signal.butter(2, [low, high], btype="bandpass", fs=fs_hz, output="sos")
     if len(acc) <= 3 * 2 * len(sos):  # sosfiltfilt's padding needs a few samples
         return nan
