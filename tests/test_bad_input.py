@@ -129,6 +129,29 @@ def empty_calibrations(lab: Path) -> None:
     (lab.parent / "empty.csv").write_text("subject,sensor_set,imu,test,method,n_reps,flag\n")
 
 
+def calibrations_copy(change: Callable[[Path, Path], None]):
+    """`aceval apply` of the dataset with a changed copy of the good calibrations file."""
+
+    def argv(lab, tmp, calibrations):
+        broken = tmp / "broken.csv"
+        change(calibrations, broken)
+        return ["apply", str(lab), "--calibrations", str(broken), "--out", str(tmp / "copy")]
+
+    return argv
+
+
+def edited_calibrations(change: Callable[[pd.DataFrame], pd.DataFrame]):
+    return calibrations_copy(
+        lambda good, broken: change(pd.read_csv(good)).to_csv(broken, index=False)
+    )
+
+
+def nudge_one_recording(lab: Path) -> None:
+    """A recording changed after calibration, still valid: one time value in its tenth digit."""
+    path = lab / T1
+    path.write_text(path.read_text().replace("\n0.05,", "\n0.0500000001,", 1))
+
+
 # --- the commands -----------------------------------------------------------------------------
 
 
@@ -508,6 +531,83 @@ CASES = [
         no_output=("out.csv",),
     ),
     Case(
+        "apply: a calibration matrix that is not a rotation (r11 doubled)",
+        None,
+        edited_calibrations(lambda t: t.assign(r11=2 * t["r11"])),
+        1,
+        ("broken.csv", "S1 frontal", "not a rotation"),
+        "error",
+        no_output=("copy",),
+    ),
+    Case(
+        "apply: a calibration cell that is not a number",
+        None,
+        edited_calibrations(lambda t: t.assign(r12="x")),
+        1,
+        ("broken.csv", "not all numbers"),
+        "error",
+        no_output=("copy",),
+    ),
+    Case(
+        "apply: the calibrations file is missing",
+        None,
+        calibrations_copy(lambda good, broken: None),
+        1,
+        ("broken.csv", "file is missing"),
+        "error",
+        no_output=("copy",),
+    ),
+    Case(
+        "apply: the calibrations file is binary",
+        None,
+        calibrations_copy(lambda good, broken: broken.write_bytes(bytes(range(256)) * 8)),
+        1,
+        ("broken.csv",),
+        "error",
+        no_output=("copy",),
+    ),
+    Case(
+        "apply: calibrations made from other recordings (a file changed since)",
+        nudge_one_recording,
+        apply("copy"),
+        1,
+        (
+            "calibrations.csv",
+            "subject S1",
+            "other recordings",
+            "--other-dataset",
+            "nothing written",
+        ),
+        "refused",
+        no_output=("copy",),
+    ),
+    Case(
+        "apply: a recording it cannot read (;-separated)",
+        semicolons,
+        apply("copy"),
+        1,
+        ("T1_R1_IMU2.csv", "comma-separated", "nothing written"),
+        "error",
+        no_output=("copy",),
+    ),
+    Case(
+        "apply: a recording whose time goes back",
+        lambda lab: edit(lab / T1, "\n0.05,", "\n0.03,"),
+        apply("copy"),
+        1,
+        (T1, "not strictly increasing", "nothing written"),
+        "error",
+        no_output=("copy",),
+    ),
+    Case(
+        "calibrate --out under a file (no folder can be made there)",
+        lambda lab: (lab.parent / "afile").write_text("x"),
+        lambda lab, tmp, _: ["calibrate", str(lab), "--out", str(tmp / "afile" / "out.csv")],
+        2,
+        ("afile", "is a file"),
+        "refused",
+    ),
+    Case(
         "apply with an empty calibrations file",
         empty_calibrations,
         lambda lab, tmp, _: [
@@ -828,6 +928,96 @@ def test_sigterm_leaves_no_partial_output(tmp_path):
     process.send_signal(signal.SIGTERM)
     assert process.wait(timeout=30) == 128 + signal.SIGTERM
     assert list(tmp_path.iterdir()) == [], [p.name for p in tmp_path.iterdir()]
+
+
+@pytest.mark.slow
+def test_apply_keeps_times_columns_and_truth_and_its_copy_validates(pristine, tmp_path):
+    """Epoch times (1.7e9 s) come out as the input's text; the vendor's quaternions are turned
+    with the frame (world vectors unchanged); ground_truth.tsv is carried as truth R_cal^T, whose
+    angle from the identity is the calibration's error; the copy validates."""
+    lab = tmp_path / "lab"
+    shutil.copytree(pristine, lab)
+    quat = Rotation.from_euler("zyx", [30, -20, 10], degrees=True)
+    for path in sorted((lab / "data").rglob("*.csv")):
+        table = pd.read_csv(path, dtype=str)
+        table["t"] = [repr(1.7e9 + float(t)) for t in table["t"]]
+        table[["quat_w", "quat_x", "quat_y", "quat_z"]] = quat.as_quat(scalar_first=True)
+        table.to_csv(path, index=False)
+    calibrations = tmp_path / "calibrations.csv"
+    assert main(["calibrate", str(lab), "--out", str(calibrations), "--method", "kong"]) == 0
+    copy = tmp_path / "copy"
+    assert main(["apply", str(lab), "--calibrations", str(calibrations), "--out", str(copy)]) == 0
+    assert main(["validate", str(copy)]) == 0
+
+    source, body = pd.read_csv(lab / T1, dtype=str), pd.read_csv(copy / T1, dtype=str)
+    assert (body["t"] == source["t"]).all() and body["t"].nunique() == len(body)
+    applied = pd.read_csv(copy / "applied_calibrations.tsv", sep="\t")
+    row = applied[(applied["subject"] == "S1") & (applied["imu"] == "IMU2")].iloc[0]
+    R = row[[f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]].to_numpy(float).reshape(3, 3)
+    acc_sensor = source[["acc_x", "acc_y", "acc_z"]].to_numpy(float)
+    acc_body = body[["acc_x", "acc_y", "acc_z"]].to_numpy(float)
+    np.testing.assert_allclose(acc_body, acc_sensor @ R.T, atol=1e-9)
+    turned = Rotation.from_quat(
+        body[["quat_w", "quat_x", "quat_y", "quat_z"]].to_numpy(float), scalar_first=True
+    )
+    np.testing.assert_allclose(turned.apply(acc_body), quat.apply(acc_sensor), atol=1e-9)
+
+    truth = load_dataset(lab).ground_truth_matrix("S1", row["sensor_set"], "IMU2")
+    copied = load_dataset(copy).ground_truth_matrix("S1", row["sensor_set"], "IMU2")
+    np.testing.assert_allclose(copied, truth @ R.T, atol=1e-12)
+    error = Rotation.from_matrix(R @ truth.T).magnitude()
+    assert np.isclose(Rotation.from_matrix(copied).magnitude(), error) and error > 0
+
+
+@pytest.mark.slow
+def test_sigterm_of_calibrate_leaves_all_of_its_outputs_or_none(pristine, tmp_path):
+    """`aceval calibrate` with nine outputs, stopped by SIGTERM once it has staged the first:
+    none of them is in place and no temporary is left (or, had it finished first, all nine)."""
+    names = ["out", "recordings-out", "axes-out", "pairs-out", "correlations-out", "findings-out",
+             "angles-out", "retest-out", "plan-out"]  # fmt: skip
+    argv = [sys.executable, "-m", "aceval", "calibrate", str(pristine)]
+    for name in names:
+        argv += [f"--{name}", str(tmp_path / "out" / f"{name}.txt")]
+    process = subprocess.Popen(argv, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 60
+    while time.time() < deadline and not list(tmp_path.glob("out/.tmp.*")):
+        time.sleep(0.01)  # until it stages its first output
+    process.send_signal(signal.SIGTERM)
+    code = process.wait(timeout=60)
+    written = sorted(p.name for p in (tmp_path / "out").glob("*")) if code == 0 else []
+    assert code in (0, 128 + signal.SIGTERM)
+    assert written in ([], sorted(f"{name}.txt" for name in names))
+    assert sorted(p.name for p in tmp_path.rglob("*") if p.is_file()) == written
+
+
+def test_an_output_set_is_written_together_or_not_at_all(tmp_path):
+    """FileSet: nothing in place before the block ends, nothing after an error, a killed run's
+    temporaries removed by the next one, and an output under a file refused before any work."""
+    from aceval.safety import FileSet, UnsafeOutputError
+
+    finished = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                              capture_output=True, text=True)  # fmt: skip
+    dead = finished.stdout.strip()
+    (tmp_path / f".tmp.{dead}.a.csv").write_text("left by a killed run")
+    (tmp_path / f".copy.{dead}.x1y2").mkdir()
+    paths = [tmp_path / "a.csv", tmp_path / "sub" / "b.csv"]
+    with pytest.raises(RuntimeError), FileSet(paths) as files:
+        files.write(paths[0], lambda tmp: Path(tmp).write_text("a"))
+        raise RuntimeError("the work failed")
+    assert [p.name for p in tmp_path.rglob("*")] == [f".copy.{dead}.x1y2"]
+    with FileSet(paths) as files:
+        for path in paths:
+            files.write(path, lambda tmp: Path(tmp).write_text("done"))
+        assert not any(p.exists() for p in paths)
+    assert all(p.read_text() == "done" for p in paths)
+    assert sorted(p.name for p in tmp_path.rglob(".*")) == [f".copy.{dead}.x1y2"]
+    from aceval.safety import remove_leftovers
+
+    remove_leftovers(tmp_path / "copy")
+    assert not list(tmp_path.rglob(".*"))
+    (tmp_path / "afile").write_text("x")
+    with pytest.raises(UnsafeOutputError, match="is a file"):
+        FileSet([tmp_path / "afile" / "out.csv"])
 
 
 # --- the recording reader on arbitrary bytes ----------------------------------------------------

@@ -2,23 +2,57 @@
 
 The copies go into a new folder laid out like the dataset (same sheets, same relative paths,
 same units), with ``applied_calibrations.tsv`` naming the calibration used for each IMU. The
-input is only read.
+input is only read. Each recording is checked as ``aceval calibrate`` checks it (an error names
+the file and stops the command before anything is in place); the time column and every column
+apply does not change are carried as the input's own text; the vendor's orientation quaternions
+and ground_truth.tsv are rotated into the new sensor frame (the body frame the calibration
+estimates), so the copy validates and still has a truth. Calibrations are checked before use: a
+matrix that is not a rotation, or a calibration made from other recordings than the dataset's
+(:func:`recordings_fingerprint`), is refused.
 """
 
 from __future__ import annotations
 
+import hashlib
 import shutil
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from scipy.spatial.transform import Rotation
 
-from .dataset import R_COLUMNS, RECORDING_COLUMNS, Dataset
+from .dataset import QUAT_COLUMNS, R_COLUMNS, Dataset, ValidationReport, read_checked
 from .objectives import unflagged
 from .safety import contained
 from .writer import write_sheet
 
 KEY = ["subject", "sensor_set", "imu"]
+#: the calibrations column that names the recordings a calibration was made from
+FINGERPRINT = "recordings_sha1"
+#: largest |R R^T - I| and |det R - 1| of a matrix taken for a rotation (the calibrations CSV keeps
+#: 17 digits; 1e-6 is a rotation error of about 6e-5 deg)
+ROTATION_TOLERANCE = 1e-6
+#: the sheets apply writes anew (the others are copied as they are)
+REWRITTEN = {"imus.tsv", "recordings.tsv", "ground_truth.tsv"}
+
+
+class ApplyError(ValueError):
+    """The calibrations cannot be applied to this dataset; the message says which row and why."""
+
+
+def recordings_fingerprint(dataset: Dataset, subject: str) -> str:
+    """SHA-1 of a subject's recordings: each recordings.tsv row's path and the file's bytes, in
+    the sheet's order. Calibrate writes it with each calibration; apply compares it with the
+    dataset it is asked to change.
+    """
+    digest = hashlib.sha1()
+    for path in dataset.recordings.loc[dataset.recordings["subject"] == subject, "path"]:
+        digest.update(f"{path}\0".encode())
+        try:
+            digest.update((dataset.root / path).read_bytes())
+        except OSError:
+            digest.update(b"\0missing")
+    return digest.hexdigest()
 
 
 def chosen_calibrations(
@@ -36,6 +70,68 @@ def chosen_calibrations(
     return valid.drop_duplicates(KEY).drop(columns="_order").reset_index(drop=True)
 
 
+def check_rotations(chosen: pd.DataFrame, source: str) -> None:
+    """ApplyError naming the first chosen row (subject, set, IMU, test) whose matrix is not a
+    rotation: a cell that is not a number, not orthonormal, or a reflection.
+    """
+    for _, row in chosen.iterrows():
+        what = f"{source}: {row['subject']} {row['sensor_set']} {row['imu']} {row['test']}"
+        R = pd.to_numeric(row[R_COLUMNS], errors="coerce").to_numpy(float).reshape(3, 3)
+        if not np.isfinite(R).all():
+            raise ApplyError(f"{what}: r11..r33 are not all numbers")
+        off = np.abs(R @ R.T - np.eye(3)).max()
+        if off > ROTATION_TOLERANCE or abs(np.linalg.det(R) - 1) > ROTATION_TOLERANCE:
+            raise ApplyError(
+                f"{what}: the matrix is not a rotation (|R R^T - I| = {off:.3g}, "
+                f"det {np.linalg.det(R):.6g}): was the file edited?"
+            )
+
+
+def check_source(dataset: Dataset, chosen: pd.DataFrame, source: str) -> list[str]:
+    """ApplyError when a subject's calibrations were made from other recordings than this
+    dataset's (another dataset, or files changed since: :func:`recordings_fingerprint`); the
+    warnings (a file without fingerprints cannot be checked).
+    """
+    if FINGERPRINT not in chosen.columns:
+        return [f"{source} has no {FINGERPRINT} column (an older aceval): not checked that it was "
+                f"made from this dataset's recordings"]  # fmt: skip
+    for subject, stored in chosen.groupby("subject")[FINGERPRINT].first().items():
+        if str(stored) != recordings_fingerprint(dataset, subject):
+            raise ApplyError(
+                f"{source}: the calibrations of subject {subject} were made from other recordings "
+                f"than those of {dataset.root} (another dataset, or files changed since): "
+                f"calibrate this dataset, or pass --other-dataset to apply them anyway"
+            )
+    return []
+
+
+def body_frame_table(
+    dataset: Dataset, path: str, R: np.ndarray, report: ValidationReport, row
+) -> pd.DataFrame | None:
+    """The recording at ``path`` with acc and gyr in the body frame (file units, 17 digits) and
+    the quaternions (sensor -> world) now new-sensor -> world; every other column as the input's
+    text. None when the recording has an error (added to ``report``).
+    """
+    recording = read_checked(dataset, row, report)
+    if recording is None:
+        return None
+    text = pd.read_csv(dataset.root / path, dtype=str, keep_default_na=False)
+    text.columns = [c.strip() for c in text.columns]
+    for name, values, scale in (
+        ("acc", recording.acc, dataset.acc_scale),
+        ("gyr", recording.gyr, dataset.gyr_scale),
+    ):
+        rotated = values @ R.T / scale
+        for k, axis in enumerate("xyz"):
+            text[f"{name}_{axis}"] = [repr(v) for v in rotated[:, k].tolist()]
+    if set(QUAT_COLUMNS) <= set(text.columns):  # world <- body = (world <- sensor)(sensor <- body)
+        quat = text[QUAT_COLUMNS].astype(float).to_numpy()
+        turned = Rotation.from_quat(quat, scalar_first=True) * Rotation.from_matrix(R).inv()
+        for k, column in enumerate(QUAT_COLUMNS):
+            text[column] = [repr(v) for v in turned.as_quat(scalar_first=True)[:, k].tolist()]
+    return text
+
+
 def apply_calibrations(
     dataset: Dataset,
     calibrations: pd.DataFrame,
@@ -43,8 +139,13 @@ def apply_calibrations(
     method: str = "kong",
     test: str | None = None,
     progress=None,
-) -> str:
-    """Write the body-frame copies into the empty folder ``out``; returns a one-line summary."""
+    source: str | None = None,
+) -> list[str]:
+    """Write the body-frame copies into the empty folder ``out``; returns the warnings and a
+    one-line summary. ApplyError (naming the file or row and the cause) when a recording to copy
+    has an error or, once all were read, when ``source`` (the calibrations file's name; None: not
+    checked) was made from other recordings than the dataset's (:func:`check_source`).
+    """
     chosen = chosen_calibrations(dataset, calibrations, method, test)
     rotations = {
         tuple(row[KEY]): row[R_COLUMNS].to_numpy(float).reshape(3, 3)
@@ -52,32 +153,47 @@ def apply_calibrations(
     }
     recordings = dataset.recordings
     keep = recordings[[key in rotations for key in zip(*(recordings[k] for k in KEY))]]
-    for sheet in ("dataset.yaml", "tests.tsv", "calibrates.tsv", "subjects.tsv"):
-        shutil.copy(dataset.root / sheet, out / sheet)
-    imus = pd.read_csv(dataset.root / "imus.tsv", sep="\t", dtype=str)
-    imus.assign(right_axis="+y").to_csv(
-        out / "imus.tsv", sep="\t", index=False
-    )  # body y points right
+    for sheet in sorted(dataset.root.glob("*")):
+        if sheet.is_file() and sheet.suffix in (".tsv", ".yaml") and sheet.name not in REWRITTEN:
+            shutil.copy(sheet, out / sheet.name)
+    imus = pd.read_csv(dataset.root / "imus.tsv", sep="\t", dtype=str, keep_default_na=False)
+    imus.assign(right_axis="+y").to_csv(out / "imus.tsv", sep="\t", index=False)  # body y: right
     keep.to_csv(out / "recordings.tsv", sep="\t", index=False)
+    if dataset.ground_truth is not None:
+        _write_truth(dataset, rotations, out / "ground_truth.tsv")
+    report = ValidationReport(dataset.name)
     for done, row in enumerate(keep.to_dict("records"), start=1):
         R = rotations[(row["subject"], row["sensor_set"], row["imu"])]
-        data = dataset.read_recording(row["path"])
-        table = np.column_stack(
-            [data.t, data.acc @ R.T / dataset.acc_scale, data.gyr @ R.T / dataset.gyr_scale]
-        )
-        target = contained(
-            out, row["path"]
-        )  # never outside the output folder, whatever the sheet says
+        table = body_frame_table(dataset, row["path"], R, report, row)
+        if table is None:
+            raise ApplyError("\n".join(map(str, report.errors)))
+        target = contained(out, row["path"])  # never outside the output folder
         target.parent.mkdir(parents=True, exist_ok=True)
-        pd.DataFrame(table, columns=RECORDING_COLUMNS).to_csv(
-            target, index=False, float_format="%.6g"
-        )
+        table.to_csv(target, index=False)
         if progress:
             progress(done, len(keep), "recordings written")
+    warnings = check_source(dataset, chosen, source) if source is not None else []
     columns = KEY + ["test", "repetitions", "method", *R_COLUMNS]
     write_sheet(out / "applied_calibrations.tsv", columns, chosen[columns].to_numpy().tolist())
     missing = recordings[KEY].drop_duplicates().shape[0] - len(rotations)
-    return (
+    return warnings + [
         f"aceval apply: {len(keep)} recordings of {len(rotations)} IMUs in the body frame ({method}); "
         f"{missing} IMU(s) without a valid {method} calibration left out"
-    )
+        + (
+            "; ground_truth.tsv rotated into the new frames"
+            if dataset.ground_truth is not None
+            else ""
+        )
+    ]
+
+
+def _write_truth(dataset: Dataset, rotations: dict, path: Path) -> None:
+    """ground_truth.tsv of the copies: the true sensor -> body R of each applied IMU times the
+    calibration's inverse (the copy's sensor frame is the calibration's body frame).
+    """
+    rows = []
+    for key, R in rotations.items():
+        truth = dataset.ground_truth_matrix(*key)
+        if truth is not None:
+            rows.append([*key, *(f"{v:.17g}" for v in (truth @ R.T).ravel())])
+    write_sheet(path, KEY + R_COLUMNS, rows)

@@ -9,6 +9,8 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from .safety import FileSet, UnsafeOutputError
+
 if (
     TYPE_CHECKING
 ):  # imported where used: pandas costs start-up time for the commands that never need it
@@ -76,10 +78,13 @@ def _validate(args) -> int:
 
     _, report = validate(args.dataset, check_files="headers" if args.sheets_only else "all")
     print(report.format(), file=sys.stdout if report.ok else sys.stderr)
-    if report.ok and args.out:
-        _write_text(args.out, report.format() + "\n")
-    if report.ok and args.findings_out:
-        _write_findings(args.findings_out, report)
+    if report.ok and (args.out or args.findings_out):
+        with FileSet([args.out, args.findings_out]) as files:
+            if args.out:
+                files.write(args.out, lambda tmp: Path(tmp).write_text(report.format() + "\n"))
+            if args.findings_out:
+                table = _findings_table(report)
+                files.write(args.findings_out, lambda tmp: table.to_csv(tmp, sep="\t", index=False))
     return 0 if report.ok else 1
 
 
@@ -128,14 +133,7 @@ def _progress(done: int, total: int, what: str) -> None:
 
 
 def _calibrate(args) -> int:
-    import json
-
-    import pandas as pd
-
-    from .dataset import DatasetError, ValidationReport, load_dataset
-    from .pipeline import AXES_COLUMNS, CALIBRATION_COLUMNS, calibrate, correlations
-    from .reduction import reduce_recordings
-    from .summary import calibration_screen
+    from .dataset import DatasetError, load_dataset
 
     try:  # the sheets here; each recording file is checked in the pass that reads it
         dataset = load_dataset(args.dataset)
@@ -157,6 +155,33 @@ def _calibrate(args) -> int:
             file=sys.stderr,
         )
         return 2
+    outputs = [args.out, args.recordings_out, args.axes_out, args.pairs_out, args.correlations_out]
+    outputs += [args.findings_out, args.angles_out, args.retest_out, args.plan_out]
+    try:  # every folder writable before the work; all outputs put in place together, or none
+        files = FileSet(outputs)
+    except UnsafeOutputError as exc:
+        print(f"aceval calibrate: {exc}", file=sys.stderr)
+        return 2
+    with files:
+        return _calibrate_into(args, dataset, files)
+
+
+def _calibrate_into(args, dataset, files) -> int:
+    """The work of `aceval calibrate` once its inputs and outputs are checked: its outputs are
+    written into ``files`` (a :class:`aceval.safety.FileSet`).
+    """
+    import json
+
+    import pandas as pd
+
+    from .dataset import ValidationReport
+    from .pipeline import AXES_COLUMNS, CALIBRATION_COLUMNS, calibrate, correlations
+    from .reduction import reduce_recordings
+    from .summary import calibration_screen
+
+    def write_csv(path, table):
+        files.write(path, lambda tmp: table.to_csv(tmp, index=False))
+
     trim = _trim(args)
     segment_pairs = json.loads(args.pairs)
     subjects = args.subject if args.subject is not None else list(dataset.subjects.index)
@@ -187,9 +212,15 @@ def _calibrate(args) -> int:
         else (pd.DataFrame(columns=CALIBRATION_COLUMNS), pd.DataFrame(columns=AXES_COLUMNS))
     )
     if len(calibrations):
+        from .apply import FINGERPRINT, recordings_fingerprint
+
         calibrations = calibrations[calibrations["method"].isin(METHODS[args.method])].reset_index(
             drop=True
         )
+        fingerprints = {
+            s: recordings_fingerprint(dataset, s) for s in calibrations["subject"].unique()
+        }
+        calibrations[FINGERPRINT] = calibrations["subject"].map(fingerprints)
     if calibrations.empty and not args.allow_empty:
         why = (
             f"{len(unusable)} recording(s) were left out (listed above) and none remained"
@@ -204,27 +235,32 @@ def _calibrate(args) -> int:
             file=sys.stderr,
         )
         return 1
-    _write_csv(args.out, calibrations)
+    write_csv(args.out, calibrations)
     if args.recordings_out:
-        _write_csv(args.recordings_out, summaries)
+        write_csv(args.recordings_out, summaries)
     if args.axes_out:
-        _write_csv(args.axes_out, axes)
+        write_csv(args.axes_out, axes)
     if args.pairs_out:
-        _write_csv(args.pairs_out, pairs)
+        write_csv(args.pairs_out, pairs)
     if args.correlations_out:
-        _write_csv(
+        write_csv(
             args.correlations_out,
             correlations(dataset, calibrations, pairs, args.mode, segment_pairs),
         )
     if args.findings_out:
-        _write_findings(args.findings_out, report)
+        files.write(
+            args.findings_out,
+            lambda tmp: _findings_table(report).to_csv(tmp, sep="\t", index=False),
+        )
     if args.angles_out or args.retest_out:
-        _write_angles(args)
+        _write_angles(args, files)
     if args.plan_out:
         from .pipeline import calibration_plan
 
         plan = calibration_plan(dataset, summaries, args.retest_k)
-        _write_text(args.plan_out, json.dumps(plan, indent=1) + "\n")
+        files.write(
+            args.plan_out, lambda tmp: Path(tmp).write_text(json.dumps(plan, indent=1) + "\n")
+        )
     if report.warnings:
         print(f"aceval calibrate: {len(report.warnings)} file warning(s):", file=sys.stderr)
         print("\n".join(map(str, report.warnings)), file=sys.stderr)
@@ -232,7 +268,7 @@ def _calibrate(args) -> int:
     return 0
 
 
-def _write_angles(args) -> None:
+def _write_angles(args, files) -> None:
     """Kong's Obj 3-5 angles (--angles-out) and every method's test-retest units (--retest-out)
     of this job's subjects, from its calibrations as a reader of ``args.out`` sees them (what the
     results jobs computed from before): the only tables that need the calibrations from subsets
@@ -242,11 +278,13 @@ def _write_angles(args) -> None:
     from .objectives import all_angles
     from .results import read_tables
 
-    calibrations = read_tables([args.out])
+    calibrations = read_tables([files.staged[Path(args.out)]])
     if args.angles_out:
-        _write_csv(args.angles_out, all_angles(calibrations, args.retest_k))
+        table = all_angles(calibrations, args.retest_k)
+        files.write(args.angles_out, lambda tmp: table.to_csv(tmp, index=False))
     if args.retest_out:
-        _write_csv(args.retest_out, retest_units(calibrations, args.retest_k))
+        table = retest_units(calibrations, args.retest_k)
+        files.write(args.retest_out, lambda tmp: table.to_csv(tmp, index=False))
 
 
 def _concat_tables(parts: list) -> pd.DataFrame:
@@ -260,14 +298,13 @@ def _concat_tables(parts: list) -> pd.DataFrame:
     )
 
 
-def _write_findings(path, report) -> None:
-    """The file findings of a pass as a tab-separated table (level, where, cause)."""
+def _findings_table(report) -> pd.DataFrame:
+    """The file findings of a pass as a table (level, where, cause)."""
     import pandas as pd
 
-    table = pd.DataFrame(
+    return pd.DataFrame(
         [(f.level, f.where, f.cause) for f in report.findings], columns=["level", "where", "cause"]
     )
-    _atomic(path, lambda tmp: table.to_csv(tmp, sep="\t", index=False))
 
 
 def _add_table_inputs(command) -> None:
@@ -313,46 +350,77 @@ def _trim(args):
 
 
 def _apply(args) -> int:
-    from .apply import apply_calibrations, chosen_calibrations
+    from .apply import ApplyError, apply_calibrations, check_rotations, chosen_calibrations
     from .dataset import DatasetError, load_dataset
+    from .safety import check_writable
 
+    try:
+        check_writable([Path(args.out).parent])  # before any work
+    except UnsafeOutputError as exc:
+        print(f"aceval apply: {exc}", file=sys.stderr)
+        return 2
     try:
         dataset = load_dataset(args.dataset)
     except DatasetError as exc:
         print(f"aceval apply: {args.dataset} is not a valid dataset:\n{exc}", file=sys.stderr)
         return 1
-    calibrations = _read_csvs([args.calibrations])
-    missing = {"subject", "sensor_set", "imu", "test", "method", "n_reps", "flag"} - set(
-        calibrations.columns
-    )
+    try:
+        calibrations = _read_calibrations(args.calibrations)
+        chosen = chosen_calibrations(dataset, calibrations, args.method, args.test)
+        if chosen.empty:
+            raise ApplyError(
+                f"{args.calibrations} has no valid {args.method} calibration"
+                + (f" from test {args.test}" if args.test else "")
+                + ": nothing to apply"
+            )
+        check_rotations(chosen, args.calibrations)
+    except ApplyError as exc:
+        print(f"aceval apply: {exc}", file=sys.stderr)
+        return 1
+    source = None if args.other_dataset else args.calibrations
+
+    def write(folder):
+        for line in apply_calibrations(
+            dataset, calibrations, folder, args.method, args.test, _progress, source
+        ):
+            print(
+                line if line.startswith("aceval") else f"aceval apply: warning: {line}",
+                file=sys.stderr,
+            )
+
+    try:
+        return _staged(Path(args.out), args.force, "apply", write)
+    except ApplyError as exc:  # nothing was put in place
+        print(f"aceval apply: nothing written:\n{exc}", file=sys.stderr)
+        return 1
+
+
+def _read_calibrations(path: str) -> pd.DataFrame:
+    """The CSV of `aceval calibrate` at ``path``; ApplyError naming the file and the cause when it
+    is missing, unreadable or not such a file.
+    """
+    import pandas as pd
+
+    from .apply import ApplyError
+
+    needed = {"subject", "sensor_set", "imu", "test", "method", "n_reps", "flag"}
+    try:
+        calibrations = _read_csvs([path])
+    except FileNotFoundError:
+        raise ApplyError(f"{path}: file is missing") from None
+    except (UnicodeDecodeError, pd.errors.ParserError, OSError) as exc:
+        raise ApplyError(f"{path}: not a CSV of `aceval calibrate` ({exc})") from None
+    missing = needed - set(calibrations.columns)
     if calibrations.empty or missing:
-        print(
-            f"aceval apply: {args.calibrations} holds no calibrations"
+        raise ApplyError(
+            f"{path} holds no calibrations"
             + (
                 f" (missing column(s) {', '.join(sorted(missing))}: is it a file of `aceval calibrate`?)"
                 if missing and not calibrations.empty
                 else ""
-            ),
-            file=sys.stderr,
+            )
         )
-        return 1
-    if chosen_calibrations(dataset, calibrations, args.method, args.test).empty:
-        print(
-            f"aceval apply: {args.calibrations} has no valid {args.method} calibration"
-            + (f" from test {args.test}" if args.test else "")
-            + ": nothing to apply",
-            file=sys.stderr,
-        )
-        return 1
-    return _staged(
-        Path(args.out),
-        args.force,
-        "apply",
-        lambda folder: print(
-            apply_calibrations(dataset, calibrations, folder, args.method, args.test, _progress),
-            file=sys.stderr,
-        ),
-    )
+    return calibrations
 
 
 def _angles(args) -> int:
@@ -411,8 +479,13 @@ def _outputs(args) -> int:
 
     from .dataset import Finding, ValidationReport
     from .objectives import full_set_rows, in_angle_order
-    from .results import build_data, dataset_meta, read_tables, write_results
+    from .results import build_data, dataset_meta, read_tables
 
+    try:  # the results folder writable before the work; its files put in place together
+        files = FileSet([Path(args.results) / "SUMMARY.md"])
+    except UnsafeOutputError as exc:
+        print(f"aceval outputs: {exc}", file=sys.stderr)
+        return 2
     # the per-subject angles and test-retest units hold all the subsets are needed for: with
     # them, only the calibrations from all repetitions are held (7 % of Kong's rows)
     precomputed = bool(args.angles and args.retest_units)
@@ -435,6 +508,14 @@ def _outputs(args) -> int:
             table = _read_findings(path)
             report.findings += [Finding(*row) for row in table.itertuples(index=False)]
         validation = report.format() + "\n"
+    with files:
+        _write_results(args, data, validation, files)
+    return 0
+
+
+def _write_results(args, data, validation, files) -> None:
+    from .results import write_results
+
     write_results(
         Path(args.results),
         args.dataset,
@@ -445,8 +526,8 @@ def _outputs(args) -> int:
         validation,
         lambda what: print(f"aceval outputs: wrote {what}", file=sys.stderr),
         tuple(args.kinds),
+        files,
     )
-    return 0
 
 
 def _read_findings(path):
@@ -618,6 +699,11 @@ def main(argv: list[str] | None = None) -> int:
         "with a valid all-repetitions calibration)",
     )
     apply.add_argument("--force", action="store_true", help="replace a non-empty output folder")
+    apply.add_argument(
+        "--other-dataset",
+        action="store_true",
+        help="apply calibrations made from other recordings than this dataset's (refused otherwise)",
+    )
     apply.set_defaults(run=_apply)
 
     angles = commands.add_parser("angles", help="Kong Obj 3-5 error angles from calibration tables")

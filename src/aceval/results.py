@@ -17,7 +17,7 @@ import pandas as pd
 import yaml
 
 from .outputs import Output, outputs_of
-from .safety import atomic_file
+from .safety import FileSet, atomic_file
 
 
 def read_tables(paths, keep: Callable | None = None) -> pd.DataFrame | None:
@@ -63,8 +63,19 @@ def _as_read_back(table: pd.DataFrame, text: str) -> pd.DataFrame:
         return table
 
 
-def _write_text(path: Path, text: str) -> None:
-    atomic_file(path, lambda tmp: Path(tmp).write_text(text))
+def _write_text(path: Path, text: str, files: FileSet | None = None) -> None:
+    _put(path, lambda tmp: Path(tmp).write_text(text), files)
+
+
+def _put(path: Path, write, files: FileSet | None = None) -> Path:
+    """``write`` the output ``path`` into ``files`` (committed with the others) or, without a
+    set, atomically on its own; returns where it is now (readable before the commit).
+    """
+    if files is None:
+        atomic_file(path, write)
+        return Path(path)
+    files.write(path, write)
+    return files.staged[Path(path)]
 
 
 def ground_truth_sheet(root) -> pd.DataFrame | None:
@@ -113,7 +124,9 @@ def build_data(
     }
 
 
-def write_table(output: Output, data: dict, csv: Path, md: Path) -> pd.DataFrame:
+def write_table(
+    output: Output, data: dict, csv: Path, md: Path, files: FileSet | None = None
+) -> pd.DataFrame:
     """Build one table, write it as CSV and Markdown; returns it as read back from the CSV."""
     meta = data["meta"]
     table = output.build(data)
@@ -122,18 +135,18 @@ def write_table(output: Output, data: dict, csv: Path, md: Path) -> pd.DataFrame
             f"aceval: {output.name}: no data in {meta.get('name')} for this table", file=sys.stderr
         )
     text = table.to_csv(index=False)
-    _write_text(csv, text)
+    _write_text(csv, text, files)
     _write_text(
-        md, output.markdown(table, output, meta.get("name", ""), bool(meta.get("simulated")))
+        md, output.markdown(table, output, meta.get("name", ""), bool(meta.get("simulated"))), files
     )
     return _as_read_back(table, text)
 
 
-def write_figure(output: Output, data: dict, png: Path) -> None:
+def write_figure(output: Output, data: dict, png: Path, files: FileSet | None = None) -> None:
     """Draw one figure to ``png``; its title names the dataset (and says SIMULATED)."""
     meta = data["meta"]
     title = str(meta.get("name", "")) + (" (SIMULATED)" if meta.get("simulated") else "")
-    atomic_file(png, lambda tmp: output.build(data, tmp, title))
+    _put(png, lambda tmp: output.build(data, tmp, title), files)
 
 
 def write_results(
@@ -146,11 +159,13 @@ def write_results(
     validation: str | None = None,
     progress: Callable[[str], None] = lambda message: None,
     kinds: tuple[str, ...] = ("table", "figure"),
+    files: FileSet | None = None,
 ) -> None:
     """Write into ``results`` (a dataset's folder under results/) the outputs of ``analyses`` of
     these ``kinds``: for tables also ``angles.csv`` (Kong's analyses), ``SUMMARY.md`` and, when
     given, the ``validation`` report as validation.txt. ``data`` from :func:`build_data`. Tables
-    and figures can be written by two processes at once (the workflow does).
+    and figures can be written by two processes at once (the workflow does). With ``files``
+    every output is staged there and put in place when the set is committed (all or none).
     """
     from .objectives import all_angles
 
@@ -162,11 +177,11 @@ def write_results(
             # for 200 subjects it has 1.6 million rows)
             path = results / "angles.csv" if "table" in kinds else Path(scratch) / "angles.csv"
             angles = all_angles(data["calibrations"], test_retest_k)
-            atomic_file(path, lambda tmp: angles.to_csv(tmp, index=False))
+            written = _put(path, lambda tmp: angles.to_csv(tmp, index=False), files)
             del angles
-            data["angles"] = pd.read_csv(path, low_memory=False)
+            data["angles"] = pd.read_csv(written, low_memory=False)
     elif "kong" in analyses and "table" in kinds:  # computed per subject (calibrate --angles-out)
-        atomic_file(results / "angles.csv", lambda tmp: data["angles"].to_csv(tmp, index=False))
+        _put(results / "angles.csv", lambda tmp: data["angles"].to_csv(tmp, index=False), files)
     if "kong" in analyses and "table" in kinds:
         progress("angles.csv")
     tables = {}
@@ -174,18 +189,18 @@ def write_results(
         (results / f"{output.kind}s").mkdir(parents=True, exist_ok=True)
         if output.kind == "table":
             table = write_table(
-                output, data, results / output.path, results / f"tables/{output.name}.md"
+                output, data, results / output.path, results / f"tables/{output.name}.md", files
             )
             key = output.name.removeprefix("table")
             tables[int(key) if key.isdigit() else output.name] = table
         else:
-            write_figure(output, data, results / output.path)
+            write_figure(output, data, results / output.path, files)
         progress(output.path)
     if "table" in kinds:
-        _write_text(results / "SUMMARY.md", summary_text(tables, analyses, data, notes))
+        _write_text(results / "SUMMARY.md", summary_text(tables, analyses, data, notes), files)
         progress("SUMMARY.md")
         if validation is not None:
-            _write_text(results / "validation.txt", validation)
+            _write_text(results / "validation.txt", validation, files)
 
 
 def summary_text(tables: dict, analyses: list[str], data: dict, notes: list[str]) -> str:

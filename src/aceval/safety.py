@@ -7,7 +7,12 @@ Raw recordings are only ever read. Every command's outputs are checked before an
 * a folder output (``simulate``, ``import``, ``apply``) is written into a hidden staging folder
   beside it and moved into place when complete, with a marker file :data:`MARKER`; ``--force``
   replaces an existing non-empty folder only when it holds that marker, i.e. aceval wrote it;
-* a file output is written to a hidden temporary file and renamed into place;
+* a file output is written to a hidden temporary file and renamed into place; the files of one
+  command (``calibrate``'s nine) are staged together and renamed into place together when all are
+  written (:class:`FileSet`), so a failed or stopped run leaves none of them;
+* every output folder is checked for writing before the work (:func:`check_writable`), and the
+  leftovers of a killed run (its hidden temporaries, named with its process id) are removed by the
+  next run that writes the same output;
 * a relative path read from a sheet (``recordings.tsv``) must stay inside its dataset, and every
   file written under an output folder must land inside it (:func:`contained`).
 
@@ -17,6 +22,7 @@ staging folders and temporary files runs (:func:`exit_cleanly_on_sigterm`).
 
 from __future__ import annotations
 
+import glob
 import os
 import shutil
 import signal
@@ -118,7 +124,8 @@ def staged_folder(out: str | Path, force: bool, write) -> None:
                 f"replaces folders aceval wrote itself; choose a new folder"
             )
     out.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    remove_leftovers(out)
+    staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.{os.getpid()}.", dir=out.parent))
     try:
         write(staging)
         (staging / MARKER).write_text("written by aceval; `--force` may replace this folder\n")
@@ -136,12 +143,104 @@ def atomic_file(path: str | Path, write) -> None:
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    remove_leftovers(path)
     tmp = path.with_name(f".tmp.{os.getpid()}.{path.name}")
     try:
         write(tmp)
         tmp.replace(path)
     finally:
         tmp.unlink(missing_ok=True)
+
+
+def check_writable(folders) -> None:
+    """UnsafeOutputError naming the first folder (or, where it does not exist yet, its nearest
+    existing parent) in which no file can be created: checked before the work, not after it.
+    """
+    for folder in folders:
+        existing = Path(folder).absolute()
+        while not existing.exists():
+            existing = existing.parent
+        if not existing.is_dir():
+            raise UnsafeOutputError(f"{existing} is a file: no output can be written under it")
+        try:
+            handle, probe = tempfile.mkstemp(prefix=".aceval-probe.", dir=existing)
+            os.close(handle)
+            os.unlink(probe)
+        except OSError as exc:
+            raise UnsafeOutputError(
+                f"cannot write into {existing} ({exc.strerror}): choose another output folder"
+            ) from None
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's process
+        return True
+    return True
+
+
+def remove_leftovers(path: str | Path) -> None:
+    """Remove the hidden temporaries that a killed run (a process no longer alive) left for the
+    output ``path``: ``.tmp.<pid>.<name>`` files and ``.<name>.<pid>.*`` staging folders.
+    """
+    path = Path(path)
+    if not path.parent.is_dir():
+        return
+    for candidate in path.parent.glob(f".*{glob.escape(path.name)}*"):
+        name = candidate.name
+        if name.startswith(".tmp.") and name.endswith(f".{path.name}"):
+            pid = name[len(".tmp.") : -len(path.name) - 1]
+        elif name.startswith(f".{path.name}."):
+            pid = name[len(path.name) + 2 :].split(".", 1)[0]
+        else:
+            continue
+        if pid.isdigit() and int(pid) != os.getpid() and not _alive(int(pid)):
+            if candidate.is_dir():
+                shutil.rmtree(candidate, ignore_errors=True)
+            else:
+                candidate.unlink(missing_ok=True)
+
+
+class FileSet:
+    """The output files of one command, committed together or not at all: each is written to a
+    hidden temporary beside it (:meth:`write`), and all are renamed into place when the ``with``
+    block ends without error; an error, or SIGTERM (:func:`exit_cleanly_on_sigterm`), removes
+    them. The folders are checked for writing when the set is made, before the work.
+    """
+
+    def __init__(self, paths):
+        self.paths = [Path(p) for p in paths if p]
+        check_writable({p.parent for p in self.paths})
+        for path in self.paths:
+            remove_leftovers(path)
+        self.staged: dict[Path, Path] = {}
+
+    def temporary(self, path: str | Path) -> Path:
+        """Where ``path`` is staged (its suffix kept, so writers can pick the format from it)."""
+        path = Path(path)
+        return path.with_name(f".tmp.{os.getpid()}.{path.name}")
+
+    def write(self, path: str | Path, write) -> None:
+        """Call ``write(temporary)`` for the output ``path``."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        self.staged[path] = self.temporary(path)
+        write(self.staged[path])
+
+    def __enter__(self) -> FileSet:
+        return self
+
+    def __exit__(self, kind, value, traceback) -> None:
+        try:
+            if kind is None:
+                for path, tmp in self.staged.items():
+                    tmp.replace(path)
+        finally:
+            for tmp in self.staged.values():
+                tmp.unlink(missing_ok=True)
 
 
 def exit_cleanly_on_sigterm() -> None:
