@@ -179,6 +179,44 @@ def test_truncated_xsens_export_gives_a_clear_error(tmp_path):
         read_mt_export(tmp_path / "header.txt")
 
 
+def mt_manager_2019(source: Path, target: Path) -> None:
+    """``source`` (a comma-separated export) written as MT Manager 2019.2 writes its text exports:
+    tab-separated, FreeAcc, VelInc and Euler columns beside Acc, Gyr, Mag and Quat, a
+    ``// Coordinate system: ENU`` header line, and a tab at the end of every line."""
+    lines = source.read_text().splitlines()
+    comments = [line for line in lines if line.startswith("//")]
+    table = pd.read_csv(source, comment="/", dtype=str, keep_default_na=False)
+    extra = {f"{name}_{axis}": "0.000000" for name in ("FreeAcc", "VelInc") for axis in "EXY"[:3]}
+    table = table.assign(**extra, Roll="1.0", Pitch="2.0", Yaw="3.0")
+    header = ["// Coordinate system: ENU", *comments]
+    body = table.to_csv(sep="\t", index=False, lineterminator="\t\n")
+    target.write_text("\n".join(header) + "\n" + body)
+
+
+@_data_present
+def test_tab_separated_mt_manager_2019_export_reads_as_the_comma_one(tmp_path):
+    source = NEURA / "rawimu" / "S02-Trial-Walk-1-000_00B40C47.txt"
+    tabbed = tmp_path / source.name
+    mt_manager_2019(source, tabbed)
+    assert "\t" in tabbed.read_text().splitlines()[6] and "FreeAcc_E" in tabbed.read_text()
+    comma_header, comma = read_mt_export(source)
+    tab_header, tab = read_mt_export(tabbed)
+    pd.testing.assert_frame_equal(tab, comma)
+    assert (comma_header["separator"], tab_header["separator"]) == (
+        "comma-separated",
+        "tab-separated",
+    )
+    assert tab_header["Coordinate system"] == "ENU"
+    (tmp_path / "semi.txt").write_text(
+        "// Update Rate: 100.0Hz\nPacketCounter;Acc_X;Acc_Y\n1;2;3\n"
+    )
+    with pytest.raises(FormatError, match="line 2: the column header is neither"):
+        read_mt_export(tmp_path / "semi.txt")
+    (tmp_path / "few.txt").write_text("// Update Rate: 100.0Hz\nPacketCounter\tAcc_X\n1\t2\n")
+    with pytest.raises(FormatError, match="read as tab-separated.*found PacketCounter, Acc_X"):
+        read_mt_export(tmp_path / "few.txt")
+
+
 def test_walking_bouts_equal_whole_strides_and_turns_left_out():
     strides = [(k * 100, (k + 1) * 100) for k in range(12)]
     assert walking_bouts(strides) == [(0, 200), (200, 400), (400, 600), (600, 800), (800, 1000)]

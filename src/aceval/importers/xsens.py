@@ -1,9 +1,10 @@
 """Xsens MT Manager text exports -> the dataset contract (one trial: standing, then walking).
 
-An export has ``//`` header lines (``// Update Rate: 100.0Hz`` ...), a CSV header line and one
-row per sample with at least PacketCounter, Acc_X..Z (m/s^2) and Gyr_X..Z (rad/s). A sensor sheet
-(tab-separated: ``sensor_id imu sensor_set segment side region right_axis``) says which sensor is
-which IMU; e.g. config/real/neura_sensors.tsv for ../shared/data/neura_gaittoolbox.
+An export has ``//`` header lines (``// Update Rate: 100.0Hz`` ...), a column header line and
+one row per sample, comma- or tab-separated (sniffed: MT Manager versions write either), with
+at least PacketCounter, Acc_X..Z (m/s^2) and Gyr_X..Z (rad/s). A sensor sheet (tab-separated:
+``sensor_id imu sensor_set segment side region right_axis``) says which sensor is which IMU;
+e.g. config/real/neura_sensors.tsv for ../shared/data/neura_gaittoolbox.
 
 Rules (documented in config/README.md "Real datasets"):
 
@@ -23,6 +24,7 @@ Rules (documented in config/README.md "Real datasets"):
 
 from __future__ import annotations
 
+import csv
 import filecmp
 import re
 from pathlib import Path
@@ -55,7 +57,10 @@ _ID = re.compile(r"_([0-9A-Fa-f]{8})\.txt$")
 
 
 def read_mt_export(path: str | Path) -> tuple[dict, pd.DataFrame]:
-    """(header fields, samples) of one MT Manager export; FormatError names the file and line."""
+    """(header fields, samples) of one MT Manager export, comma- or tab-separated (MT Manager
+    versions write either: the separator is sniffed from the column header line and is in the
+    header fields as ``separator``); FormatError names the file, the line and what was found.
+    """
     path = Path(path)
     header, lines = {}, []
     with open(path, encoding="utf-8", errors="replace") as handle:
@@ -69,20 +74,28 @@ def read_mt_export(path: str | Path) -> tuple[dict, pd.DataFrame]:
         raise FormatError(
             f"{path}: no column header and no samples (is this an MT Manager export?)"
         )
-    columns = [c.strip() for c in lines[0][1].rstrip("\r\n").split(",")]
+    separator = _separator(path, *lines[0])
+    header["separator"] = SEPARATORS[separator]
+    columns = [c.strip() for c in lines[0][1].rstrip("\r\n").split(separator)]
+    trailing = columns[-1] == ""  # a separator at the end of every line (some exports)
+    columns = columns[:-1] if trailing else columns
     missing = [c for c in REQUIRED if c not in columns]
     if missing:
         raise FormatError(
-            f"{path}: line {lines[0][0]}: missing column(s) {', '.join(missing)} "
-            f"(an MT Manager export with Acc in m/s^2 and Gyr in rad/s is expected)"
+            f"{path}: line {lines[0][0]} (read as {SEPARATORS[separator]}): missing column(s) "
+            f"{', '.join(missing)}; found {', '.join(columns[:12]) or 'no names'}"
+            f"{' ...' if len(columns) > 12 else ''} (an MT Manager export with Acc in m/s^2 and "
+            "Gyr in rad/s is expected)"
         )
     rows = []
     for number, line in lines[1:]:
-        fields = line.rstrip("\r\n").split(",")
+        fields = line.rstrip("\r\n").split(separator)
+        if trailing and len(fields) == len(columns) + 1 and not fields[-1].strip():
+            fields = fields[:-1]
         if len(fields) != len(columns):
             raise FormatError(
                 f"{path}: line {number}: {len(fields)} fields, the header has {len(columns)} "
-                "(a truncated or garbled file?)"
+                f"(read as {SEPARATORS[separator]}; a truncated or garbled file?)"
             )
         rows.append(fields)
     table = pd.DataFrame(rows, columns=columns)
@@ -100,6 +113,23 @@ def read_mt_export(path: str | Path) -> tuple[dict, pd.DataFrame]:
         if np.isfinite(quat.to_numpy(dtype=float)).all():
             values = pd.concat([values, quat], axis=1)
     return header, values
+
+
+#: the separators an MT Manager export may use, as the messages name them
+SEPARATORS = {",": "comma-separated", "\t": "tab-separated"}
+
+
+def _separator(path: Path, number: int, line: str) -> str:
+    """The separator of the column header line, sniffed (csv.Sniffer) among :data:`SEPARATORS`;
+    FormatError saying what the line holds when it is neither.
+    """
+    try:
+        return csv.Sniffer().sniff(line, delimiters="".join(SEPARATORS)).delimiter
+    except csv.Error:
+        raise FormatError(
+            f"{path}: line {number}: the column header is neither comma- nor tab-separated "
+            f"({line.strip()[:60]!r})"
+        ) from None
 
 
 def sampling_rate(header: dict, path) -> float:
