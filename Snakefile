@@ -20,6 +20,18 @@ include: "workflow/rules/peers.smk"
 include: "workflow/rules/results.smk"
 
 
+onstart:
+    save_hashes()
+
+
+onsuccess:
+    save_hashes()
+
+
+onerror:
+    save_hashes()
+
+
 rule all:
     default_target: True
     input:

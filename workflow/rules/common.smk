@@ -161,11 +161,59 @@ def dataset_input(wildcards):
     ]
 
 
+#: each recording's content hash, cached per file identity (size, mtime, ctime, inode: ctime changes
+#: with any write and cannot be set back, so an edit with its mtime restored is hashed again)
+HASH_CACHE = os.path.join(".snakemake", "aceval_recording_hashes.json")
+
+
+@functools.cache
+def _hashes():
+    try:
+        with open(HASH_CACHE) as handle:
+            return {"entries": json.load(handle), "changed": False}
+    except (OSError, ValueError):
+        return {"entries": {}, "changed": False}
+
+
+def content_hash(path):
+    """SHA-1 of a file's bytes, from the cache while the file is the same one (:data:`HASH_CACHE`);
+    'missing' for a file that is not there."""
+    try:
+        stat = os.stat(path)
+    except OSError:
+        return "missing"
+    identity = f"{stat.st_size}:{stat.st_mtime_ns}:{stat.st_ctime_ns}:{stat.st_ino}"
+    cache = _hashes()
+    known = cache["entries"].get(path)
+    if known and known[0] == identity:
+        return known[1]
+    digest = hashlib.sha1()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    cache["entries"][path] = [identity, digest.hexdigest()]
+    cache["changed"] = True
+    return digest.hexdigest()
+
+
+def save_hashes():
+    """Write the hash cache (once per run, when it changed; atomically: jobs on a cluster parse
+    this file too)."""
+    cache = _hashes()
+    if cache["changed"] and os.path.isdir(".snakemake"):
+        tmp = f"{HASH_CACHE}.{os.getpid()}"
+        with open(tmp, "w") as handle:
+            json.dump(cache["entries"], handle)
+        os.replace(tmp, HASH_CACHE)
+        cache["changed"] = False
+
+
 def recordings_fingerprint(dataset, chosen=None):
-    """A digest of the path, size and modification time of a lab dataset's recording files (of
-    the ``chosen`` subjects; all when None), a param of the jobs that read them: a file changed
-    after a good run reruns its jobs (Snakemake's params rerun trigger), without a hundred
-    thousand files in the DAG. '' for a generated dataset (its folder is the input)."""
+    """A digest of the path and content hash (:func:`content_hash`) of a lab dataset's recording
+    files (of the ``chosen`` subjects; all when None), a param of the jobs that read them: a file
+    whose content changed after a good run reruns its jobs (Snakemake's params rerun trigger),
+    even with its size and mtime restored, without a hundred thousand files in the DAG. '' for a
+    generated dataset (its folder is the input)."""
     rows = None if dataset in GENERATED else _recordings_sheet(dataset)
     if not rows or "path" not in rows[0] or "subject" not in rows[0]:
         return ""
@@ -177,11 +225,7 @@ def recordings_fingerprint(dataset, chosen=None):
     ]  # paths that would leave the folder are not followed: the validation reports them
     digest = hashlib.sha1()
     for path in paths:
-        try:
-            stat = os.stat(path)
-            digest.update(f"{path}\0{stat.st_size}\0{stat.st_mtime_ns}\n".encode())
-        except OSError:
-            digest.update(f"{path}\0missing\n".encode())
+        digest.update(f"{path}\0{content_hash(path)}\n".encode())
     return digest.hexdigest()
 
 
