@@ -1059,3 +1059,24 @@ def test_read_recording_names_the_file_and_cause(pristine, tmp_path):
     os.remove(lab / T1)
     with pytest.raises(RecordingError, match="file is missing"):
         load_dataset(lab).read_recording(T1)
+
+
+@pytest.mark.slow
+def test_right_axis_plus_z_flags_every_row_on_five_repetitions(tmp_path):
+    """right_axis '+z' for the frontal right thigh, on a 5-repetition subject: every calibration
+    of that IMU is flagged, every row whose y0 is more than 60 deg from the declared right axis is
+    flagged (whatever its subset's own direction vote), and no other IMU gets a flag."""
+    lab = tmp_path / "five"
+    assert main(["simulate", "kong", "--out", str(lab), "--seed", "1", "--subjects", "1"]) == 0
+    sheet = pd.read_csv(lab / "imus.tsv", sep="\t", dtype=str, keep_default_na=False)
+    sheet.loc[(sheet["imu"] == "IMU4") & (sheet["sensor_set"] == "frontal"), "right_axis"] = "+z"
+    sheet.to_csv(lab / "imus.tsv", sep="\t", index=False)
+    out = tmp_path / "out.csv"
+    assert main(["calibrate", str(lab), "--out", str(out)]) == 0
+    table = pd.read_csv(out, keep_default_na=False)
+    assert set(table["n_reps"]) == {1, 2, 3, 4, 5}
+    defective = (table["imu"] == "IMU4") & (table["sensor_set"] == "frontal")
+    assert (table.loc[defective, "flag"] != "").all()
+    assert (table.loc[~defective, "flag"] == "").all()
+    angle = pd.to_numeric(table["right_axis_angle_deg"], errors="coerce")
+    assert (table.loc[angle > 60, "flag"] != "").all()

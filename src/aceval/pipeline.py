@@ -22,6 +22,7 @@ from .calibration.step_harmonic import MAX_STEP_RATIO, step_harmonic_rotation
 from .calibration.step_harmonic import SCATTER_COLUMNS as STEP_COLUMNS
 from .checks import (
     AGREEMENT_COLUMNS,
+    MAX_RIGHT_AXIS_ANGLE_DEG,
     THIRD_MOMENT_COLUMNS,
     direction_checks,
     sensor_problem,
@@ -338,8 +339,10 @@ def calibrate_sagittal(
         full = _direction(
             dataset, test, identity["segment"], data, np.ones((1, len(reps))), result.R[-1:], right
         )
+        # the declared right axis is judged on each subset's own y0, whatever its own direction
+        # vote was (a subset voting 'backward' never got its mismatch flag before)
         own_mismatch = np.where(
-            direction["flag"] == "right_axis_mismatch", "right_axis_mismatch", ""
+            direction["right_axis_angle_deg"] > MAX_RIGHT_AXIS_ANGLE_DEG, "right_axis_mismatch", ""
         )
         direction["flag"] = np.where(full["flag"][0] == "backward", "backward", own_mismatch)
         for k, subset in enumerate(chosen):
