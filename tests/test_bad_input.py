@@ -119,6 +119,40 @@ def semicolons(lab: Path) -> None:
     path.write_text(path.read_text().replace(",", ";"))
 
 
+def turned(table: pd.DataFrame, turn: Rotation) -> pd.DataFrame:
+    """A recording's acc and gyr turned by ``turn`` (the sensor held differently)."""
+    for quantity in ("acc", "gyr"):
+        columns = [f"{quantity}_{axis}" for axis in "xyz"]
+        table[columns] = turn.apply(table[columns].to_numpy(float))
+    return table
+
+
+def static_seated(imu: str, degrees: float):
+    """The static trial (T0) of ``imu`` taken seated or leaning: its recordings turned by
+    ``degrees`` about the IMU's declared right axis (both sensor sets)."""
+
+    def breakage(lab: Path) -> None:
+        sheet = pd.read_csv(lab / "imus.tsv", sep="\t", dtype=str, keep_default_na=False)
+        for row in sheet[sheet["imu"] == imu].itertuples():
+            sign, axis = (
+                (-1.0 if row.right_axis[0] == "-" else 1.0),
+                "xyz".index(row.right_axis[-1]),
+            )
+            vector = np.zeros(3)
+            vector[axis] = sign
+            turn = Rotation.from_rotvec(np.radians(degrees) * vector)
+            recordings = pd.read_csv(lab / "recordings.tsv", sep="\t", dtype=str)
+            chosen = recordings[
+                (recordings["imu"] == imu)
+                & (recordings["sensor_set"] == row.sensor_set)
+                & (recordings["test"] == "T0")
+            ]
+            for path in chosen["path"]:
+                rewrite(lab / path, lambda t, turn=turn: turned(t, turn))
+
+    return breakage
+
+
 def set_right_axis(lab: Path, imu: str, axis: str) -> None:
     sheet = pd.read_csv(lab / "imus.tsv", sep="\t", dtype=str, keep_default_na=False)
     sheet.loc[sheet["imu"] == imu, "right_axis"] = axis
@@ -334,6 +368,24 @@ CASES = [
         ("calibrations",),
         "flag",
         flags={("IMU4", None): {"backward"}},
+    ),
+    Case(
+        "the static trial of the thigh taken seated (turned 90 deg about its right axis)",
+        static_seated("IMU4", 90.0),
+        calibrate,
+        0,
+        ("calibrations", "taken seated or leaning"),
+        "flag",
+        flags={("IMU4", None): {"static_not_standing"}},
+    ),
+    Case(
+        "the static trial of the chest taken leaning (turned 20 deg about its right axis)",
+        static_seated("IMU2", 20.0),
+        calibrate,
+        0,
+        ("calibrations", "taken seated or leaning"),
+        "flag",
+        flags={("IMU2", None): {"static_not_standing"}},
     ),
     Case(
         "right_axis +z for a sensor whose y points right",

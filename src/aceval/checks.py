@@ -28,6 +28,13 @@ so that any subset of repetitions is checked without reading the samples again.
   the wrong sign. In walking the shank swings forward faster than it moves back: the third moment
   of its angular velocity about body y is positive.
 * **The declared right axis points roughly right** (:data:`MAX_RIGHT_AXIS_ANGLE_DEG`).
+* **The static trial was taken standing** (:func:`static_posture`): the motion tests' own still
+  portions (the samples Kong's trimmer leaves out, at least :data:`MIN_STILL_S`) give the sensor's
+  vertical a second time; a static trial taken seated or leaning (a thigh 90 deg, a trunk 20-45
+  deg off) disagrees with all of them. Judged only where at least two tests have still portions
+  (a sit-to-stand test's still portions may be seated): the smallest angle over those tests above
+  :data:`MAX_STATIC_ANGLE_DEG` flags every calibration of the IMU. The limit and the rates
+  measured with it are in config/README.md's table of checks.
 * **Kong's plane and the gyroscope's axis** (``normal_gyro_angle_deg`` of every Kong calibration, a
   diagnostic, not a flag): in a planar rotation the normal of the accelerations' plane and the
   gyroscope's principal axis agree. Random 3-D motion gives 70-88 deg; but so does a gyroscope
@@ -61,6 +68,14 @@ MAX_PLAUSIBLE_RATE_DEG_S = 1000.0
 #: a recording votes on the first phase only when its own axis is within 45 deg of body y
 MIN_AXIS_ALIGNMENT = np.cos(np.radians(45.0))
 MAX_RIGHT_AXIS_ANGLE_DEG = 60.0
+#: still samples (outside Kong's trimmed movement) a motion recording needs to give a vertical, s
+MIN_STILL_S = 0.5
+#: largest angle (deg) between z0 and the closest motion test's still-portion vertical (clean
+#: simulated data: at most 4.0 deg, config/README.md; a seated or leaning static trial: 20-90)
+MAX_STATIC_ANGLE_DEG = 10.0
+#: tests with still portions needed to judge the static trial
+MIN_STILL_TESTS = 2
+STILL_COLUMNS = ["still_z0_x", "still_z0_y", "still_z0_z"]
 
 AGREEMENT_COLUMNS = [f"ga_c{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)] + [
     "ga_ww",
@@ -200,6 +215,32 @@ def direction_checks(
     angle = np.degrees(np.arccos(np.clip(body_y @ np.asarray(right, float), -1.0, 1.0)))
     flag[(flag == "") & (angle > MAX_RIGHT_AXIS_ANGLE_DEG)] = "right_axis_mismatch"
     return {"flag": flag, "first_phase_agreement": agreement, "right_axis_angle_deg": angle}
+
+
+def static_posture(z0: np.ndarray, still: dict[str, np.ndarray]) -> dict:
+    """Does the static trial's vertical ``z0`` (3,) agree with the motion tests' still portions?
+    ``still``: test -> (n_rep, 3) the still-portion verticals of its repetitions (NaN rows: none).
+
+    Returns ``static_vertical_angle_deg`` (the smallest, over the tests with still portions, of the
+    median angle of their repetitions to z0; NaN when none), ``static_check_tests`` (how many
+    tests have still portions) and ``flag`` ('static_not_standing' when at least
+    :data:`MIN_STILL_TESTS` tests have them and the smallest angle exceeds
+    :data:`MAX_STATIC_ANGLE_DEG`, else '').
+    """
+    angles = []
+    for verticals in still.values():
+        verticals = np.asarray(verticals, float)
+        verticals = verticals[np.isfinite(verticals).all(axis=1)]
+        if len(verticals):
+            cosines = np.clip(verticals @ np.asarray(z0, float), -1.0, 1.0)
+            angles.append(float(np.median(np.degrees(np.arccos(cosines)))))
+    smallest = min(angles) if angles else np.nan
+    judged = len(angles) >= MIN_STILL_TESTS
+    return {
+        "static_vertical_angle_deg": smallest,
+        "static_check_tests": len(angles),
+        "flag": "static_not_standing" if judged and smallest > MAX_STATIC_ANGLE_DEG else "",
+    }
 
 
 def sensor_problem(summed_agreement: np.ndarray, fastest_deg_s: float, gyr_units: str) -> dict:

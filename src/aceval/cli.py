@@ -264,6 +264,12 @@ def _calibrate_into(args, dataset, files) -> int:
     if report.warnings:
         print(f"aceval calibrate: {len(report.warnings)} file warning(s):", file=sys.stderr)
         print("\n".join(map(str, report.warnings)), file=sys.stderr)
+    if len(summaries):  # what the checks found about each sensor (its calibrations are flagged)
+        from .pipeline import imu_checks
+
+        for verdict in imu_checks(dataset, summaries).values():
+            if verdict["message"]:
+                print(f"aceval calibrate: flagged {verdict['message']}", file=sys.stderr)
     print(calibration_screen(calibrations, len(unusable), args.out), file=sys.stderr)
     return 0
 

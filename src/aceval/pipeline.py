@@ -23,9 +23,12 @@ from .calibration.step_harmonic import SCATTER_COLUMNS as STEP_COLUMNS
 from .checks import (
     AGREEMENT_COLUMNS,
     MAX_RIGHT_AXIS_ANGLE_DEG,
+    MAX_STATIC_ANGLE_DEG,
+    STILL_COLUMNS,
     THIRD_MOMENT_COLUMNS,
     direction_checks,
     sensor_problem,
+    static_posture,
 )
 from .dataset import R_COLUMNS, Dataset
 from .functional import (
@@ -197,18 +200,33 @@ def _static_axes(summaries: pd.DataFrame) -> tuple[pd.DataFrame, dict]:
 
 def imu_checks(dataset: Dataset, summaries: pd.DataFrame) -> dict[tuple, dict]:
     """Per (subject, set, IMU), what its motion recordings say about the sensor itself
-    (:func:`aceval.checks.sensor_problem`; walking recordings are left out of the agreement).
+    (:func:`aceval.checks.sensor_problem`; walking recordings are left out of the agreement) and
+    about its static trial (:func:`aceval.checks.static_posture`).
     """
     motion = summaries[summaries["kind"] == "motion"]
     if motion.empty or AGREEMENT_COLUMNS[0] not in motion:
         return {}
     gait = motion["test"].map(dataset.first_phase) == "gait"
+    z0, _ = _static_axes(summaries)
     out = {}
     for key, group in motion.groupby(KEY, sort=False):
         summed = group.loc[~gait[group.index], AGREEMENT_COLUMNS].sum().to_numpy(float)
         verdict = sensor_problem(
             summed, float(group["gyro_p90_deg_s"].max()), dataset.meta["units"]["gyr"]
         )
+        if key in z0.index and STILL_COLUMNS[0] in group:
+            still = {t: g[STILL_COLUMNS].to_numpy(float) for t, g in group.groupby("test")}
+            posture = static_posture(z0.loc[key].to_numpy(float), still)
+            verdict["static_vertical_angle_deg"] = posture["static_vertical_angle_deg"]
+            verdict["static_check_tests"] = posture["static_check_tests"]
+            if posture["flag"] and not verdict["flag"]:
+                verdict["flag"] = posture["flag"]
+                verdict["message"] = (
+                    f"the static trial's vertical is {posture['static_vertical_angle_deg']:.0f} deg "
+                    f"from that of the still portions of every one of its "
+                    f"{posture['static_check_tests']} motion tests with still portions (more than "
+                    f"{MAX_STATIC_ANGLE_DEG:.0f}): taken seated or leaning, not standing?"
+                )
         if verdict["message"]:
             verdict["message"] = f"{' '.join(key)}: {verdict['message']}"
         out[key] = verdict
@@ -329,7 +347,8 @@ def calibrate_sagittal(
         identity = _identity(dataset, subject, sensor_set, imu)
         sensor = sensors.get((subject, sensor_set, imu), {"flag": ""})
         sensor_columns = {
-            k: sensor.get(k, np.nan) for k in ("gyro_acc_agreement", "gyro_acc_evidence_deg")
+            k: sensor.get(k, np.nan)
+            for k in ("gyro_acc_agreement", "gyro_acc_evidence_deg", "static_vertical_angle_deg")
         }
         direction = _direction(
             dataset, test, identity["segment"], data, membership, result.R, right

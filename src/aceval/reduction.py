@@ -26,7 +26,7 @@ import pandas as pd
 from .calibration.kong import scatter, vertical_axis
 from .calibration.step_harmonic import SCATTER_COLUMNS as STEP_COLUMNS
 from .calibration.step_harmonic import step_scatter
-from .checks import agreement_moments, third_moments
+from .checks import MIN_STILL_S, STILL_COLUMNS, agreement_moments, third_moments
 from .dataset import (
     Dataset,
     Recording,
@@ -176,6 +176,15 @@ def summarise(
             np.degrees(np.percentile(np.linalg.norm(data.gyr, axis=1), 90))
         )
         mask = moving if moving is not None else movement_mask(data.gyr, dataset.fs_hz, trim)
+        still = ~mask  # standing before, between and after the movements: the vertical again
+        row.update(
+            zip(
+                STILL_COLUMNS,
+                vertical_axis(data.acc[still])
+                if still.sum() >= MIN_STILL_S * dataset.fs_hz
+                else np.full(3, np.nan),
+            )
+        )
         limit = dataset.acc_limit(rec["sensor_set"], rec["imu"])
         if limit is None and (plateau := plateau_limit(data.acc)) is not None:
             limit, row["clipping_from_data"] = plateau, True  # clipped at a range nobody declared
