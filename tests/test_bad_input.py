@@ -1032,8 +1032,10 @@ def test_sigterm_of_calibrate_leaves_all_of_its_outputs_or_none(pristine, tmp_pa
         argv += [f"--{name}", str(tmp_path / "out" / f"{name}.txt")]
     process = subprocess.Popen(argv, stderr=subprocess.DEVNULL)
     deadline = time.time() + 60
-    while time.time() < deadline and not list(tmp_path.glob("out/.tmp.*")):
-        time.sleep(0.01)  # until it stages its first output
+    while time.time() < deadline and not [
+        p for p in tmp_path.glob("out/.tmp.*") if p.stat().st_size > 0
+    ]:
+        time.sleep(0.01)  # until it has staged its first output (the others are reserved empty)
     process.send_signal(signal.SIGTERM)
     code = process.wait(timeout=60)
     written = sorted(p.name for p in (tmp_path / "out").glob("*")) if code == 0 else []
@@ -1056,7 +1058,7 @@ def test_an_output_set_is_written_together_or_not_at_all(tmp_path):
     with pytest.raises(RuntimeError), FileSet(paths) as files:
         files.write(paths[0], lambda tmp: Path(tmp).write_text("a"))
         raise RuntimeError("the work failed")
-    assert [p.name for p in tmp_path.rglob("*")] == [f".copy.{dead}.x1y2"]
+    assert sorted(p.name for p in tmp_path.rglob("*")) == [f".copy.{dead}.x1y2", "sub"]
     with FileSet(paths) as files:
         for path in paths:
             files.write(path, lambda tmp: Path(tmp).write_text("done"))
@@ -1070,6 +1072,21 @@ def test_an_output_set_is_written_together_or_not_at_all(tmp_path):
     (tmp_path / "afile").write_text("x")
     with pytest.raises(UnsafeOutputError, match="is a file"):
         FileSet([tmp_path / "afile" / "out.csv"])
+    # a second aceval writing the same output while the first works is refused
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import sys, time; from aceval.safety import FileSet; "
+         f"FileSet([{str(paths[0])!r}]); print('held', flush=True); time.sleep(30)"],
+        stdout=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        with pytest.raises(UnsafeOutputError, match=f"process {holder.pid}.*is writing"):
+            FileSet([paths[0]])
+    finally:
+        holder.kill()
+        holder.wait()
+    with FileSet([paths[0]]):  # its reservation is a leftover now: removed, the output free
+        pass
 
 
 # --- the recording reader on arbitrary bytes ----------------------------------------------------

@@ -488,7 +488,7 @@ def _outputs(args) -> int:
     from .results import build_data, dataset_meta, read_tables
 
     try:  # the results folder writable before the work; its files put in place together
-        files = FileSet([Path(args.results) / "SUMMARY.md"])
+        files = FileSet([], folders=[args.results])
     except UnsafeOutputError as exc:
         print(f"aceval outputs: {exc}", file=sys.stderr)
         return 2

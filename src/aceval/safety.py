@@ -125,6 +125,19 @@ def staged_folder(out: str | Path, force: bool, write) -> None:
             )
     out.parent.mkdir(parents=True, exist_ok=True)
     remove_leftovers(out)
+    busy = [
+        pid
+        for pid in (
+            c.name[len(out.name) + 2 :].split(".", 1)[0]
+            for c in out.parent.glob(f".{glob.escape(out.name)}.*")
+        )
+        if pid.isdigit() and int(pid) != os.getpid() and _alive(int(pid))
+    ]
+    if busy:
+        raise UnsafeOutputError(
+            f"another aceval (process {', '.join(busy)}) is writing {out}: wait for it, or choose "
+            "another output folder"
+        )
     staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.{os.getpid()}.", dir=out.parent))
     try:
         write(staging)
@@ -208,15 +221,29 @@ class FileSet:
     """The output files of one command, committed together or not at all: each is written to a
     hidden temporary beside it (:meth:`write`), and all are renamed into place when the ``with``
     block ends without error; an error, or SIGTERM (:func:`exit_cleanly_on_sigterm`), removes
-    them. The folders are checked for writing when the set is made, before the work.
+    them. When the set is made, before the work: the folders (and ``folders``) are checked for
+    writing, a killed run's leftovers removed, and each output reserved by an empty temporary, so
+    that a second aceval writing the same output while this one works is refused
+    (UnsafeOutputError naming the output and the other process).
     """
 
-    def __init__(self, paths):
+    def __init__(self, paths, folders=()):
         self.paths = [Path(p) for p in paths if p]
-        check_writable({p.parent for p in self.paths})
+        check_writable({p.parent for p in self.paths} | {Path(f) for f in folders})
         for path in self.paths:
             remove_leftovers(path)
+            busy = _writers(path)
+            if busy:
+                raise UnsafeOutputError(
+                    f"another aceval (process {', '.join(busy)}) is writing {path}: wait for it, "
+                    "or choose another output"
+                )
         self.staged: dict[Path, Path] = {}
+        self.reserved: list[Path] = []
+        for path in self.paths:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            self.temporary(path).touch()
+            self.reserved.append(self.temporary(path))
 
     def temporary(self, path: str | Path) -> Path:
         """Where ``path`` is staged (its suffix kept, so writers can pick the format from it)."""
@@ -239,8 +266,19 @@ class FileSet:
                 for path, tmp in self.staged.items():
                     tmp.replace(path)
         finally:
-            for tmp in self.staged.values():
+            for tmp in [*self.staged.values(), *self.reserved]:
                 tmp.unlink(missing_ok=True)
+
+
+def _writers(path: Path) -> list[str]:
+    """The other live processes whose temporary for ``path`` exists (they are writing it)."""
+    if not path.parent.is_dir():
+        return []
+    pids = [
+        candidate.name[len(".tmp.") : -len(path.name) - 1]
+        for candidate in path.parent.glob(f".tmp.*.{glob.escape(path.name)}")
+    ]
+    return [p for p in pids if p.isdigit() and int(p) != os.getpid() and _alive(int(p))]
 
 
 def exit_cleanly_on_sigterm() -> None:
