@@ -55,6 +55,33 @@ def recordings_fingerprint(dataset: Dataset, subject: str) -> str:
     return digest.hexdigest()
 
 
+def read_calibrations(path: str | Path) -> pd.DataFrame:
+    """The CSV of `aceval calibrate` at ``path``; ApplyError naming the file and the cause when it
+    is missing, unreadable, binary or not such a file.
+    """
+    from .results import read_tables
+
+    try:
+        calibrations = read_tables([path])
+    except FileNotFoundError:
+        raise ApplyError(f"{path}: file is missing") from None
+    except (UnicodeDecodeError, pd.errors.ParserError, OSError) as exc:
+        raise ApplyError(f"{path}: not a CSV of `aceval calibrate` ({exc})") from None
+    missing = {"subject", "sensor_set", "imu", "test", "method", "n_reps", "flag"}
+    missing -= set(calibrations.columns)
+    if calibrations.empty or missing:
+        raise ApplyError(
+            f"{path} holds no calibrations"
+            + (
+                f" (missing column(s) {', '.join(sorted(missing))}: is it a file of "
+                "`aceval calibrate`?)"
+                if missing and not calibrations.empty
+                else ""
+            )
+        )
+    return calibrations
+
+
 def chosen_calibrations(
     dataset: Dataset, calibrations: pd.DataFrame, method: str = "kong", test: str | None = None
 ) -> pd.DataFrame:

@@ -179,9 +179,6 @@ def _calibrate_into(args, dataset, files) -> int:
     from .reduction import reduce_recordings
     from .summary import calibration_screen
 
-    def write_csv(path, table):
-        files.write(path, lambda tmp: table.to_csv(tmp, index=False))
-
     trim = _trim(args)
     segment_pairs = json.loads(args.pairs)
     subjects = args.subject if args.subject is not None else list(dataset.subjects.index)
@@ -235,43 +232,55 @@ def _calibrate_into(args, dataset, files) -> int:
             file=sys.stderr,
         )
         return 1
-    write_csv(args.out, calibrations)
-    if args.recordings_out:
-        write_csv(args.recordings_out, summaries)
-    if args.axes_out:
-        write_csv(args.axes_out, axes)
-    if args.pairs_out:
-        write_csv(args.pairs_out, pairs)
+    tables = {"out": calibrations, "recordings_out": summaries, "axes_out": axes}
+    tables["pairs_out"] = pairs
     if args.correlations_out:
-        write_csv(
-            args.correlations_out,
-            correlations(dataset, calibrations, pairs, args.mode, segment_pairs),
+        tables["correlations_out"] = correlations(
+            dataset, calibrations, pairs, args.mode, segment_pairs
         )
-    if args.findings_out:
-        files.write(
-            args.findings_out,
-            lambda tmp: _findings_table(report).to_csv(tmp, sep="\t", index=False),
-        )
-    if args.angles_out or args.retest_out:
-        _write_angles(args, files)
-    if args.plan_out:
-        from .pipeline import calibration_plan
+    _write_calibrate_outputs(args, files, tables, report, dataset)
+    _say_findings(report, dataset, summaries)
+    print(calibration_screen(calibrations, len(unusable), args.out), file=sys.stderr)
+    return 0
 
-        plan = calibration_plan(dataset, summaries, args.retest_k)
-        files.write(
-            args.plan_out, lambda tmp: Path(tmp).write_text(json.dumps(plan, indent=1) + "\n")
-        )
+
+def _say_findings(report, dataset, summaries) -> None:
+    """The files' warnings and what the checks found about each sensor (its calibrations are
+    flagged), on stderr.
+    """
     if report.warnings:
         print(f"aceval calibrate: {len(report.warnings)} file warning(s):", file=sys.stderr)
         print("\n".join(map(str, report.warnings)), file=sys.stderr)
-    if len(summaries):  # what the checks found about each sensor (its calibrations are flagged)
+    if len(summaries):
         from .pipeline import imu_checks
 
         for verdict in imu_checks(dataset, summaries).values():
             if verdict["message"]:
                 print(f"aceval calibrate: flagged {verdict['message']}", file=sys.stderr)
-    print(calibration_screen(calibrations, len(unusable), args.out), file=sys.stderr)
-    return 0
+
+
+def _write_calibrate_outputs(args, files, tables: dict, report, dataset) -> None:
+    """Stage every output `aceval calibrate` was asked for in ``files``: the ``tables`` (by the
+    option that names each file), the findings, the Obj 3-5 angles and test-retest units, and
+    the peers' plan.
+    """
+    import json
+
+    for option, table in tables.items():
+        if getattr(args, option):
+            files.write(getattr(args, option), lambda tmp, t=table: t.to_csv(tmp, index=False))
+    if args.findings_out:
+        findings = _findings_table(report)
+        files.write(args.findings_out, lambda tmp: findings.to_csv(tmp, sep="\t", index=False))
+    if args.angles_out or args.retest_out:
+        _write_angles(args, files)
+    if args.plan_out:
+        from .pipeline import calibration_plan
+
+        plan = json.dumps(
+            calibration_plan(dataset, tables["recordings_out"], args.retest_k), indent=1
+        )
+        files.write(args.plan_out, lambda tmp: Path(tmp).write_text(plan + "\n"))
 
 
 def _write_angles(args, files) -> None:
@@ -356,7 +365,13 @@ def _trim(args):
 
 
 def _apply(args) -> int:
-    from .apply import ApplyError, apply_calibrations, check_rotations, chosen_calibrations
+    from .apply import (
+        ApplyError,
+        apply_calibrations,
+        check_rotations,
+        chosen_calibrations,
+        read_calibrations,
+    )
     from .dataset import DatasetError, load_dataset
     from .safety import check_writable
 
@@ -371,7 +386,7 @@ def _apply(args) -> int:
         print(f"aceval apply: {args.dataset} is not a valid dataset:\n{exc}", file=sys.stderr)
         return 1
     try:
-        calibrations = _read_calibrations(args.calibrations)
+        calibrations = read_calibrations(args.calibrations)
         chosen = chosen_calibrations(dataset, calibrations, args.method, args.test)
         if chosen.empty:
             raise ApplyError(
@@ -399,34 +414,6 @@ def _apply(args) -> int:
     except ApplyError as exc:  # nothing was put in place
         print(f"aceval apply: nothing written:\n{exc}", file=sys.stderr)
         return 1
-
-
-def _read_calibrations(path: str) -> pd.DataFrame:
-    """The CSV of `aceval calibrate` at ``path``; ApplyError naming the file and the cause when it
-    is missing, unreadable or not such a file.
-    """
-    import pandas as pd
-
-    from .apply import ApplyError
-
-    needed = {"subject", "sensor_set", "imu", "test", "method", "n_reps", "flag"}
-    try:
-        calibrations = _read_csvs([path])
-    except FileNotFoundError:
-        raise ApplyError(f"{path}: file is missing") from None
-    except (UnicodeDecodeError, pd.errors.ParserError, OSError) as exc:
-        raise ApplyError(f"{path}: not a CSV of `aceval calibrate` ({exc})") from None
-    missing = needed - set(calibrations.columns)
-    if calibrations.empty or missing:
-        raise ApplyError(
-            f"{path} holds no calibrations"
-            + (
-                f" (missing column(s) {', '.join(sorted(missing))}: is it a file of `aceval calibrate`?)"
-                if missing and not calibrations.empty
-                else ""
-            )
-        )
-    return calibrations
 
 
 def _angles(args) -> int:
