@@ -914,7 +914,9 @@ def test_bad_input(case, pristine, good_calibrations, tmp_path, capsys):
     extra = [p for p in tmp_path.iterdir() if p.name not in ("lab", "other")]
     inputs |= {p.name: checksums(p) for p in extra if p.is_dir()}
 
-    code = main(case.command(lab, tmp_path, good_calibrations))
+    argv = case.command(lab, tmp_path, good_calibrations)
+    files_before = {p for p in tmp_path.rglob("*") if p.is_file()}
+    code = main(argv)
 
     captured = capsys.readouterr()
     output = captured.out + captured.err
@@ -931,6 +933,20 @@ def test_bad_input(case, pristine, good_calibrations, tmp_path, capsys):
     assert not [p for p in tmp_path.rglob(".*") if p.name != MARKER], (
         "hidden temporary files were left"
     )
+    if case.outcome in ("error", "refused"):  # nothing new anywhere under the folder
+        new = {p for p in tmp_path.rglob("*") if p.is_file()} - files_before
+        assert not new, f"a refused or failed command wrote {sorted(map(str, new))}"
+    if case.outcome in ("flag", "warning") and (tmp_path / "out.csv").exists():
+        # apply on the defective copy: body-frame copies that validate, or a clear refusal
+        applied = tmp_path / "applied"
+        calibrations = str(tmp_path / "out.csv")
+        code = main(["apply", str(lab), "--calibrations", calibrations, "--out", str(applied)])
+        said = capsys.readouterr().err
+        assert code in (0, 1), said[-3000:]
+        assert (code == 0) == applied.is_dir(), said[-3000:]
+        if code == 0:
+            assert main(["validate", str(applied)]) == 0, capsys.readouterr().out[-3000:]
+        assert checksums(lab) == inputs["lab"], "apply changed an input file"
     if case.flags:
         calibrations = pd.read_csv(tmp_path / "out.csv")
         for (imu, test, *methods), allowed in case.flags.items():
