@@ -223,6 +223,7 @@ class Case:
     outcome: str  # error | refused | warning | flag
     flags: dict = field(default_factory=dict)  # {(imu, test or None): {flags every row has one of}}
     no_output: tuple[str, ...] = ()  # paths (relative to tmp) that must not exist afterwards
+    left_out: tuple[str, ...] = ()  # IMUs with no calibration at all (their recordings left out)
 
 
 def yaml_case(name, old, new, *says):
@@ -432,6 +433,7 @@ CASES = [
         0,
         ("left out", "T4_R1_IMU5.csv", "clipped"),
         "flag",
+        left_out=("IMU5",),
     ),
     Case(
         "a typo in an acc_range_g region",
@@ -947,6 +949,10 @@ def test_bad_input(case, pristine, good_calibrations, tmp_path, capsys):
         if code == 0:
             assert main(["validate", str(applied)]) == 0, capsys.readouterr().out[-3000:]
         assert checksums(lab) == inputs["lab"], "apply changed an input file"
+    if case.left_out:
+        calibrations = pd.read_csv(tmp_path / "out.csv", keep_default_na=False)
+        assert not calibrations["imu"].isin(case.left_out).any(), "a left-out IMU was calibrated"
+        assert (calibrations["flag"] == "").all(), "an IMU without a defect was flagged"
     if case.flags:
         calibrations = pd.read_csv(tmp_path / "out.csv")
         for (imu, test, *methods), allowed in case.flags.items():
