@@ -50,16 +50,17 @@ def read_recording(plan: dict, relative: str) -> tuple[np.ndarray, np.ndarray]:
 
 def frame_from_axes(down: np.ndarray, right: np.ndarray, right_axis: np.ndarray) -> np.ndarray:
     """R (sensor -> Kong's body frame: x forward, y right, z down) from the sensor-frame downward
-    vertical and a medial-lateral axis, the latter signed to point along the declared right axis
-    and made orthogonal to the vertical (Kong Eq. 4-5: x = y x z, then y = z x x).
+    vertical and a medial-lateral axis, the latter made orthogonal to the vertical (Kong Eq. 4-5:
+    x = y x z, then y = z x x) and then signed to point along the declared right axis (after the
+    projection, as :func:`aceval.calibration.kong.kong_from_scatters` does: for an axis near the
+    vertical the raw vector and its horizontal part can point to opposite sides).
     """
     z = np.asarray(down, float) / np.linalg.norm(down)
-    y = np.asarray(right, float)
-    if y @ np.asarray(right_axis, float) < 0:
-        y = -y
-    x = np.cross(y, z)
+    x = np.cross(np.asarray(right, float), z)
     x /= np.linalg.norm(x)
-    y = np.cross(z, x)
+    y = np.cross(z, x)  # the axis' part orthogonal to the vertical, as a unit vector
+    if y @ np.asarray(right_axis, float) < 0:  # its sign fixed after the projection, as Kong's
+        x, y = -x, -y
     return np.vstack([x, y, z])
 
 
