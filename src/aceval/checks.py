@@ -192,6 +192,7 @@ def direction_checks(
 
     Returns ``flag`` ('backward' when most votes disagree or the shank swings backward,
     'right_axis_mismatch' when the declared right axis is more than 60 deg from y0, else ''),
+    ``mismatch`` (that angle test alone, whatever the vote),
     ``first_phase_agreement`` (share of agreeing votes; NaN without votes) and
     ``right_axis_angle_deg``.
     """
@@ -213,8 +214,14 @@ def direction_checks(
         agreement = (skew > 0).astype(float)
         flag[skew < 0] = "backward"
     angle = np.degrees(np.arccos(np.clip(body_y @ np.asarray(right, float), -1.0, 1.0)))
-    flag[(flag == "") & (angle > MAX_RIGHT_AXIS_ANGLE_DEG)] = "right_axis_mismatch"
-    return {"flag": flag, "first_phase_agreement": agreement, "right_axis_angle_deg": angle}
+    mismatch = angle > MAX_RIGHT_AXIS_ANGLE_DEG
+    flag[(flag == "") & mismatch] = "right_axis_mismatch"
+    return {
+        "flag": flag,
+        "mismatch": mismatch,
+        "first_phase_agreement": agreement,
+        "right_axis_angle_deg": angle,
+    }
 
 
 def static_posture(z0: np.ndarray, still: dict[str, np.ndarray]) -> dict:

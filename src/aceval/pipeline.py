@@ -22,7 +22,6 @@ from .calibration.step_harmonic import MAX_STEP_RATIO, step_harmonic_rotation
 from .calibration.step_harmonic import SCATTER_COLUMNS as STEP_COLUMNS
 from .checks import (
     AGREEMENT_COLUMNS,
-    MAX_RIGHT_AXIS_ANGLE_DEG,
     MAX_STATIC_ANGLE_DEG,
     STILL_COLUMNS,
     THIRD_MOMENT_COLUMNS,
@@ -360,9 +359,7 @@ def calibrate_sagittal(
         )
         # the declared right axis is judged on each subset's own y0, whatever its own direction
         # vote was (a subset voting 'backward' never got its mismatch flag before)
-        own_mismatch = np.where(
-            direction["right_axis_angle_deg"] > MAX_RIGHT_AXIS_ANGLE_DEG, "right_axis_mismatch", ""
-        )
+        own_mismatch = np.where(direction["mismatch"], "right_axis_mismatch", "")
         direction["flag"] = np.where(full["flag"][0] == "backward", "backward", own_mismatch)
         for k, subset in enumerate(chosen):
             out.append(

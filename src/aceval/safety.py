@@ -125,19 +125,7 @@ def staged_folder(out: str | Path, force: bool, write) -> None:
             )
     out.parent.mkdir(parents=True, exist_ok=True)
     remove_leftovers(out)
-    busy = [
-        pid
-        for pid in (
-            c.name[len(out.name) + 2 :].split(".", 1)[0]
-            for c in out.parent.glob(f".{glob.escape(out.name)}.*")
-        )
-        if pid.isdigit() and int(pid) != os.getpid() and _alive(int(pid))
-    ]
-    if busy:
-        raise UnsafeOutputError(
-            f"another aceval (process {', '.join(busy)}) is writing {out}: wait for it, or choose "
-            "another output folder"
-        )
+    _refuse_if_written(out)
     staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.{os.getpid()}.", dir=out.parent))
     try:
         write(staging)
@@ -195,13 +183,13 @@ def _alive(pid: int) -> bool:
     return True
 
 
-def remove_leftovers(path: str | Path) -> None:
-    """Remove the hidden temporaries that a killed run (a process no longer alive) left for the
-    output ``path``: ``.tmp.<pid>.<name>`` files and ``.<name>.<pid>.*`` staging folders.
+def _temporaries(path: Path) -> list[tuple[Path, int]]:
+    """The hidden temporaries of the output ``path`` (``.tmp.<pid>.<name>`` files and
+    ``.<name>.<pid>.*`` staging folders), each with the process id of the run that made it.
     """
-    path = Path(path)
     if not path.parent.is_dir():
-        return
+        return []
+    found = []
     for candidate in path.parent.glob(f".*{glob.escape(path.name)}*"):
         name = candidate.name
         if name.startswith(".tmp.") and name.endswith(f".{path.name}"):
@@ -210,11 +198,31 @@ def remove_leftovers(path: str | Path) -> None:
             pid = name[len(path.name) + 2 :].split(".", 1)[0]
         else:
             continue
-        if pid.isdigit() and int(pid) != os.getpid() and not _alive(int(pid)):
+        if pid.isdigit() and int(pid) != os.getpid():
+            found.append((candidate, int(pid)))
+    return found
+
+
+def remove_leftovers(path: str | Path) -> None:
+    """Remove the hidden temporaries that a killed run (a process no longer alive) left for the
+    output ``path`` (:func:`_temporaries`).
+    """
+    for candidate, pid in _temporaries(Path(path)):
+        if not _alive(pid):
             if candidate.is_dir():
                 shutil.rmtree(candidate, ignore_errors=True)
             else:
                 candidate.unlink(missing_ok=True)
+
+
+def _refuse_if_written(path: Path) -> None:
+    """UnsafeOutputError when another live aceval has a temporary for ``path`` (it is writing it)."""
+    busy = sorted({str(pid) for _, pid in _temporaries(path) if _alive(pid)})
+    if busy:
+        raise UnsafeOutputError(
+            f"another aceval (process {', '.join(busy)}) is writing {path}: wait for it, or "
+            "choose another output"
+        )
 
 
 class FileSet:
@@ -232,12 +240,7 @@ class FileSet:
         check_writable({p.parent for p in self.paths} | {Path(f) for f in folders})
         for path in self.paths:
             remove_leftovers(path)
-            busy = _writers(path)
-            if busy:
-                raise UnsafeOutputError(
-                    f"another aceval (process {', '.join(busy)}) is writing {path}: wait for it, "
-                    "or choose another output"
-                )
+            _refuse_if_written(path)
         self.staged: dict[Path, Path] = {}
         self.reserved: list[Path] = []
         for path in self.paths:
@@ -268,17 +271,6 @@ class FileSet:
         finally:
             for tmp in [*self.staged.values(), *self.reserved]:
                 tmp.unlink(missing_ok=True)
-
-
-def _writers(path: Path) -> list[str]:
-    """The other live processes whose temporary for ``path`` exists (they are writing it)."""
-    if not path.parent.is_dir():
-        return []
-    pids = [
-        candidate.name[len(".tmp.") : -len(path.name) - 1]
-        for candidate in path.parent.glob(f".tmp.*.{glob.escape(path.name)}")
-    ]
-    return [p for p in pids if p.isdigit() and int(p) != os.getpid() and _alive(int(p))]
 
 
 def exit_cleanly_on_sigterm() -> None:
