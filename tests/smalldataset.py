@@ -14,7 +14,12 @@ IMUS = ("IMU2", "IMU4", "IMU5")
 SENSOR_SET = "frontal"
 
 
-def simulate_small(root: Path) -> Path:
+def simulate_small(
+    root: Path, imus=IMUS, every_recording: bool = False, repetitions: int = 3
+) -> Path:
+    """The small dataset at ``root``: ``imus`` of the frontal set; only the recordings of the tests
+    that calibrate each IMU, or (``every_recording``) every IMU in every test, as a lab records.
+    """
     full = root.parent / f"{root.name}_full"
     subprocess.run(
         [
@@ -28,7 +33,7 @@ def simulate_small(root: Path) -> Path:
             "--subjects",
             "1",
             "--repetitions",
-            "3",
+            str(repetitions),
             "--seed",
             "3",
         ],
@@ -49,17 +54,20 @@ def simulate_small(root: Path) -> Path:
         table.to_csv(root / name, sep="\t", index=False)
         return table
 
-    ours = lambda t: t["imu"].isin(IMUS) & (t.get("sensor_set", SENSOR_SET) == SENSOR_SET)  # noqa: E731
+    ours = lambda t: t["imu"].isin(imus) & (t.get("sensor_set", SENSOR_SET) == SENSOR_SET)  # noqa: E731
     sheet("imus.tsv", ours)
     sheet("ground_truth.tsv", ours)
-    calibrates = sheet("calibrates.tsv", lambda t: t["imu"].isin(IMUS))
+    calibrates = sheet("calibrates.tsv", lambda t: t["imu"].isin(imus))
     allowed = set(map(tuple, calibrates[["test", "imu"]].to_numpy()))
     recordings = sheet(
         "recordings.tsv",
         lambda t: (
             ours(t)
             & np.array(
-                [test == "T0" or (test, imu) in allowed for test, imu in zip(t["test"], t["imu"])]
+                [
+                    every_recording or test == "T0" or (test, imu) in allowed
+                    for test, imu in zip(t["test"], t["imu"])
+                ]
             )
         ),
     )

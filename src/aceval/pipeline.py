@@ -25,6 +25,7 @@ from .checks import (
     MAX_STATIC_ANGLE_DEG,
     STILL_COLUMNS,
     THIRD_MOMENT_COLUMNS,
+    best_test_agreement,
     direction_checks,
     sensor_problem,
     static_posture,
@@ -60,6 +61,7 @@ from .objectives import (
 from .reduction import SCATTER_COLUMNS, reduce_recordings
 from .rotations import axis_vector, error_angle_deg, vertical_share
 from .segmentation import TrimParams
+from .signatures import SIGNATURE_COLUMNS, signature_verdicts
 from .uncertainty import bootstrap_cone
 
 KEY = ["subject", "sensor_set", "imu"]
@@ -199,35 +201,46 @@ def _static_axes(summaries: pd.DataFrame) -> tuple[pd.DataFrame, dict]:
 
 def imu_checks(dataset: Dataset, summaries: pd.DataFrame) -> dict[tuple, dict]:
     """Per (subject, set, IMU), what its motion recordings say about the sensor itself
-    (:func:`aceval.checks.sensor_problem`; walking recordings are left out of the agreement) and
-    about its static trial (:func:`aceval.checks.static_posture`).
+    (:func:`aceval.checks.sensor_problem`; walking recordings are left out of the agreement),
+    about its static trial (:func:`aceval.checks.static_posture`) and about its place
+    (:func:`aceval.signatures.signature_verdicts`): ``flag`` (every flag of the IMU's
+    calibrations, ';'-joined), ``message``, ``test_flags`` (test -> the flag of that test's
+    calibrations only) and the checks' evidence columns.
     """
     motion = summaries[summaries["kind"] == "motion"]
     if motion.empty or AGREEMENT_COLUMNS[0] not in motion:
         return {}
     gait = motion["test"].map(dataset.first_phase) == "gait"
     z0, _ = _static_axes(summaries)
+    places = summaries[summaries["kind"].isin(["motion", "extra"])]
+    signatures = signature_verdicts(places) if SIGNATURE_COLUMNS[0] in places else {}
     out = {}
     for key, group in motion.groupby(KEY, sort=False):
-        summed = group.loc[~gait[group.index], AGREEMENT_COLUMNS].sum().to_numpy(float)
+        per_test = group.loc[~gait[group.index]].groupby("test")[AGREEMENT_COLUMNS].sum()
+        summed = best_test_agreement(per_test.to_numpy(float))
         verdict = sensor_problem(
             summed, float(group["gyro_p90_deg_s"].max()), dataset.meta["units"]["gyr"]
         )
+        messages = [verdict["message"]]
         if key in z0.index and STILL_COLUMNS[0] in group:
             still = {t: g[STILL_COLUMNS].to_numpy(float) for t, g in group.groupby("test")}
             posture = static_posture(z0.loc[key].to_numpy(float), still)
             verdict["static_vertical_angle_deg"] = posture["static_vertical_angle_deg"]
             verdict["static_check_tests"] = posture["static_check_tests"]
-            if posture["flag"] and not verdict["flag"]:
-                verdict["flag"] = posture["flag"]
-                verdict["message"] = (
+            verdict["flag"] = combine_flags(verdict["flag"], posture["flag"])
+            if posture["flag"]:
+                messages.append(
                     f"the static trial's vertical is {posture['static_vertical_angle_deg']:.0f} deg "
                     f"from that of the still portions of every one of its "
                     f"{posture['static_check_tests']} motion tests with still portions (more than "
                     f"{MAX_STATIC_ANGLE_DEG:.0f}): taken seated or leaning, not standing?"
                 )
-        if verdict["message"]:
-            verdict["message"] = f"{' '.join(key)}: {verdict['message']}"
+        place = signatures.get(key, {"flag": "", "message": "", "test_flags": {}})
+        verdict["flag"] = combine_flags(verdict["flag"], place["flag"])
+        verdict["test_flags"] = place["test_flags"]
+        messages.append(place["message"])
+        message = "; ".join(m for m in messages if m)
+        verdict["message"] = f"{' '.join(key)}: {message}" if message else ""
         out[key] = verdict
     return out
 
@@ -280,8 +293,17 @@ def _direction(
     )
 
 
-def _first_flag(*flags) -> str:
-    return next((f for f in flags if f), "")
+def combine_flags(*flags: str) -> str:
+    """Every flag of a row, each once, in the order given, joined by ';' ('' when none): a check
+    adds its flag beside the others' and never replaces them.
+    """
+    names = [name for f in flags if isinstance(f, str) for name in f.split(";") if name]
+    return ";".join(dict.fromkeys(names))
+
+
+def has_flag(flags: pd.Series, name: str) -> pd.Series:
+    """True for the rows whose ``flag`` (';'-joined, :func:`combine_flags`) includes ``name``."""
+    return flags.fillna("").astype(str).str.split(";").map(lambda names: name in names)
 
 
 def calibrate_sagittal(
@@ -345,6 +367,7 @@ def calibrate_sagittal(
         errors = _truth_columns(truth, result.R)
         identity = _identity(dataset, subject, sensor_set, imu)
         sensor = sensors.get((subject, sensor_set, imu), {"flag": ""})
+        sensor_flag = combine_flags(sensor["flag"], sensor.get("test_flags", {}).get(test, ""))
         sensor_columns = {
             k: sensor.get(k, np.nan)
             for k in ("gyro_acc_agreement", "gyro_acc_evidence_deg", "static_vertical_angle_deg")
@@ -384,7 +407,7 @@ def calibrate_sagittal(
                     "first_phase_agreement": direction["first_phase_agreement"][k],
                     "right_axis_angle_deg": direction["right_axis_angle_deg"][k],
                     **sensor_columns,
-                    "flag": _first_flag(sensor["flag"], result.flag[k], direction["flag"][k]),
+                    "flag": combine_flags(sensor_flag, result.flag[k], direction["flag"][k]),
                     **{name: values[k] for name, values in errors.items()},
                 }
             )
@@ -427,13 +450,13 @@ def calibrate_sagittal(
                     fits[method]["R"][None],
                     right,
                 )
-                fits[method]["flag"] = _first_flag(
-                    sensor["flag"], fits[method].get("flag", ""), checked["flag"][0]
+                fits[method]["flag"] = combine_flags(
+                    sensor_flag, fits[method].get("flag", ""), checked["flag"][0]
                 )
                 fits[method]["first_phase_agreement"] = checked["first_phase_agreement"][0]
                 fits[method]["right_axis_angle_deg"] = checked["right_axis_angle_deg"][0]
             elif fits[method].get("flag") != "not_applicable":
-                fits[method]["flag"] = _first_flag(sensor["flag"], fits[method].get("flag", ""))
+                fits[method]["flag"] = combine_flags(sensor_flag, fits[method].get("flag", ""))
         cones = bootstrap_cone(
             data.scatters,
             data.n_samples,
@@ -455,7 +478,7 @@ def calibrate_sagittal(
             target.update(cone95_deg=cone95_deg, cone_vertical_share=cone_share)
         out += _method_rows(base, fits, None)  # errors to the truth below, all rows at once
         if subsets == "all" and retest_k and len(reps) > retest_k:
-            out += _retest_rows(data, base, fits, sensor["flag"], z0_imu, rho_static, right,
+            out += _retest_rows(data, base, fits, sensor_flag, z0_imu, rho_static, right,
                                 retest_k, result, kong_at, limits)  # fmt: skip
     calibrations = pd.DataFrame(out, columns=None if out else CALIBRATION_COLUMNS)
     calibrations = with_truth(calibrations, dataset.ground_truth)
@@ -477,7 +500,9 @@ def _combined_fit(kong, index: int, z0, axis, axis_flag: str, right, limits: Kon
     R = combined_rotation(
         z0, kong.R[index, 1], horizontal_right(axis.axis, z0, right), w_kong, w_gyro
     )
-    flag = "" if w_kong + w_gyro > 0 else (kong.flag[index] or axis_flag or "not_planar")
+    flag = (
+        "" if w_kong + w_gyro > 0 else (combine_flags(kong.flag[index], axis_flag) or "not_planar")
+    )
     return {"R": R, "flag": flag, "weight_kong": w_kong, "weight_gyro": w_gyro}
 
 
@@ -529,7 +554,7 @@ def _retest_rows(
                 data.steps[rows_at].sum(axis=0), z0, right, data.step_hz[rows_at]
             )
         for method in sub:
-            sub[method]["flag"] = _first_flag(
+            sub[method]["flag"] = combine_flags(
                 sensor_flag, sub[method].get("flag", ""), fits[method].get("flag", "")
             )
         rows += _method_rows(
@@ -613,7 +638,7 @@ def propagate_backward(calibrations: pd.DataFrame) -> pd.DataFrame:
     full = full_set_rows(kong)
     flags = np.where(unflagged(calibrations), "", calibrations["flag"].astype(str)).astype(object)
     for _, imu in full.groupby(KEY, sort=False):
-        backward = imu[imu["flag"] == "backward"]
+        backward = imu[has_flag(imu["flag"], "backward")]
         unchecked = imu[imu["first_phase_agreement"].isna() & unflagged(imu)]
         if backward.empty or unchecked.empty:
             continue
@@ -624,7 +649,7 @@ def propagate_backward(calibrations: pd.DataFrame) -> pd.DataFrame:
             same = (
                 (calibrations[KEY] == imu.iloc[0][KEY]).all(axis=1) & (calibrations["test"] == test)
             ).to_numpy()
-            flags[same & (flags == "")] = "backward"
+            flags[same] = [combine_flags(f, "backward") for f in flags[same]]
     return calibrations.assign(flag=flags)
 
 
@@ -680,7 +705,9 @@ def calibrate_functional(
     reference axis when the test is used for the IMU's segment, and the LM residual angles
     before (identity) and after the fit (Ricci Eq. 13, Fig. 5).
     """
-    usable_rows = summaries[summaries["flag"] == ""]
+    usable_rows = summaries[
+        (summaries["flag"] == "") & summaries["kind"].isin(["static", "motion"])
+    ]
     summed = usable_rows.groupby(KEY + ["test", "kind"], sort=True)[MOMENT_COLUMNS].sum()
     counts = usable_rows.groupby(KEY + ["test", "kind"], sort=True).size()
     references = {}

@@ -4,7 +4,10 @@ statistics that every analysis needs (docs/design.md, "One pass").
 * ``summaries``, one row per recording that calibrates something (:func:`summarise`): static
   tests give z0 (Kong Eq. 2); motion tests the scatter ``sum a a^T`` of the trimmed accelerations
   (Kong Eq. 3: the plane of any union of repetitions is a sum of these), the moments of the unit
-  gyroscope samples (Ricci Eq. 1-2) and the plausibility moments of :mod:`aceval.checks`.
+  gyroscope samples (Ricci Eq. 1-2) and the plausibility moments of :mod:`aceval.checks`;
+  every motion recording also its place in the test among the other sensors of its set
+  (:mod:`aceval.signatures`). A motion recording of a test that does not calibrate its IMU gets a
+  row of kind ``extra`` with its typical speed only.
 * ``pairs``, one row per time-aligned recording pair of Kong's Obj 1-2 (the same IMU in the two
   sensor sets; two segments moved as one body), per signal and window: the sample count, both
   means, both centred scatters and the centred cross-moment of the overlap. The Pearson
@@ -38,7 +41,9 @@ from .dataset import (
 from .errors import CalibrationError, SaturatedError
 from .functional import recording_moments
 from .objectives import aligned, best_lag
+from .rotations import axis_vector
 from .segmentation import TrimParams, mask_to_ranges, movement_mask
+from .signatures import motion_signatures, sagittal_rate, speed_envelope
 
 SCATTER_COLUMNS = [f"s{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
 #: a motion recording is left out when more than this fraction of its moving samples is clipped at
@@ -109,6 +114,7 @@ def reduce_recordings(
     max_lag = int(round(max_lag_s * dataset.fs_hz))
     for (subj, test, rep), group in recordings.groupby(["subject", "test", "rep"], sort=False):
         loaded: dict[tuple[str, str], tuple[Recording, np.ndarray]] = {}
+        by_set: dict[str, dict] = {}
         for index, rec in zip(group.index, group.to_dict("records")):
             report = ValidationReport(dataset.name)
             data = read_checked(dataset, rec, report)
@@ -133,12 +139,48 @@ def reduce_recordings(
             if not is_static:
                 mask = moving if moving is not None else np.zeros(len(data.t), dtype=bool)
                 loaded[(rec["sensor_set"], rec["imu"])] = (data, mask)
+                if not needed:
+                    summaries[index] = _extra_row(rec, data)
+                by_set.setdefault(rec["sensor_set"], {})[rec["imu"]] = (index, data)
         if test not in static and loaded:
             pairs += _pair_rows(dataset, subj, test, int(rep), loaded, segment_pairs, max_lag)
+            _add_signatures(dataset, test, by_set, summaries)
     report = ValidationReport(dataset.name)
     report.findings = [f for k in sorted(findings) for f in findings[k]]  # in the sheet's order
     ordered = [summaries[k] for k in sorted(summaries)]
     return Reduction(pd.DataFrame(ordered), pd.DataFrame(pairs, columns=PAIR_COLUMNS), report)
+
+
+def _extra_row(rec: dict, data: Recording) -> dict:
+    """A motion recording of a test that does not calibrate its IMU (kind ``extra``): read for
+    the Obj 1-2 pairs, it gives the IMU's typical speed there to :mod:`aceval.signatures`.
+    """
+    speed = np.degrees(np.percentile(np.linalg.norm(data.gyr, axis=1), 90))
+    return _row(rec, False) | {"kind": "extra", "calibrates": False, "gyro_p90_deg_s": speed}
+
+
+def _add_signatures(dataset: Dataset, test: str, loaded: dict, summaries: dict):
+    """The :mod:`aceval.signatures` columns of one repetition's motion recordings, per set
+    (``loaded``: set -> IMU -> (summary index, :class:`Recording`)).
+    """
+    walking = dataset.first_phase(test) == "gait"
+    fs = dataset.fs_hz
+    for sensor_set, by_imu in loaded.items():
+        places = {
+            imu: tuple(dataset.imus.loc[(sensor_set, imu), ["segment", "side"]]) for imu in by_imu
+        }
+        rates = {
+            imu: sagittal_rate(d.t, d.gyr, fs, axis_vector(dataset.right_axis(sensor_set, imu)))
+            for imu, (_, d) in by_imu.items()
+        }
+        found = motion_signatures(
+            {imu: speed_envelope(d.t, d.gyr, fs) for imu, (_, d) in by_imu.items()},
+            places,
+            rates if walking else None,
+        )
+        for imu, (index, _) in by_imu.items():
+            if index in summaries:
+                summaries[index].update(found[imu])
 
 
 def _row(rec: dict, is_static: bool) -> dict:
@@ -172,6 +214,7 @@ def summarise(
             row.update(recording_moments(data.acc, dataset.fs_hz, motion=False))
             return row
         row.update(agreement_moments(data.acc, data.gyr, dataset.fs_hz))
+        row["calibrates"] = True
         row["gyro_p90_deg_s"] = float(
             np.degrees(np.percentile(np.linalg.norm(data.gyr, axis=1), 90))
         )
