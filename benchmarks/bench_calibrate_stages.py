@@ -5,8 +5,8 @@ one process (issue 16; benchmarks/README.md).
     python benchmarks/bench_calibrate_stages.py DATASET S1 # a dataset on disk and one subject
 
 Stages: importing aceval's calibration modules (with pandas and SciPy), loading the sheets, the
-one pass over the subject's recordings (read, check, reduce: aceval.reduction), every calibration
-from the summaries (aceval.pipeline.calibrate), and Obj 1-2's correlations from the pair moments.
+one pass over the subject's recordings (read, check, reduce: aceval.signals.reduction), every calibration
+from the summaries (aceval.calibrate.pipeline.calibrate), and Obj 1-2's correlations from the pair moments.
 """
 
 from __future__ import annotations
@@ -24,10 +24,11 @@ REPO = Path(__file__).resolve().parents[1]
 
 def stages(root: Path, subject: str) -> None:
     start = time.perf_counter()
-    from aceval.dataset import load_dataset
-    from aceval.pipeline import calibrate, correlations
-    from aceval.reduction import reduce_recordings
-    from aceval.segmentation import TrimParams
+    from aceval.calibrate.pipeline import calibrate
+    from aceval.data.dataset import load_dataset
+    from aceval.evaluation.correlations import correlations
+    from aceval.signals.reduction import reduce_recordings
+    from aceval.signals.segmentation import TrimParams
 
     timed = [("imports", time.perf_counter() - start)]
 

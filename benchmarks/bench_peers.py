@@ -50,8 +50,8 @@ print(json.dumps(statistics.median(times)))
 
 def one_signal(dataset, plan: dict, entry: dict) -> tuple[float, float]:
     """(aceval's Kong call, gaitmap's alignment) on one IMU's recordings: median seconds."""
-    from aceval.calibration.kong import kong_calibrate
-    from aceval.segmentation import movement_mask
+    from aceval.methods.kong import kong_calibrate
+    from aceval.signals.segmentation import movement_mask
 
     static = [dataset.read_recording(p) for p in entry["static"]]
     reps = [dataset.read_recording(p) for p in entry["reps"].values()]
@@ -92,7 +92,7 @@ def aceval_methods(dataset, summaries) -> dict[str, float]:
     every subset, the axis methods and the combined heading from all repetitions and every
     3-subset, the checks and the bootstrap cones): the pass's time over its number of
     calibrations, one row (the methods are not timed apart)."""
-    from aceval.pipeline import calibrate
+    from aceval.calibrate.pipeline import calibrate
 
     start = time.perf_counter()
     calibrations, _ = calibrate(dataset, summaries, retest_k=3)
@@ -109,9 +109,9 @@ def main() -> None:
     if missing:
         raise SystemExit(f"the peers' environments are missing ({', '.join(missing)}): "
                          "build them with `snakemake --cores 2 peer_envs`")  # fmt: skip
-    from aceval.dataset import load_dataset
-    from aceval.pipeline import calibration_plan
-    from aceval.reduction import reduce_recordings
+    from aceval.calibrate.pipeline import calibration_plan
+    from aceval.data.dataset import load_dataset
+    from aceval.signals.reduction import reduce_recordings
 
     with tempfile.TemporaryDirectory() as scratch:
         scratch = Path(scratch)

@@ -9,7 +9,7 @@ import time
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from aceval.calibration import kong_calibrate, kong_from_scatters, scatter, vertical_axis
+from aceval.methods import kong_calibrate, kong_from_scatters, scatter, vertical_axis
 
 N_IMU, N_REP, N_SAMPLES, REPEATS = 18, 5, 1500, 5
 

@@ -120,8 +120,8 @@ def simulate(out: Path, subjects: int) -> tuple[float, float]:
 
 FLOOR = """
 import sys
-from aceval.calibration.kong import scatter
-from aceval.dataset import load_dataset, recording_values
+from aceval.methods.kong import scatter
+from aceval.data.dataset import load_dataset, recording_values
 dataset = load_dataset(sys.argv[1])
 for path in dataset.recordings["path"]:
     values = recording_values(dataset.root / path)

@@ -37,10 +37,10 @@ import numpy as np
 import pandas as pd
 from scipy.spatial.transform import Rotation
 
-from aceval.dataset import load_dataset
-from aceval.pipeline import calibrate, imu_checks
-from aceval.reduction import reduce_recordings
-from aceval.rotations import AXIS_VECTORS
+from aceval.calibrate.pipeline import calibrate, imu_checks
+from aceval.data.dataset import load_dataset
+from aceval.data.rotations import AXIS_VECTORS
+from aceval.signals.reduction import reduce_recordings
 
 KEY = ["subject", "sensor_set", "imu"]
 Z0 = ["z0_x", "z0_y", "z0_z"]

@@ -5,13 +5,15 @@ import sys
 
 import pandas as pd
 
-from aceval.dataset import load_dataset
-from aceval.pipeline import calibrate, summarise_recordings
+from aceval.calibrate.pipeline import calibrate, summarise_recordings
+from aceval.data.dataset import load_dataset
+from aceval.evaluation.methods_comparison import with_truth
 
 
 def main(root: str) -> None:
     dataset = load_dataset(root)
     calibrations, _ = calibrate(dataset, summarise_recordings(dataset), subsets="full")
+    calibrations = with_truth(calibrations, dataset.ground_truth)  # the errors to the truth
     calibrations = calibrations.query("method == 'kong'")
     pd.set_option("display.width", 200)
     by_segment = calibrations.groupby(["segment", "sensor_set"])["error_deg"].agg(

@@ -18,9 +18,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from aceval.dataset import load_dataset  # noqa: E402
-from aceval.objectives import cross_test_angles, unflagged  # noqa: E402
-from aceval.pipeline import calibrate, summarise_recordings  # noqa: E402
+from aceval.calibrate.pipeline import calibrate, summarise_recordings  # noqa: E402
+from aceval.calibrate.table import unflagged
+from aceval.data.dataset import load_dataset  # noqa: E402
+from aceval.evaluation.methods_comparison import with_truth  # noqa: E402
+from aceval.evaluation.objectives import cross_test_angles
 from aceval.simulate import SimOptions, simulate_kong  # noqa: E402
 
 out = Path(sys.argv[2] if len(sys.argv) > 2 else "example_output")
@@ -37,6 +39,7 @@ summaries = summarise_recordings(
     dataset
 )  # one row per recording: what was kept, flagged or left out
 calibrations, _ = calibrate(dataset, summaries, subsets="full")
+calibrations = with_truth(calibrations, dataset.ground_truth)  # the errors to the truth
 calibrations.to_csv(out / "calibrations.csv", index=False)
 for message in summaries.loc[summaries["flag"] != "", "message"]:
     print("left out:", message)

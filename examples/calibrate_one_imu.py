@@ -12,8 +12,8 @@ recordings, Kong's method returns R, the rotation from the sensor frame to the b
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from aceval.calibration.kong import kong_calibrate
-from aceval.rotations import error_angle_deg
+from aceval.data.rotations import error_angle_deg
+from aceval.methods.kong import kong_calibrate
 
 G = 9.81
 rng = np.random.default_rng(1)

@@ -25,9 +25,9 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from aceval.cli import main
-from aceval.dataset import RecordingError, load_dataset, recording_values
-from aceval.functional import AXIS_METHODS
-from aceval.safety import MARKER
+from aceval.data.dataset import RecordingError, load_dataset, recording_values
+from aceval.data.safety import MARKER
+from aceval.methods.functional import AXIS_METHODS
 
 from .smalldataset import simulate_small
 
@@ -1166,7 +1166,7 @@ def test_sigterm_of_calibrate_leaves_all_of_its_outputs_or_none(pristine, tmp_pa
 def test_an_output_set_is_written_together_or_not_at_all(tmp_path):
     """FileSet: nothing in place before the block ends, nothing after an error, a killed run's
     temporaries removed by the next one, and an output under a file refused before any work."""
-    from aceval.safety import FileSet, UnsafeOutputError
+    from aceval.data.safety import FileSet, UnsafeOutputError
 
     finished = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
                               capture_output=True, text=True)  # fmt: skip
@@ -1184,7 +1184,7 @@ def test_an_output_set_is_written_together_or_not_at_all(tmp_path):
         assert not any(p.exists() for p in paths)
     assert all(p.read_text() == "done" for p in paths)
     assert sorted(p.name for p in tmp_path.rglob(".*")) == [f".copy.{dead}.x1y2"]
-    from aceval.safety import remove_leftovers
+    from aceval.data.safety import remove_leftovers
 
     remove_leftovers(tmp_path / "copy")
     assert not list(tmp_path.rglob(".*"))
@@ -1193,7 +1193,7 @@ def test_an_output_set_is_written_together_or_not_at_all(tmp_path):
         FileSet([tmp_path / "afile" / "out.csv"])
     # a second aceval writing the same output while the first works is refused
     holder = subprocess.Popen(
-        [sys.executable, "-c", "import sys, time; from aceval.safety import FileSet; "
+        [sys.executable, "-c", "import sys, time; from aceval.data.safety import FileSet; "
          f"FileSet([{str(paths[0])!r}]); print('held', flush=True); time.sleep(30)"],
         stdout=subprocess.PIPE, text=True,
     )  # fmt: skip

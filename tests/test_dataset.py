@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 
+from aceval.calibrate.pipeline import calibrate, summarise_recordings
 from aceval.cli import main
-from aceval.dataset import DatasetError, load_dataset, read_as_missing, validate
-from aceval.pipeline import calibrate, summarise_recordings
+from aceval.data.dataset import DatasetError, load_dataset, read_as_missing, validate
 
 from .minidataset import make_dataset, write_csv
 

@@ -6,9 +6,11 @@ import pandas as pd
 import pytest
 from scipy.spatial.transform import Rotation
 
-from aceval.calibration.ricci import first_phase_sign, functional_axis
-from aceval.dataset import load_dataset, validate
-from aceval.functional import (
+from aceval.calibrate.pipeline import calibrate, summarise_recordings
+from aceval.data.dataset import load_dataset, validate
+from aceval.data.rotations import error_angle_deg
+from aceval.evaluation.methods_comparison import with_truth
+from aceval.methods.functional import (
     AXIS_METHODS,
     MOMENT_COLUMNS,
     fit_axes,
@@ -18,8 +20,7 @@ from aceval.functional import (
     subset_axes,
     triad_pair,
 )
-from aceval.pipeline import calibrate, summarise_recordings
-from aceval.rotations import error_angle_deg
+from aceval.methods.ricci import first_phase_sign, functional_axis
 from aceval.simulate import SimOptions
 from aceval.simulate.ricci import simulate_ricci
 
@@ -120,6 +121,7 @@ def ricci_child(tmp_path_factory):
 def test_functional_design_signs_axes_and_recovers_the_mountings(ricci_child):
     dataset = load_dataset(ricci_child)
     calibrations, axes = calibrate(dataset, summarise_recordings(dataset))
+    calibrations = with_truth(calibrations, dataset.ground_truth)
     assert set(calibrations["method"]) == set(AXIS_METHODS)
     assert len(calibrations) == 5 * len(AXIS_METHODS)
     assert calibrations["error_deg"].max() < 3.0, calibrations[["imu", "method", "error_deg"]]
@@ -153,7 +155,7 @@ def test_batched_sagittal_fits_equal_the_single_calls():
     """The Obj 4 subsets' axis methods at once: the same rotations, diagnostics and flags as
     sagittal_fits one at a time, including the axes it must hand to the single call (within
     TRIAD's 5 deg of z0) and the flagged ones (low rho, near vertical, disagreeing repetitions)."""
-    from aceval.functional import sagittal_fits_batch
+    from aceval.methods.functional import sagittal_fits_batch
 
     rng = np.random.default_rng(11)
     z0 = np.array([0.1, -0.05, 1.0])

@@ -35,7 +35,7 @@ def test_every_function_file_and_test_in_the_paper_map_exists():
                 path, _, test = part.partition("::")
                 assert re.search(rf"^def {test}\(", (REPO / path).read_text(), re.M), part
                 checked += 1
-            elif part.startswith("reference/"):
+            elif part.startswith("report/reference/"):
                 assert (REPO / "src" / "aceval" / part).is_file(), part
                 checked += 1
     assert checked > 60

@@ -12,7 +12,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from aceval.cli import main
-from aceval.dataset import load_dataset, validate
+from aceval.data.dataset import load_dataset, validate
 from aceval.importers import FormatError
 from aceval.importers.common import straight_strides, walking_bouts
 from aceval.importers.hugadb import import_hugadb, read_hugadb

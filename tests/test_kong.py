@@ -6,15 +6,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from aceval.calibration import kong_calibrate, kong_from_scatters, scatter, vertical_axis
-from aceval.errors import (
+from aceval.data.errors import (
     NonFiniteError,
     NormalParallelToVerticalError,
     NotPlanarError,
     TooFewSamplesError,
     ZeroGravityError,
 )
-from aceval.rotations import error_angle_deg
+from aceval.data.rotations import error_angle_deg
+from aceval.methods import kong_calibrate, kong_from_scatters, scatter, vertical_axis
 
 from .synthetic import G, pitch_motion, right_axis_of
 

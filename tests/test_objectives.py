@@ -7,9 +7,11 @@ import pandas as pd
 import pytest
 from scipy.spatial.transform import Rotation
 
-from aceval import objectives
-from aceval.dataset import R_COLUMNS
-from aceval.pipeline import all_subsets, subset_label
+from aceval.calibrate import table as calibrations_table
+from aceval.calibrate.table import all_subsets, subset_label
+from aceval.data.dataset import R_COLUMNS
+from aceval.evaluation import objectives
+from aceval.signals import alignment
 
 
 def calibration_table(
@@ -80,18 +82,18 @@ def test_best_lag_recovers_a_known_shift(shift, rng):
     ) + rng.normal(0, 0.05, (n + 40, 3))
     a = truth[20 + shift : 20 + shift + n]  # a[t] = truth[t + 20 + shift]
     b = truth[20 : 20 + n] + rng.normal(0, 0.05, (n, 3))  # b[t] = truth[t + 20]
-    lag = objectives.best_lag(a, b, max_lag=25)
+    lag = alignment.best_lag(a, b, max_lag=25)
     assert lag == -shift  # a[t + lag] = truth[t + 20] = b[t]
-    part_a, part_b = objectives.aligned(len(a), len(b), lag)
+    part_a, part_b = alignment.aligned(len(a), len(b), lag)
     assert np.allclose(a[part_a], truth[20 : 20 + n][part_b])
-    assert objectives.best_lag(a, b, max_lag=0) == 0  # the window limits the search
+    assert alignment.best_lag(a, b, max_lag=0) == 0  # the window limits the search
 
 
 @pytest.mark.parametrize("mode", objectives.CORRELATION_MODES)
 def test_correlation_from_moments_equals_the_samples_for_any_calibration(mode, rng):
     """The one-pass moments of a recording pair give the correlation of the pair calibrated by
     any rotations: the same number as correlating the rotated samples, for every mode."""
-    from aceval.reduction import moments
+    from aceval.signals.reduction import moments
 
     t = np.linspace(0, 6, 600)
     a = np.column_stack([np.sin(2 * t), 0.3 * np.cos(3 * t), 0.1 * t]) + [0.5, 0.0, -9.81]
@@ -111,7 +113,7 @@ def test_correlation_from_moments_equals_the_samples_for_any_calibration(mode, r
 def test_correlation_from_moments_leaves_out_what_does_not_vary():
     """An axis constant in the calibrated signal has no correlation (per_axis leaves it out), and a
     pair without samples has none at all, as for the samples themselves."""
-    from aceval.reduction import moments
+    from aceval.signals.reduction import moments
 
     rng = np.random.default_rng(0)
     a = np.column_stack([rng.normal(size=50), rng.normal(size=50), np.full(50, 9.81)])
@@ -133,7 +135,7 @@ def test_best_lag_is_the_argmax_of_the_full_cross_correlation(rng):
     lags = np.arange(-(len(y) - 1), len(x))
     for window in (0, 5, 40, 400):
         inside = np.abs(lags) <= window
-        assert objectives.best_lag(a, b, window) == lags[inside][np.argmax(full[inside])]
+        assert alignment.best_lag(a, b, window) == lags[inside][np.argmax(full[inside])]
 
 
 def test_concatenated_correlation_counts_axis_levels_per_axis_does_not(rng):
@@ -185,8 +187,8 @@ def test_a_known_yaw_per_repetition_comes_back_as_the_angle():
     incremental = objectives.incremental_angles(table)
     # calibration_a is the bigger subset (R_e = R(A u {a}) R(A)^-1, Eq. 11), so the angle is a
     expected = [
-        sum(objectives.parse_subset(a.split(":")[1]))
-        - sum(objectives.parse_subset(b.split(":")[1]))
+        sum(calibrations_table.parse_subset(a.split(":")[1]))
+        - sum(calibrations_table.parse_subset(b.split(":")[1]))
         for a, b in zip(incremental["calibration_a"], incremental["calibration_b"])
     ]
     np.testing.assert_allclose(incremental["error_angle_deg"], expected, atol=1e-6)
@@ -212,7 +214,7 @@ def test_flagged_calibrations_are_left_out():
     table = calibration_table(lambda test, subset: base)
     table.loc[table["repetitions"] == "R1+R2+R3+R4+R5", "flag"] = "not_planar"
     assert objectives.to_last_angles(table).empty  # nothing to converge to
-    assert objectives.full_sets(table).empty
+    assert calibrations_table.full_sets(table).empty
     assert not (objectives.incremental_angles(table)["calibration_a"] == "T1:R1+R2+R3+R4+R5").any()
 
 
@@ -231,7 +233,9 @@ def test_frontal_lateral_plan_pairs_the_same_imu_across_sets_and_skips_single_se
         lambda test, subset: np.eye(3), sets=("frontal", "lateral"), imus=("IMU1", "IMU2")
     )
     table = table[~((table["sensor_set"] == "lateral") & (table["imu"] == "IMU2"))]
-    plan = objectives.frontal_lateral_plan(objectives.full_sets(table), ["frontal", "lateral"])
+    plan = objectives.frontal_lateral_plan(
+        calibrations_table.full_sets(table), ["frontal", "lateral"]
+    )
     assert list(plan["imu"]) == ["IMU1"]
 
 
@@ -241,7 +245,7 @@ def test_segment_pair_plan_needs_a_common_calibrating_test():
         segment="chest"
     )
     plan = objectives.segment_pair_plan(
-        objectives.full_sets(pd.concat([head, chest])),
+        calibrations_table.full_sets(pd.concat([head, chest])),
         {"head-chest": {"segments": ["head", "chest"], "t_ap": ["T1"]}},
     )
     assert list(plan["t_ex"]) == ["T2"]
@@ -257,14 +261,14 @@ def test_unflagged_reads_an_empty_flag_however_the_csv_reader_typed_the_column(t
     """A flag column with no flag at all is read back as numbers (NaN), one with flags as strings
     (an empty flag NaN); written by hand, an empty flag is ''. Each way, the rows without a flag
     are the unflagged ones."""
-    from aceval.results import read_tables
+    from aceval.report.results import read_tables
 
     (tmp_path / "a.csv").write_text("x,flag\n1,\n2,\n")
     (tmp_path / "b.csv").write_text("x,flag\n3,low_rho\n4,\n")
     no_flags = read_tables([tmp_path / "a.csv"])
     assert pd.api.types.is_numeric_dtype(no_flags["flag"])
-    assert objectives.unflagged(no_flags).tolist() == [True, True]
+    assert calibrations_table.unflagged(no_flags).tolist() == [True, True]
     joined = read_tables([tmp_path / "a.csv", tmp_path / "b.csv"])
-    assert objectives.unflagged(joined).tolist() == [True, True, False, True]
+    assert calibrations_table.unflagged(joined).tolist() == [True, True, False, True]
     by_hand = pd.DataFrame({"flag": ["", "no_overlap", np.nan]})
-    assert objectives.unflagged(by_hand).tolist() == [True, False, True]
+    assert calibrations_table.unflagged(by_hand).tolist() == [True, False, True]

@@ -1,11 +1,12 @@
-"""The one pass over the recordings (aceval.reduction) and the correlations from its moments."""
+"""The one pass over the recordings (aceval.signals.reduction) and the correlations from its moments."""
 
 import pandas as pd
 import pytest
 
-from aceval.dataset import load_dataset
-from aceval.pipeline import calibrate, correlations
-from aceval.reduction import reduce_recordings
+from aceval.calibrate.pipeline import calibrate
+from aceval.data.dataset import load_dataset
+from aceval.evaluation.correlations import correlations
+from aceval.signals.reduction import reduce_recordings
 from aceval.simulate import SimOptions, simulate_box
 
 

@@ -7,7 +7,8 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-from aceval import methods_comparison, outputs, ricci2014, summary
+from aceval.evaluation import methods_comparison
+from aceval.report import outputs, ricci2014, summary
 
 
 def axes_table(rho: dict) -> pd.DataFrame:
@@ -336,7 +337,7 @@ def test_conditioning_keeps_flagged_full_sets_and_says_when_the_heading_is_undet
 def test_truth_errors_measure_against_both_truths_and_carry_the_truths_flag():
     from scipy.spatial.transform import Rotation
 
-    from aceval.dataset import R_COLUMNS
+    from aceval.data.dataset import R_COLUMNS
 
     estimate = Rotation.from_euler("z", 10, degrees=True).as_matrix().ravel()
     marker_frame = Rotation.from_euler("z", 25, degrees=True).as_matrix().ravel()
@@ -371,7 +372,7 @@ def test_truth_errors_measure_against_both_truths_and_carry_the_truths_flag():
 def test_loose_reference_angles_between_right_axes_and_verticals():
     from scipy.spatial.transform import Rotation
 
-    from aceval.dataset import R_COLUMNS
+    from aceval.data.dataset import R_COLUMNS
 
     key = {"subject": "S1", "sensor_set": "main", "imu": "thigh_r"}
     # Kong's R maps sensor to body: turned 30 deg about the vertical from the identity
@@ -397,7 +398,7 @@ def _subset_calibrations(rng, subjects=("S1", "S2", "S10"), methods=("kong", "tr
     rotations within about 10 deg of the truth (identity), some flagged, errors from them."""
     from scipy.spatial.transform import Rotation
 
-    from aceval.pipeline import all_subsets, subset_label
+    from aceval.calibrate.table import all_subsets, subset_label
 
     rows = []
     for subject, sensor_set, imu, test, method in itertools.product(
@@ -424,7 +425,8 @@ def test_per_subject_angles_and_retest_units_give_the_tables_of_all_subjects_at_
     calibration at once (subject S10 sorts before S2), and the methods tables equal to the last
     bits (pandas' grouped mean of one unit can move by 1e-15 with the other units in the frame;
     the committed results are byte-identical)."""
-    from aceval.objectives import all_angles, full_set_rows, in_angle_order
+    from aceval.calibrate.table import full_set_rows
+    from aceval.evaluation.objectives import all_angles, in_angle_order
 
     calibrations = _subset_calibrations(rng)
     aceval_rows = calibrations[calibrations["method"] != "qmt_hinge"]

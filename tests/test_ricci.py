@@ -2,9 +2,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from aceval.calibration import functional_axis, lm_fit, triad, wahba_fit
-from aceval.calibration.ricci import _residual_jacobian, quaternion_matrix
-from aceval.errors import AlignedAxesError, NonFiniteError, TooFewAxesError, TooFewSamplesError
+from aceval.data.errors import AlignedAxesError, NonFiniteError, TooFewAxesError, TooFewSamplesError
+from aceval.methods import functional_axis, lm_fit, triad, wahba_fit
+from aceval.methods.ricci import _residual_jacobian, quaternion_matrix
 
 
 def angle_between(r1: Rotation, r2: Rotation) -> float:
@@ -204,7 +204,7 @@ def test_adaptive_damping_follows_hartley_zisserman_worked_by_hand():
 def test_batched_lm_takes_the_single_fits_steps():
     """lm_fit_batch (the Obj 4 subsets of one IMU at once) = lm_fit of each problem: the same
     accepted and rejected steps, the same rotation to rounding."""
-    from aceval.calibration.ricci import lm_fit_batch
+    from aceval.methods.ricci import lm_fit_batch
 
     rng = np.random.default_rng(3)
     v_ref = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])

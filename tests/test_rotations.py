@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from aceval.rotations import axis_vector, error_angle_deg, random_rotations, vertical_share
+from aceval.data.rotations import axis_vector, error_angle_deg, random_rotations, vertical_share
 
 
 def test_error_angle_of_known_rotation():

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from aceval.errors import NoMovementError, NonFiniteError
-from aceval.segmentation import TrimParams, movement_mask, movement_ranges
+from aceval.data.errors import NoMovementError, NonFiniteError
+from aceval.signals.segmentation import TrimParams, movement_mask, movement_ranges
 
 FS = 100.0
 

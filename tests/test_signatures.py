@@ -1,9 +1,9 @@
-"""The place checks (aceval.signatures) on signals whose answer is known."""
+"""The place checks (aceval.signals.signatures) on signals whose answer is known."""
 
 import numpy as np
 import pandas as pd
 
-from aceval.signatures import (
+from aceval.signals.signatures import (
     MIN_TIMING_R,
     motion_signatures,
     sagittal_rate,
@@ -71,7 +71,7 @@ def test_verdicts_flag_a_sensor_moving_in_a_test_that_does_not_calibrate_it():
 
 
 def test_flags_are_combined_never_overwritten():
-    from aceval.pipeline import combine_flags, has_flag
+    from aceval.calibrate.table import combine_flags, has_flag
 
     assert combine_flags("", "backward", "backward;right_axis_mismatch", None) == (
         "backward;right_axis_mismatch"

@@ -4,9 +4,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from aceval.calibrate.pipeline import calibrate, summarise_recordings
 from aceval.cli import main
-from aceval.dataset import load_dataset, validate
-from aceval.pipeline import calibrate, summarise_recordings
+from aceval.data.dataset import load_dataset, validate
+from aceval.evaluation.methods_comparison import with_truth
 from aceval.simulate import SimOptions, simulate_box, simulate_kong, simulate_ricci
 from aceval.simulate.body import Anthropometry, kong_placements
 from aceval.simulate.engine import GRAVITY, OVERSAMPLE, PAD, euler_pitch_roll_yaw, measure
@@ -134,6 +135,7 @@ def kong_physiological(tmp_path_factory):
 def calibration_errors(root):
     dataset = load_dataset(root, check_files=True)
     calibrations, _ = calibrate(dataset, summarise_recordings(dataset), subsets="full")
+    calibrations = with_truth(calibrations, dataset.ground_truth)
     return calibrations.query("method == 'kong'")["error_deg"].to_numpy()
 
 
@@ -205,7 +207,7 @@ def test_ricci_dataset_protocol(tmp_path):
     # supine: the specific force in each segment frame is the axis functional_axes.tsv declares
     import pandas as pd
 
-    from aceval.rotations import axis_vector
+    from aceval.data.rotations import axis_vector
 
     declared = (
         pd.read_csv(root / "functional_axes.tsv", sep="\t")

@@ -4,13 +4,13 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from aceval.calibration.step_harmonic import (
+from aceval.data.rotations import error_angle_deg
+from aceval.methods.step_harmonic import (
     MAX_STEP_RATIO,
     step_frequency,
     step_harmonic_rotation,
     step_scatter,
 )
-from aceval.rotations import error_angle_deg
 
 FS = 100.0
 STEP_HZ = 1.8

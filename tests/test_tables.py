@@ -4,8 +4,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from aceval import kong2016, summary
-from aceval.stats import holm, paired_by_set, paired_ttest
+from aceval.evaluation.stats import holm, paired_by_set, paired_ttest
+from aceval.report import kong2016, summary
+from aceval.report.outputs import find
 
 
 def test_paired_ttest_matches_a_hand_computation():
@@ -84,7 +85,7 @@ def test_table9_mean_sd_n_published_value_and_flag():
     assert head["difference"] == pytest.approx(head["mean"] - 0.345, abs=1e-4)
     # rows of the paper this dataset has no data for are kept, with n = 0
     assert (table[table["t_ex"] == "T6"]["n"] == 0).all()
-    markdown = kong2016.to_markdown(table, 9, "demo", simulated=True)
+    markdown = kong2016.to_markdown(table, find("table", "9"), "demo", simulated=True)
     assert (
         "SIMULATED" in markdown
         and "1.250 ± 1.037 †" in markdown
@@ -100,7 +101,9 @@ def test_table8_names_the_set_with_the_smaller_angle():
     head = table[(table["segment"] == "head") & (table["test"] == "paper")].iloc[0]
     assert head["better"] == "lateral" and head["published_better"] == "frontal"
     assert head["n"] == 3 and head["p_holm"] == pytest.approx(head["p"])  # one testable row
-    assert "paper frontal" in kong2016.to_markdown(table, 8, "demo", simulated=False)
+    assert "paper frontal" in kong2016.to_markdown(
+        table, find("table", "8"), "demo", simulated=False
+    )
 
 
 def test_independent_units_and_mixed_model_on_a_known_table():
@@ -141,7 +144,7 @@ def test_independent_units_and_mixed_model_on_a_known_table():
     )
     assert mixed["n"] == 200 and mixed["n_groups"] == 5
     markdown = kong2016.to_markdown(
-        kong2016.build(8, None, angles, ["frontal", "lateral"]), 8, "demo", False
+        kong2016.build(8, None, angles, ["frontal", "lateral"]), find("table", "8"), "demo", False
     )
     assert "independent units" in markdown and "random intercept per subject" in markdown
 
@@ -210,12 +213,12 @@ def test_claims_with_known_tables():
 
 
 def test_one_sensor_set_gives_untestable_ttests_and_an_explicit_figure(tmp_path):
-    from aceval import figures
+    from aceval.report import figures
 
     angles = angle_rows({"main": [1.0, 2.0, 3.0]}, comparison="incremental")
     table = kong2016.build(8, None, angles, ["main"])
     assert (table["n"] == 0).all() and table["p"].isna().all()
-    from aceval.pipeline import CORRELATION_COLUMNS
+    from aceval.evaluation.correlations import CORRELATION_COLUMNS
 
     empty = pd.DataFrame(columns=CORRELATION_COLUMNS)
     figures.plot(6, empty, None, tmp_path / "figure6.png", "demo")

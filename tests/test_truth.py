@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from aceval.data.rotations import error_angle_deg
+from aceval.data.truth import acceleration_truth, pair_consistency_deg, twist_about_axis
 from aceval.importers.vicon import ground_truth
-from aceval.rotations import error_angle_deg
 from aceval.simulate.engine import OVERSAMPLE, PAD, measure
-from aceval.truth import acceleration_truth, pair_consistency_deg, twist_about_axis
 
 FS = 100.0
 #: z up (Vicon) -> z down (the simulator's physics): a half turn about x

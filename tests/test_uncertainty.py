@@ -5,17 +5,17 @@ import pandas as pd
 import pytest
 from scipy.spatial.transform import Rotation
 
-from aceval import summary
-from aceval.calibration.combined import (
+from aceval.data.rotations import error_angle_deg
+from aceval.evaluation.methods_comparison import uncertainty_table
+from aceval.methods.combined import (
     combined_rotation,
     gyro_weight,
     horizontal_right,
     kong_weight,
 )
-from aceval.calibration.kong import kong_from_scatters
-from aceval.methods_comparison import uncertainty_table
-from aceval.rotations import error_angle_deg
-from aceval.uncertainty import bootstrap_cone, cone, resample_weights
+from aceval.methods.kong import kong_from_scatters
+from aceval.methods.uncertainty import bootstrap_cone, cone, resample_weights
+from aceval.report import summary
 
 R_TRUE = Rotation.from_euler("zyx", [40, -25, 70], degrees=True).as_matrix()  # sensor -> body
 
@@ -197,17 +197,26 @@ def test_recommendation_uses_the_truth_where_there_is_one_and_test_retest_otherw
 
 
 def test_an_undetermined_calibration_has_no_error_to_the_truth_rather_than_a_crash():
-    from aceval.pipeline import _truth_columns
+    from aceval.data.dataset import R_COLUMNS
+    from aceval.evaluation.methods_comparison import with_truth
 
     both_flagged = combined_rotation(
         _in_sensor([0, 0, 1]), _body_heading(3.0), _body_heading(-3.0), 0.0, 0.0
     )
-    errors = _truth_columns(R_TRUE, both_flagged)
-    assert np.isnan(errors["error_deg"]) and np.isnan(errors["error_vertical_share"])
+    key = {"subject": "S1", "sensor_set": "s", "imu": "IMU1"}
+    rows = pd.DataFrame(
+        [key | dict(zip(R_COLUMNS, R.ravel())) for R in (both_flagged, R_TRUE)]
+    ).assign(error_deg=np.nan, error_vertical_share=np.nan)
+    truth = pd.DataFrame([key | dict(zip(R_COLUMNS, R_TRUE.ravel()))]).set_index(
+        ["subject", "sensor_set", "imu"]
+    )
+    errors = with_truth(rows, truth)
+    assert np.isnan(errors["error_deg"][0]) and np.isnan(errors["error_vertical_share"][0])
+    assert errors["error_deg"][1] == pytest.approx(0.0, abs=1e-6)
 
 
 def test_the_axis_methods_cones_follow_the_spread_of_the_repetitions_gyroscope_axes():
-    from aceval.functional import sagittal_fits, subset_axes
+    from aceval.methods.functional import sagittal_fits, subset_axes
 
     z0, right = _in_sensor([0, 0, 1]), _in_sensor([0, 1, 0])
     scatters, counts = _scatters([0, 0, 0, 0, 0])
@@ -234,9 +243,9 @@ def test_the_axis_methods_cones_follow_the_spread_of_the_repetitions_gyroscope_a
 
 
 def test_the_batched_wahba_and_triad_equal_the_single_calls():
-    from aceval.calibration.ricci import wahba_batch, wahba_fit
-    from aceval.calibration.triad import triad, triad_batch
-    from aceval.functional import triad_pair
+    from aceval.methods.functional import triad_pair
+    from aceval.methods.ricci import wahba_batch, wahba_fit
+    from aceval.methods.triad import triad, triad_batch
 
     rng = np.random.default_rng(7)
     z0 = _in_sensor([0, 0, 1])

@@ -21,10 +21,10 @@ import numpy as np
 import pandas as pd
 from scipy.spatial.transform import Rotation
 
-from .dataset import QUAT_COLUMNS, R_COLUMNS, Dataset, ValidationReport, read_checked
-from .objectives import unflagged
-from .safety import contained
-from .writer import write_sheet
+from aceval.calibrate.table import unflagged
+from aceval.data.dataset import QUAT_COLUMNS, R_COLUMNS, Dataset, ValidationReport, read_checked
+from aceval.data.safety import contained
+from aceval.data.writer import write_sheet
 
 KEY = ["subject", "sensor_set", "imu"]
 #: the calibrations column that names the recordings a calibration was made from
@@ -59,7 +59,7 @@ def read_calibrations(path: str | Path) -> pd.DataFrame:
     """The CSV of `aceval calibrate` at ``path``; ApplyError naming the file and the cause when it
     is missing, unreadable, binary or not such a file.
     """
-    from .results import read_tables
+    from aceval.report.results import read_tables
 
     try:
         calibrations = read_tables([path])

@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from .safety import FileSet, UnsafeOutputError
+from aceval.data.safety import FileSet, UnsafeOutputError
 
 if (
     TYPE_CHECKING
@@ -18,10 +18,10 @@ if (
 
 
 def _staged(out: Path, force: bool, command: str, write) -> int:
-    """Write a folder output through :func:`aceval.safety.staged_folder` (nothing is left behind
+    """Write a folder output through :func:`aceval.data.safety.staged_folder` (nothing is left behind
     on failure; ``--force`` replaces only a folder aceval wrote).
     """
-    from .safety import UnsafeOutputError, fail, staged_folder
+    from aceval.data.safety import UnsafeOutputError, fail, staged_folder
 
     try:
         staged_folder(out, force, write)
@@ -32,7 +32,7 @@ def _staged(out: Path, force: bool, command: str, write) -> int:
 
 
 def _simulate(args) -> int:
-    from .simulate import GENERATORS, SimOptions
+    from aceval.simulate import GENERATORS, SimOptions
 
     options = SimOptions(
         noise=not args.no_noise,
@@ -53,8 +53,8 @@ def _simulate(args) -> int:
 
 
 def _import(args) -> int:
-    from .importers import FormatError
-    from .importers.run import run_import
+    from aceval.importers import FormatError
+    from aceval.importers.run import run_import
 
     try:
         return _staged(
@@ -74,7 +74,7 @@ def _import(args) -> int:
 
 
 def _validate(args) -> int:
-    from .dataset import validate
+    from aceval.data.dataset import validate
 
     _, report = validate(args.dataset, check_files="headers" if args.sheets_only else "all")
     print(report.format(), file=sys.stdout if report.ok else sys.stderr)
@@ -89,7 +89,7 @@ def _validate(args) -> int:
 
 
 def _atomic(path: str | Path, write) -> None:
-    from .safety import atomic_file
+    from aceval.data.safety import atomic_file
 
     atomic_file(path, write)
 
@@ -103,7 +103,7 @@ def _write_text(path, text: str) -> None:
 
 
 def _read_csvs(paths) -> pd.DataFrame:
-    from .results import read_tables
+    from aceval.report.results import read_tables
 
     return read_tables(paths)
 
@@ -133,7 +133,7 @@ def _progress(done: int, total: int, what: str) -> None:
 
 
 def _calibrate(args) -> int:
-    from .dataset import DatasetError, load_dataset
+    from aceval.data.dataset import DatasetError, load_dataset
 
     try:  # the sheets here; each recording file is checked in the pass that reads it
         dataset = load_dataset(args.dataset)
@@ -168,16 +168,18 @@ def _calibrate(args) -> int:
 
 def _calibrate_into(args, dataset, files) -> int:
     """The work of `aceval calibrate` once its inputs and outputs are checked: its outputs are
-    written into ``files`` (a :class:`aceval.safety.FileSet`).
+    written into ``files`` (a :class:`aceval.data.safety.FileSet`).
     """
     import json
 
     import pandas as pd
 
-    from .dataset import ValidationReport
-    from .pipeline import AXES_COLUMNS, CALIBRATION_COLUMNS, calibrate, correlations
-    from .reduction import reduce_recordings
-    from .summary import calibration_screen
+    from aceval.calibrate.pipeline import AXES_COLUMNS, calibrate
+    from aceval.calibrate.table import CALIBRATION_COLUMNS
+    from aceval.data.dataset import ValidationReport
+    from aceval.evaluation.correlations import correlations
+    from aceval.report.summary import calibration_screen
+    from aceval.signals.reduction import reduce_recordings
 
     trim = _trim(args)
     segment_pairs = json.loads(args.pairs)
@@ -209,7 +211,10 @@ def _calibrate_into(args, dataset, files) -> int:
         else (pd.DataFrame(columns=CALIBRATION_COLUMNS), pd.DataFrame(columns=AXES_COLUMNS))
     )
     if len(calibrations):
-        from .apply import FINGERPRINT, recordings_fingerprint
+        from aceval.apply import FINGERPRINT, recordings_fingerprint
+        from aceval.evaluation.methods_comparison import with_truth
+
+        calibrations = with_truth(calibrations, dataset.ground_truth)
 
         calibrations = calibrations[calibrations["method"].isin(METHODS[args.method])].reset_index(
             drop=True
@@ -252,7 +257,7 @@ def _say_findings(report, dataset, summaries) -> None:
         print(f"aceval calibrate: {len(report.warnings)} file warning(s):", file=sys.stderr)
         print("\n".join(map(str, report.warnings)), file=sys.stderr)
     if len(summaries):
-        from .pipeline import imu_checks
+        from aceval.calibrate.pipeline import imu_checks
 
         for verdict in imu_checks(dataset, summaries).values():
             if verdict["message"]:
@@ -275,7 +280,7 @@ def _write_calibrate_outputs(args, files, tables: dict, report, dataset) -> None
     if args.angles_out or args.retest_out:
         _write_angles(args, files)
     if args.plan_out:
-        from .pipeline import calibration_plan
+        from aceval.calibrate.pipeline import calibration_plan
 
         plan = json.dumps(
             calibration_plan(dataset, tables["recordings_out"], args.retest_k), indent=1
@@ -289,9 +294,9 @@ def _write_angles(args, files) -> None:
     results jobs computed from before): the only tables that need the calibrations from subsets
     of repetitions, so the results jobs read only those from all repetitions.
     """
-    from .methods_comparison import retest_units
-    from .objectives import all_angles
-    from .results import read_tables
+    from aceval.evaluation.methods_comparison import retest_units
+    from aceval.evaluation.objectives import all_angles
+    from aceval.report.results import read_tables
 
     calibrations = read_tables([files.staged[Path(args.out)]])
     if args.angles_out:
@@ -354,7 +359,7 @@ def _add_trim_options(command) -> None:
 def _trim(args):
     import numpy as np
 
-    from .segmentation import TrimParams
+    from aceval.signals.segmentation import TrimParams
 
     return TrimParams(
         threshold=args.trim_threshold,
@@ -365,15 +370,15 @@ def _trim(args):
 
 
 def _apply(args) -> int:
-    from .apply import (
+    from aceval.apply import (
         ApplyError,
         apply_calibrations,
         check_rotations,
         chosen_calibrations,
         read_calibrations,
     )
-    from .dataset import DatasetError, load_dataset
-    from .safety import check_writable
+    from aceval.data.dataset import DatasetError, load_dataset
+    from aceval.data.safety import check_writable
 
     try:
         check_writable([Path(args.out).parent])  # before any work
@@ -417,7 +422,7 @@ def _apply(args) -> int:
 
 
 def _angles(args) -> int:
-    from .objectives import all_angles
+    from aceval.evaluation.objectives import all_angles
 
     _write_csv(args.out, all_angles(_read_csvs(args.calibrations), args.test_retest_k))
     return 0
@@ -427,8 +432,8 @@ def _single_output(args, kind: str) -> int:
     """``aceval table|figure NAME``: one output of the registry, from the given tidy tables."""
     import json
 
-    from .outputs import find
-    from .results import build_data, read_tables, write_figure, write_table
+    from aceval.report.outputs import find
+    from aceval.report.results import build_data, read_tables, write_figure, write_table
 
     try:
         output = find(kind, args.name)
@@ -470,9 +475,10 @@ def _outputs(args) -> int:
     """``aceval outputs``: a dataset's whole results folder (the workflow's job per dataset)."""
     import json
 
-    from .dataset import Finding, ValidationReport
-    from .objectives import full_set_rows, in_angle_order
-    from .results import build_data, dataset_meta, read_tables
+    from aceval.calibrate.table import full_set_rows
+    from aceval.data.dataset import Finding, ValidationReport
+    from aceval.evaluation.objectives import in_angle_order
+    from aceval.report.results import build_data, dataset_meta, read_tables
 
     try:  # the results folder writable before the work; its files put in place together
         files = FileSet([], folders=[args.results])
@@ -507,7 +513,7 @@ def _outputs(args) -> int:
 
 
 def _write_results(args, data, validation, files) -> None:
-    from .results import write_results
+    from aceval.report.results import write_results
 
     write_results(
         Path(args.results),
@@ -706,12 +712,16 @@ def main(argv: list[str] | None = None) -> int:
     angles.set_defaults(run=_angles)
 
     for name, helper in (
-        ("table", "one table, CSV and Markdown, the published values beside (aceval.outputs)"),
-        ("figure", "one figure as PNG (aceval.outputs)"),
+        (
+            "table",
+            "one table, CSV and Markdown, the published values beside (aceval.report.outputs)",
+        ),
+        ("figure", "one figure as PNG (aceval.report.outputs)"),
     ):
         command = commands.add_parser(name, help=helper)
         command.add_argument(
-            "name", help=f"the {name}'s name in aceval.outputs (Kong's also by number: 3 = {name}3)"
+            "name",
+            help=f"the {name}'s name in aceval.report.outputs (Kong's also by number: 3 = {name}3)",
         )
         command.add_argument(
             "--dataset", required=True, help="dataset folder (for its name and sensor sets)"
@@ -773,7 +783,7 @@ def main(argv: list[str] | None = None) -> int:
     outputs.set_defaults(run=_outputs)
 
     args = parser.parse_args(argv)
-    from .safety import UnsafeOutputError, check_outputs, exit_cleanly_on_sigterm, fail
+    from aceval.data.safety import UnsafeOutputError, check_outputs, exit_cleanly_on_sigterm, fail
 
     if argv is None:  # a command-line run (not a call from Python): SIGTERM cleans up
         exit_cleanly_on_sigterm()

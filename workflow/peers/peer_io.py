@@ -52,7 +52,7 @@ def frame_from_axes(down: np.ndarray, right: np.ndarray, right_axis: np.ndarray)
     """R (sensor -> Kong's body frame: x forward, y right, z down) from the sensor-frame downward
     vertical and a medial-lateral axis, the latter made orthogonal to the vertical (Kong Eq. 4-5:
     x = y x z, then y = z x x) and then signed to point along the declared right axis (after the
-    projection, as :func:`aceval.calibration.kong.kong_from_scatters` does: for an axis near the
+    projection, as :func:`aceval.methods.kong.kong_from_scatters` does: for an axis near the
     vertical the raw vector and its horizontal part can point to opposite sides).
     """
     z = np.asarray(down, float) / np.linalg.norm(down)

@@ -6,9 +6,9 @@ import hashlib
 import json
 import os
 
-from aceval.outputs import outputs_of
+from aceval.report.outputs import outputs_of
 from snakemake.logging import logger
-from aceval.safety import path_problem
+from aceval.data.safety import path_problem
 
 #: the datasets this run covers: ``run`` names them (default: every dataset of the config)
 DATASETS = {name: config["datasets"][name] for name in config.get("run", config["datasets"])}
@@ -115,9 +115,9 @@ def dataset_dir(dataset):
 
 @functools.cache
 def _sheet(path, size, mtime_ns):
-    """A tab-separated sheet's rows as dicts of stripped strings, read as aceval.dataset reads its
+    """A tab-separated sheet's rows as dicts of stripped strings, read as aceval.data.dataset reads its
     sheets: names and header stripped, no missing-value parsing (the validation rejects names such
-    as 'NA'; they never reach a job's wildcards as 'nan'). Not aceval.dataset's reader itself:
+    as 'NA'; they never reach a job's wildcards as 'nan'). Not aceval.data.dataset's reader itself:
     importing it (SciPy, pandas) would cost every Snakemake start about 0.6 s. Cached per size and
     modification time: subjects.tsv is asked for once per job, a sheet a job rewrites is read again.
     """
@@ -317,7 +317,7 @@ def peers_note(dataset):
 
 
 def dataset_outputs(dataset):
-    """The registry's outputs (aceval.outputs) of this dataset's analyses."""
+    """The registry's outputs (aceval.report.outputs) of this dataset's analyses."""
     return outputs_of(analyses(dataset))
 
 

@@ -1,5 +1,5 @@
 # Stage 3: per dataset, two jobs write its results folder (`aceval outputs`), each in one process:
-# the tables (Kong's Obj 3-5 angles, every table of its analyses as the registry aceval.outputs
+# the tables (Kong's Obj 3-5 angles, every table of its analyses as the registry aceval.report.outputs
 # declares them, SUMMARY.md with each claim of Kong et al. 2016 and Ricci et al. 2014: holds / does
 # not hold / not testable, and validation.txt with the sheets' and every file's findings) and the
 # figures, side by side. Not one process per output: start-up (pandas, SciPy, statsmodels, seaborn)

@@ -37,7 +37,7 @@ class ImportReport:
 
     def write(self, path: Path) -> None:
         """Write the rows as ``import_report.tsv``."""
-        from ..writer import write_sheet
+        from aceval.data.writer import write_sheet
 
         columns = ["source", "subject", "imu", "status", "cause"]
         write_sheet(path, columns, [[row[c] for c in columns] for row in self.rows])

@@ -30,9 +30,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..segmentation import movement_mask
-from ..writer import DatasetWriter, write_sheet
-from .common import (
+from aceval.data.writer import DatasetWriter, write_sheet
+from aceval.importers.common import (
     FormatError,
     ImportReport,
     straight_strides,
@@ -40,6 +39,7 @@ from .common import (
     stride_spans,
     walking_bouts,
 )
+from aceval.signals.segmentation import movement_mask
 
 SHEET_COLUMNS = ["name", "prefix", "imu", "segment", "side", "region", "right_axis"]
 IMU_RATE_HZ = 204.8
@@ -78,8 +78,8 @@ def import_gaitmap(
     """Convert the example (``src``: its folder) into a dataset at ``out``; returns the report and
     the truth table (:func:`aceval.importers.vicon.truth_rows`), which the caller writes.
     """
-    from ..truth import lowpass
-    from .vicon import body_axes, truth_rows
+    from aceval.data.truth import lowpass
+    from aceval.importers.vicon import body_axes, truth_rows
 
     src = Path(src)
     imu = read_two_header_csv(src / "imu_sample_not_rotated.csv")

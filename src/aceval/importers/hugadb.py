@@ -42,9 +42,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..dataset import GRAVITY
-from ..writer import DatasetWriter, write_sheet
-from .common import FormatError, ImportReport, stride_peaks, stride_spans, walking_bouts
+from aceval.data.dataset import GRAVITY
+from aceval.data.writer import DatasetWriter, write_sheet
+from aceval.importers.common import (
+    FormatError,
+    ImportReport,
+    stride_peaks,
+    stride_spans,
+    walking_bouts,
+)
 
 ACC_COUNTS_PER_G = 16384.0
 GYR_COUNTS_PER_DPS = 16.4

@@ -45,8 +45,8 @@ import pandas as pd
 from scipy.ndimage import uniform_filter1d
 from scipy.spatial.transform import Rotation
 
-from ..writer import DatasetWriter, write_sheet
-from .common import (
+from aceval.data.writer import DatasetWriter, write_sheet
+from aceval.importers.common import (
     FormatError,
     ImportReport,
     straight_strides,

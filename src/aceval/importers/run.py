@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from ..writer import write_sheet
-from .common import FormatError, ImportReport
+from aceval.data.writer import write_sheet
+from aceval.importers.common import FormatError, ImportReport
 
 
 def run_import(
@@ -40,11 +40,11 @@ def _convert(
     if not Path(src).exists():
         raise FormatError(f"{src} does not exist")
     if format == "hugadb":
-        from .hugadb import import_hugadb
+        from aceval.importers.hugadb import import_hugadb
 
         return import_hugadb(src, out)
     if format == "qmt":
-        from .qmt import import_qmt
+        from aceval.importers.qmt import import_qmt
 
         if not sensors:
             raise FormatError(
@@ -52,19 +52,19 @@ def _convert(
             )
         return import_qmt(src, out, sensors, subject, name or "qmt")
     if format == "gaitmap":
-        from .gaitmap import import_gaitmap
+        from aceval.importers.gaitmap import import_gaitmap
 
         if not sensors:
             raise FormatError("gaitmap needs --sensors (config/real/gaitmap_feet_sensors.tsv)")
         report, truth = import_gaitmap(src, out, sensors, subject, name or "gaitmap")
         return _with_truth(out, report, truth, "mocap_sample.csv", subject)
-    from .xsens import import_xsens
+    from aceval.importers.xsens import import_xsens
 
     if not sensors:
         raise FormatError("xsens needs --sensors, a sheet mapping sensor IDs to IMUs and segments")
     report, imports = import_xsens(src, out, sensors, subject, name or "xsens")
     if vicon:
-        from .vicon import ground_truth_table, read_markers
+        from aceval.importers.vicon import ground_truth_table, read_markers
 
         imus = pd.read_csv(out / "imus.tsv", sep="\t", dtype=str)
         table = ground_truth_table(read_markers(vicon), imports, imus, subject)
@@ -76,7 +76,7 @@ def _with_truth(
     out: Path, report: ImportReport, table: pd.DataFrame, source: str, subject: str
 ) -> ImportReport:
     """Write ground_truth.tsv (R) and ground_truth_method.tsv (how it was made, its uncertainty)."""
-    from ..dataset import R_COLUMNS
+    from aceval.data.dataset import R_COLUMNS
 
     columns = ["subject", "sensor_set", "imu", *R_COLUMNS]
     write_sheet(

@@ -1,7 +1,7 @@
 """Ground truth from optical markers: each sensor's rotation to Kong's body frame, by two methods.
 
 :func:`truth_rows` gives both for every sensor (documented in config/README.md "Real datasets"):
-the optical point acceleration method (:func:`aceval.truth.acceleration_truth`: the truth), and
+the optical point acceleration method (:func:`aceval.data.truth.acceleration_truth`: the truth), and
 the marker-frame method of this module (:func:`ground_truth`, the second estimate):
 
 1. Segment frames from markers (low-passed at 6 Hz, zero phase): three points rigid with each
@@ -36,7 +36,7 @@ import numpy as np
 import pandas as pd
 from scipy.spatial.transform import Rotation
 
-from .common import FormatError
+from aceval.importers.common import FormatError
 
 #: three markers or joint centres rigid with each segment: origin, along, in-plane (the thigh and
 #: tibia wand markers, well off the long axis; the foot has only heel and toe markers, so its
@@ -198,7 +198,7 @@ def forward_check(markers: dict, walk: tuple[int, int]) -> np.ndarray:
 
 
 #: a point rigid with each segment whose optical acceleration the sensor's is matched to
-#: (:func:`aceval.truth.acceleration_truth`): the pelvis centre, the joint centre at the distal
+#: (:func:`aceval.data.truth.acceleration_truth`): the pelvis centre, the joint centre at the distal
 #: end of the thigh and shank (on the long axis, so a twist about it does not move the point), the
 #: heel marker of the foot
 SEGMENT_POINTS = {
@@ -270,7 +270,7 @@ def truth_rows(
     ``sensors``: ``{(sensor_set, imu): {segment, side, gyr, acc, frame, point, sensor_id}}`` with
     ``frame`` the three marker names of the segment frame and ``point`` the world trajectory of a
     point rigid with the segment. The true R (r11..r33) is the optical point acceleration method
-    (:func:`aceval.truth.acceleration_truth`, from the end of quiet standing to the end of the first
+    (:func:`aceval.data.truth.acceleration_truth`, from the end of quiet standing to the end of the first
     straight stretch), beside the marker-frame method (:func:`ground_truth`, ``marker_frame_*``);
     ``methods_differ_deg``; ``flag`` names what exceeds :data:`MAX_METHOD_DIFFERENCE_DEG` (the
     truths' difference, the truth's split-half), joined by ';'; the marker frame's
@@ -278,8 +278,8 @@ def truth_rows(
     since standing); the lever arm from the point to the sensor; for two sensors on one segment,
     their gyroscopes' relative rotation against their truths' (``pair_consistency_deg``).
     """
-    from ..rotations import error_angle_deg
-    from ..truth import acceleration_truth, pair_consistency_deg, twist_about_axis
+    from aceval.data.rotations import error_angle_deg
+    from aceval.data.truth import acceleration_truth, pair_consistency_deg, twist_about_axis
 
     standing = spans["T0"][0]
     walk = (spans["T6"][0][0], spans["T6"][-1][1])

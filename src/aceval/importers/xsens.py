@@ -32,9 +32,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..segmentation import movement_mask
-from ..writer import DatasetWriter, write_sheet
-from .common import (
+from aceval.data.writer import DatasetWriter, write_sheet
+from aceval.importers.common import (
     FormatError,
     ImportReport,
     straight_strides,
@@ -42,6 +41,7 @@ from .common import (
     stride_spans,
     walking_bouts,
 )
+from aceval.signals.segmentation import movement_mask
 
 REQUIRED = ["PacketCounter", "Acc_X", "Acc_Y", "Acc_Z", "Gyr_X", "Gyr_Y", "Gyr_Z"]
 QUATERNION = ["Quat_q0", "Quat_q1", "Quat_q2", "Quat_q3"]

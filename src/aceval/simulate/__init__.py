@@ -5,10 +5,10 @@ docs/simulation.md. They come from physiology and sensor datasheets and are neve
 reproduced table match a published one.
 """
 
-from .box import simulate_box
-from .common import SimOptions
-from .kong import simulate_kong
-from .ricci import simulate_ricci
+from aceval.simulate.box import simulate_box
+from aceval.simulate.common import SimOptions
+from aceval.simulate.kong import simulate_kong
+from aceval.simulate.ricci import simulate_ricci
 
 GENERATORS = {"kong": simulate_kong, "ricci": simulate_ricci, "box": simulate_box}
 

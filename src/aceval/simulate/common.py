@@ -6,7 +6,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .engine import OVERSAMPLE, PAD, ImuErrorModel, band_noise, measure, small_rotations
+from aceval.simulate.engine import (
+    OVERSAMPLE,
+    PAD,
+    ImuErrorModel,
+    band_noise,
+    measure,
+    small_rotations,
+)
 
 
 @dataclass(frozen=True)

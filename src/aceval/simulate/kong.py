@@ -8,12 +8,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..writer import DatasetWriter, simulated_meta, write_sheet
-from .body import Anthropometry, kong_placements, random_mount
-from .common import SimOptions, sensor_signals
-from .engine import euler_pitch_roll_yaw
-from .kong_protocol import PROTOCOL
-from .motion import segment_poses
+from aceval.data.writer import DatasetWriter, simulated_meta, write_sheet
+from aceval.simulate.body import Anthropometry, kong_placements, random_mount
+from aceval.simulate.common import SimOptions, sensor_signals
+from aceval.simulate.engine import euler_pitch_roll_yaw
+from aceval.simulate.kong_protocol import PROTOCOL
+from aceval.simulate.motion import segment_poses
 
 IMUS = [  # Kong Sec. 2.3 and Fig. 4
     ("IMU1", "head", "center", "upper_body"),

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .engine import band_noise, fine_time
-from .motion import Posture, bell, sitting_hip, standing_hip, step
+from aceval.simulate.engine import band_noise, fine_time
+from aceval.simulate.motion import Posture, bell, sitting_hip, standing_hip, step
 
 D2R = np.pi / 180.0
 TRUNK = ("waist", "chest", "head")

@@ -10,8 +10,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .body import SEGMENTS, Anthropometry
-from .engine import euler_pitch_roll_yaw
+from aceval.simulate.body import SEGMENTS, Anthropometry
+from aceval.simulate.engine import euler_pitch_roll_yaw
 
 
 def min_jerk(s: np.ndarray) -> np.ndarray:

@@ -14,11 +14,17 @@ from pathlib import Path
 
 import numpy as np
 
-from ..writer import DatasetWriter, simulated_meta, write_sheet
-from .body import Placement, random_mount
-from .common import SimOptions, sensor_signals
-from .engine import ImuErrorModel, band_noise, euler_pitch_roll_yaw, fine_time, small_rotations
-from .motion import bell
+from aceval.data.writer import DatasetWriter, simulated_meta, write_sheet
+from aceval.simulate.body import Placement, random_mount
+from aceval.simulate.common import SimOptions, sensor_signals
+from aceval.simulate.engine import (
+    ImuErrorModel,
+    band_noise,
+    euler_pitch_roll_yaw,
+    fine_time,
+    small_rotations,
+)
+from aceval.simulate.motion import bell
 
 SEGMENTS = ["thorax", "upper_arm_r", "upper_arm_l", "forearm_r", "forearm_l"]
 IMUS = [  # Ricci Fig. 2: 1 thorax, 2/3 right/left upper arm, 4/5 right/left forearm

@@ -1,8 +1,15 @@
 """Calibration methods: Kong PCA plane (kong), Ricci SVD axis + weighted LM (ricci), TRIAD (triad)."""
 
-from .kong import KongLimits, KongResult, kong_calibrate, kong_from_scatters, scatter, vertical_axis
-from .ricci import AxisEstimate, LMResult, functional_axis, lm_fit, wahba_fit
-from .triad import triad
+from aceval.methods.kong import (
+    KongLimits,
+    KongResult,
+    kong_calibrate,
+    kong_from_scatters,
+    scatter,
+    vertical_axis,
+)
+from aceval.methods.ricci import AxisEstimate, LMResult, functional_axis, lm_fit, wahba_fit
+from aceval.methods.triad import triad
 
 __all__ = [
     "AxisEstimate",

@@ -12,19 +12,12 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .calibration.kong import KongLimits
-from .dataset import R_COLUMNS
-from .kong2016 import SEGMENT_ORDER
-from .objectives import (
-    CALIBRATION_KEY,
-    full_set_rows,
-    full_sets,
-    kong_rows,
-    test_retest_angles,
-    unflagged,
-)
-from .rotations import error_angle_deg, vertical_share
-from .stats import holm
+from aceval.calibrate.table import CALIBRATION_KEY, full_set_rows, full_sets, kong_rows, unflagged
+from aceval.data.dataset import R_COLUMNS
+from aceval.data.rotations import error_angle_deg, vertical_share
+from aceval.evaluation.objectives import SEGMENT_ORDER, test_retest_angles
+from aceval.evaluation.stats import holm
+from aceval.methods.kong import KongLimits
 
 #: Kong et al. 2016 Sec. 4: the test recommended for each segment
 KONG_RECOMMENDATION = {"head": "T3", "chest": "T3", "waist": "T3", "thigh": "T6", "shank": "T6"}
@@ -81,7 +74,9 @@ def methods_table(
         )
         .reset_index()
     )
-    if "cone95_deg" in data:  # the bootstrap cone (aceval.uncertainty), where the method has one
+    if (
+        "cone95_deg" in data
+    ):  # the bootstrap cone (aceval.methods.uncertainty), where the method has one
         cones = data.groupby(keys)["cone95_deg"].median().rename("cone95_median_deg")
         table = table.merge(cones.reset_index(), on=keys, how="left")
     retest = (
@@ -174,7 +169,7 @@ def retest_table(
 
 def uncertainty_table(calibrations: pd.DataFrame) -> pd.DataFrame:
     """How often the truth falls inside a calibration's 95 % bootstrap cone
-    (:mod:`aceval.uncertainty`): per segment, test and method, over the unflagged calibrations
+    (:mod:`aceval.methods.uncertainty`): per segment, test and method, over the unflagged calibrations
     from all repetitions with a cone and a truth: ``n``, the median cone half-angle and error
     (deg), ``coverage`` (share with error <= cone), and the same for the heading part of the error
     (``heading_error_deg``: its component about the body vertical, deg), which is all the cone
@@ -329,8 +324,8 @@ def truth_errors(calibrations: pd.DataFrame, method_sheet: pd.DataFrame | None) 
     ]  # fmt: skip
     if method_sheet is None or calibrations.empty or "error_deg" not in calibrations:
         return pd.DataFrame(columns=columns)
-    from .dataset import R_COLUMNS
-    from .rotations import error_angle_deg
+    from aceval.data.dataset import R_COLUMNS
+    from aceval.data.rotations import error_angle_deg
 
     key = ["subject", "sensor_set", "imu"]
     full = full_set_rows(calibrations)
@@ -371,7 +366,7 @@ def loose_reference_angles(
     ]  # fmt: skip
     if reference is None or calibrations.empty:
         return pd.DataFrame(columns=columns)
-    from .dataset import R_COLUMNS
+    from aceval.data.dataset import R_COLUMNS
 
     key = ["subject", "sensor_set", "imu"]
     full = full_set_rows(calibrations)

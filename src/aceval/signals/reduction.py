@@ -4,15 +4,15 @@ statistics that every analysis needs (docs/design.md, "One pass").
 * ``summaries``, one row per recording that calibrates something (:func:`summarise`): static
   tests give z0 (Kong Eq. 2); motion tests the scatter ``sum a a^T`` of the trimmed accelerations
   (Kong Eq. 3: the plane of any union of repetitions is a sum of these), the moments of the unit
-  gyroscope samples (Ricci Eq. 1-2) and the plausibility moments of :mod:`aceval.checks`;
+  gyroscope samples (Ricci Eq. 1-2) and the plausibility moments of :mod:`aceval.signals.checks`;
   every motion recording also its place in the test among the other sensors of its set
-  (:mod:`aceval.signatures`). A motion recording of a test that does not calibrate its IMU gets a
+  (:mod:`aceval.signals.signatures`). A motion recording of a test that does not calibrate its IMU gets a
   row of kind ``extra`` with its typical speed only.
 * ``pairs``, one row per time-aligned recording pair of Kong's Obj 1-2 (the same IMU in the two
   sensor sets; two segments moved as one body), per signal and window: the sample count, both
   means, both centred scatters and the centred cross-moment of the overlap. The Pearson
   correlation of the pair after any two calibrations follows from these alone
-  (:func:`aceval.objectives.correlation_from_moments`): nothing reads the samples again.
+  (:func:`aceval.evaluation.objectives.correlation_from_moments`): nothing reads the samples again.
 * ``report``: every file problem with its file, line and cause, as ``aceval validate`` gives it.
 
 Recordings are read grouped by test and repetition (the pairs of Obj 1-2 never cross them), so
@@ -26,11 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from .calibration.kong import scatter, vertical_axis
-from .calibration.step_harmonic import SCATTER_COLUMNS as STEP_COLUMNS
-from .calibration.step_harmonic import step_scatter
-from .checks import MIN_STILL_S, STILL_COLUMNS, agreement_moments, third_moments
-from .dataset import (
+from aceval.data.dataset import (
     Dataset,
     Recording,
     ValidationReport,
@@ -38,12 +34,16 @@ from .dataset import (
     plateau_limit,
     read_checked,
 )
-from .errors import CalibrationError, SaturatedError
-from .functional import recording_moments
-from .objectives import aligned, best_lag
-from .rotations import axis_vector
-from .segmentation import TrimParams, mask_to_ranges, movement_mask
-from .signatures import motion_signatures, sagittal_rate, speed_envelope
+from aceval.data.errors import CalibrationError, SaturatedError
+from aceval.data.rotations import axis_vector
+from aceval.methods.functional import recording_moments
+from aceval.methods.kong import scatter, vertical_axis
+from aceval.methods.step_harmonic import SCATTER_COLUMNS as STEP_COLUMNS
+from aceval.methods.step_harmonic import step_scatter
+from aceval.signals.alignment import aligned, best_lag
+from aceval.signals.checks import MIN_STILL_S, STILL_COLUMNS, agreement_moments, third_moments
+from aceval.signals.segmentation import TrimParams, mask_to_ranges, movement_mask
+from aceval.signals.signatures import motion_signatures, sagittal_rate, speed_envelope
 
 SCATTER_COLUMNS = [f"s{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
 #: a motion recording is left out when more than this fraction of its moving samples is clipped at
@@ -153,14 +153,14 @@ def reduce_recordings(
 
 def _extra_row(rec: dict, data: Recording) -> dict:
     """A motion recording of a test that does not calibrate its IMU (kind ``extra``): read for
-    the Obj 1-2 pairs, it gives the IMU's typical speed there to :mod:`aceval.signatures`.
+    the Obj 1-2 pairs, it gives the IMU's typical speed there to :mod:`aceval.signals.signatures`.
     """
     speed = np.degrees(np.percentile(np.linalg.norm(data.gyr, axis=1), 90))
     return _row(rec, False) | {"kind": "extra", "calibrates": False, "gyro_p90_deg_s": speed}
 
 
 def _add_signatures(dataset: Dataset, test: str, loaded: dict, summaries: dict):
-    """The :mod:`aceval.signatures` columns of one repetition's motion recordings, per set
+    """The :mod:`aceval.signals.signatures` columns of one repetition's motion recordings, per set
     (``loaded``: set -> IMU -> (summary index, :class:`Recording`)).
     """
     walking = dataset.first_phase(test) == "gait"
@@ -200,7 +200,7 @@ def summarise(
     and the unit moments of the accelerometer. Motion tests: ``n_samples`` kept by the trimmer
     (``moving``; None when it found no movement) and the scatter ``s11..s33`` (m^2/s^4);
     walking tests (``first_phase`` gait) also ``step_hz`` and the scatter ``h11..h33`` of the
-    acceleration band-passed around it (:mod:`aceval.calibration.step_harmonic`).
+    acceleration band-passed around it (:mod:`aceval.methods.step_harmonic`).
     Samples clipped at the declared accelerometer range, or at a plateau found in the data
     (``n_clipped``), carry a wrong direction and are left out of the scatter; above
     :data:`MAX_CLIPPED_FRACTION` the recording is left out. A recording that cannot be used gets
@@ -330,7 +330,7 @@ def _segment_pair_rows(loaded, imus, segment_pairs, base, max_lag) -> list[dict]
 def pair_moments(first, second, base: dict, signals: tuple, max_lag: int) -> list[dict]:
     """Rows of :data:`PAIR_COLUMNS` for two recordings ((recording, moving mask) each): aligned in
     time by the lag that best correlates their acceleration magnitudes (Kong Sec. 2.3,
-    :func:`aceval.objectives.best_lag`), then, per signal, the moments of the overlap (window
+    :func:`aceval.signals.alignment.best_lag`), then, per signal, the moments of the overlap (window
     ``all``) and of the samples either sensor's trimmer keeps as movement (``moving``). A pair
     overlapping less than :data:`MIN_OVERLAP` of the shorter recording is flagged ``no_overlap``.
     """

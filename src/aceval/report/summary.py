@@ -12,8 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from .calibration.kong import KongLimits
-from .objectives import full_set_rows, kong_rows, unflagged
+from aceval.calibrate.table import full_set_rows, kong_rows, unflagged
+from aceval.methods.kong import KongLimits
 
 HOLDS, FAILS, UNTESTABLE = "holds", "does not hold", "not testable on this dataset"
 UPPER, LOWER = ["head", "chest", "waist"], ["thigh", "shank", "foot"]
@@ -171,7 +171,7 @@ def _defensible(table: pd.DataFrame | None) -> pd.DataFrame:
     """The rows of a set-comparison table (7, 8, 10) on which claims are judged: the paired t-test
     on independent units (per-subject x IMU means).
     """
-    from .kong2016 import DEFENSIBLE_TEST
+    from aceval.report.kong2016 import DEFENSIBLE_TEST
 
     cells = _cells(table)
     return cells[cells["test"] == DEFENSIBLE_TEST] if len(cells) else cells
@@ -588,7 +588,7 @@ def ricci_claims(tables: dict) -> list[Claim]:
     if ttest.empty:
         out.append(_untestable("Ricci t-test", claim, rule, "needs FEB and FE (and FFEB)"))
     else:
-        from .ricci2014 import PRIMARY_READING
+        from aceval.report.ricci2014 import PRIMARY_READING
 
         primary = ttest[ttest["reading"] == PRIMARY_READING]
         second = ttest[ttest["reading"] != PRIMARY_READING]
@@ -802,7 +802,7 @@ def uncertainty_section(tables: dict) -> list[str]:
         "",
         "Each calibration from all repetitions carries `cone95_deg`: the 95th percentile of the "
         "angle between it and its calibrations from resampled repetitions (table `uncertainty`, "
-        "aceval.uncertainty). Against the ground truth:",
+        "aceval.methods.uncertainty). Against the ground truth:",
         "",
     ]
     for method, group in table.groupby("method", sort=False):
@@ -1053,7 +1053,7 @@ def calibration_screen(calibrations: pd.DataFrame, n_left_out: int, path) -> str
     )
     if per_method["median_error_deg"].isna().all():
         per_method = per_method.drop(columns="median_error_deg")
-    from .methods_comparison import truth_warning
+    from aceval.evaluation.methods_comparison import truth_warning
 
     lines = [
         f"aceval calibrate: wrote {path}",

@@ -1,17 +1,17 @@
 """Kong et al. 2016 Objectives 1-5 (Section 2.4.2) as pure functions on tidy tables.
 
-Input is the calibration table of :func:`aceval.pipeline.calibrate` (one row per subject, sensor
+Input is the calibration table of :func:`aceval.calibrate.pipeline.calibrate` (one row per subject, sensor
 set, IMU, test and subset of repetitions, with r11..r33 and ``flag``). Flagged calibrations are
 left out; the tables count what is left (``n``).
 
 * Obj 1 / Obj 2: correlation of calibrated 3-axis signals (Eq. 7-10), :func:`correlation_3d`;
-  which calibrations are compared is planned here, the signals are read in :mod:`aceval.pipeline`.
+  which calibrations are compared is planned here, the signals are read in :mod:`aceval.calibrate.pipeline`.
 * Obj 3: "incremental" (Eq. 11-12) and "to last" (Eq. 13, for every subset size, not only 1).
 * Obj 4: test-retest between distinct subsets of ``k`` repetitions (Eq. 15, k = 3).
 * Obj 5: cross-test, full sets of two tests that both calibrate the IMU (Eq. 16).
 
 Every comparison of two calibrations is the angle of ``R_a R_b^T`` in axis-angle form (Eq. 14),
-:func:`aceval.rotations.error_angle_deg`, with the share of that rotation about the body vertical.
+:func:`aceval.data.rotations.error_angle_deg`, with the share of that rotation about the body vertical.
 """
 
 from __future__ import annotations
@@ -21,11 +21,13 @@ import itertools
 import numpy as np
 import pandas as pd
 
-from .dataset import R_COLUMNS
-from .rotations import error_angle_deg, vertical_share
+from aceval.calibrate.table import CALIBRATION_KEY, full_sets, matrices, parse_subset, usable
+from aceval.data.dataset import R_COLUMNS
+from aceval.data.rotations import error_angle_deg, vertical_share
 
 CORRELATION_MODES = ("concatenated", "per_axis", "per_axis_moving")
-CALIBRATION_KEY = ["subject", "sensor_set", "imu", "test"]
+#: Kong's segments from head to foot: the order of every table's rows
+SEGMENT_ORDER = ["head", "chest", "waist", "thigh", "shank", "foot"]
 #: columns of every angle row
 ANGLE_COLUMNS = [
     "comparison",
@@ -81,37 +83,11 @@ def correlation_3d(
     raise ValueError(f"correlation mode {mode!r} is not one of {', '.join(CORRELATION_MODES)}")
 
 
-def best_lag(a: np.ndarray, b: np.ndarray, max_lag: int) -> int:
-    """Kong Sec. 2.3: "the data from the two sets were aligned by removing the offset estimated
-    from the cross correlation of the acceleration". The lag L (samples, |L| <= ``max_lag``) that
-    maximises the cross-correlation ``sum_t x[t + L] y[t]`` of the two recordings' acceleration
-    magnitudes (demeaned; the magnitude needs no calibration), such that ``a[t + L]`` matches
-    ``b[t]``. Only the lags in the window are computed; the first of equal maxima wins.
-    """
-    x = np.linalg.norm(np.asarray(a, float), axis=1)
-    y = np.linalg.norm(np.asarray(b, float), axis=1)
-    x, y = x - x.mean(), y - y.mean()
-    lags = np.arange(max(-max_lag, 1 - len(y)), min(max_lag, len(x) - 1) + 1)
-    if not len(lags):
-        return 0
-    cross = [
-        float(np.dot(x[max(0, lag) : len(y) + lag], y[max(0, -lag) : len(x) - lag])) for lag in lags
-    ]
-    return int(lags[int(np.argmax(cross))])
-
-
-def aligned(n_a: int, n_b: int, lag: int) -> tuple[slice, slice]:
-    """The overlapping samples of two recordings when ``a[t + lag]`` matches ``b[t]``."""
-    start_b = max(0, -lag)
-    stop_b = min(n_b, n_a - lag)
-    return slice(start_b + lag, stop_b + lag), slice(start_b, max(start_b, stop_b))
-
-
 def correlation_from_moments(
     pairs: pd.DataFrame, R_a: np.ndarray, R_b: np.ndarray, mode: str = "concatenated"
 ) -> np.ndarray:
     """:func:`correlation_3d` of ``R_a a`` and ``R_b b`` from the moments of each recording pair
-    (rows of :data:`aceval.reduction.PAIR_COLUMNS`: ``n``, means ``ma_*``, ``mb_*``, centred
+    (rows of :data:`aceval.signals.reduction.PAIR_COLUMNS`: ``n``, means ``ma_*``, ``mb_*``, centred
     scatters ``caa*``, ``cbb*`` and cross-moment ``cab*``), for (K, 3, 3) stacks of calibrations:
     sum(x y) = trace(R_a C_ab R_b^T) + n M_a . M_b with M = R m, so any calibration costs O(1).
 
@@ -119,7 +95,7 @@ def correlation_from_moments(
     ``per_axis`` (and ``per_axis_moving``, whose rows hold the moving samples' moments): the mean
     of the axes' correlations, an axis constant in either signal left out (NaN if all are).
     """
-    from .reduction import C_AA, C_AB, C_BB, MEAN_A, MEAN_B
+    from aceval.signals.reduction import C_AA, C_AB, C_BB, MEAN_A, MEAN_B
 
     n = pairs["n"].to_numpy(float)
     C_aa = pairs[C_AA].to_numpy(float).reshape(-1, 3, 3)
@@ -159,62 +135,6 @@ def _varies(variance: np.ndarray, V: np.ndarray, M: np.ndarray, n) -> np.ndarray
     size = np.trace(V, axis1=1, axis2=2) + np.squeeze(n) * np.sum(M**2, axis=1)
     size = size[:, None] if np.ndim(variance) == 2 else size
     return variance > 1e-20 * size
-
-
-def parse_subset(label: str) -> tuple[int, ...]:
-    """``'R1+R3'`` -> ``(1, 3)`` (the inverse of :func:`aceval.pipeline.subset_label`)."""
-    return tuple(int(part[1:]) for part in label.split("+"))
-
-
-def matrices(table: pd.DataFrame) -> np.ndarray:
-    """The rotations of a calibration table, shape (n, 3, 3)."""
-    return table[R_COLUMNS].to_numpy(float).reshape(-1, 3, 3)
-
-
-def unflagged(table: pd.DataFrame) -> pd.Series:
-    """True for the rows whose ``flag`` is empty (read back from a CSV, an empty flag is NaN; a
-    column with no flag at all is read as numbers, and is not turned into a million strings).
-    """
-    flag = table["flag"]
-    if pd.api.types.is_numeric_dtype(flag):
-        return flag.isna()
-    return flag.isna() | (flag.astype(str) == "")
-
-
-def usable(calibrations: pd.DataFrame, method: str = "kong") -> pd.DataFrame:
-    """A method's calibrations that are not flagged (Objectives 1-5 are about Kong's method; the
-    other methods are compared in :mod:`aceval.methods_comparison`).
-    """
-    calibrations = kong_rows(calibrations, method)
-    return calibrations[unflagged(calibrations)]
-
-
-def kong_rows(calibrations: pd.DataFrame, method: str = "kong") -> pd.DataFrame:
-    """The rows of Kong's method, or of ``method`` (all rows of a table without ``method``)."""
-    return (
-        calibrations[calibrations["method"] == method]
-        if "method" in calibrations.columns
-        else calibrations
-    )
-
-
-def full_set_rows(calibrations: pd.DataFrame) -> pd.DataFrame:
-    """Every method's calibrations from the most repetitions of each (subject, set, IMU, test),
-    flagged ones included: the one definition of "the calibration from all repetitions", and all
-    that the tables and figures read besides the Obj 3-5 angles and the methods' test-retest units
-    (:func:`all_angles`, :func:`aceval.methods_comparison.retest_units`), which are computed per
-    subject from the subsets (7 % of Kong's rows).
-    """
-    key = [*CALIBRATION_KEY, "method"] if "method" in calibrations else CALIBRATION_KEY
-    most = calibrations.groupby(key)["n_reps"].transform("max")
-    return calibrations[calibrations["n_reps"] == most]
-
-
-def full_sets(calibrations: pd.DataFrame) -> pd.DataFrame:
-    """The calibration from all usable repetitions of each (subject, set, IMU, test); left out when
-    that calibration itself is flagged.
-    """
-    return usable(full_set_rows(kong_rows(calibrations)))
 
 
 def _angle_rows(

@@ -47,7 +47,7 @@ class Output:
 
 def _kong_table(number: int) -> Callable:
     def build(data: dict):
-        from . import kong2016
+        from aceval.report import kong2016
 
         return kong2016.build(
             number,
@@ -61,13 +61,13 @@ def _kong_table(number: int) -> Callable:
 
 
 def _kong_markdown(table, output: Output, dataset: str, simulated: bool) -> str:
-    from . import kong2016
+    from aceval.report import kong2016
 
-    return kong2016.to_markdown(table, int(output.name.removeprefix("table")), dataset, simulated)
+    return kong2016.to_markdown(table, output, dataset, simulated)
 
 
 def _named_markdown(table, output: Output, dataset: str, simulated: bool) -> str:
-    from .kong2016 import named_markdown
+    from aceval.report.kong2016 import named_markdown
 
     return named_markdown(table, output.title, output.unit, dataset, simulated)
 
@@ -76,12 +76,12 @@ def _named(function: str, *kinds: str, optional: tuple[str, ...] = ()) -> Callab
     """A builder calling ``module.function(data[kind], ...)`` (``optional`` kinds may be None),
     then rounding as every table is rounded.
     """
-    module, name = function.split(".")
+    module, name = function.rsplit(".", 1)
 
     def build(data: dict):
         import importlib
 
-        from .kong2016 import rounded
+        from aceval.report.kong2016 import rounded
 
         call = getattr(importlib.import_module(f"aceval.{module}"), name)
         arguments = [data[k] for k in kinds] + [data.get(k) for k in optional]
@@ -92,8 +92,8 @@ def _named(function: str, *kinds: str, optional: tuple[str, ...] = ()) -> Callab
 
 def _kong_units(function: str) -> Callable:
     def build(data: dict):
-        from . import methods_comparison
-        from .kong2016 import rounded
+        from aceval.evaluation import methods_comparison
+        from aceval.report.kong2016 import rounded
 
         units = methods_comparison.kong_units(
             data["axes"], data["calibrations"], data.get("angles")
@@ -105,7 +105,7 @@ def _kong_units(function: str) -> Callable:
 
 def _kong_figure(number: int) -> Callable:
     def draw(data: dict, out, title: str) -> None:
-        from . import figures
+        from aceval.report import figures
 
         figures.plot(
             number, data.get("correlations"), data.get("angles"), out, title, data["paper_names"]
@@ -115,7 +115,7 @@ def _kong_figure(number: int) -> Callable:
 
 
 def _named_figure(data: dict, out, title: str, name: str = "") -> None:
-    from . import figures
+    from aceval.report import figures
 
     figures.plot_named(name, data, out, title)
 
@@ -187,7 +187,7 @@ _ENTRIES = [
         "test the matrix comes from (T_ex), the test it is applied to (T_ap) and the segment",
         "Obj 1: subject x IMU x T_ex x T_ap (Table 3's units); Obj 2: subject x set x side x pair x "
         "T_ex x T_ap (Table 6's); eta squared from type II sums of squares of an additive model",
-        _named("kong2016.correlation_factors", "correlations"),
+        _named("report.kong2016.correlation_factors", "correlations"),
         _named_markdown,
     ),  # fmt: skip
     Output(
@@ -199,7 +199,7 @@ _ENTRIES = [
         "What Kong's Obj 1 correlation can detect: the frontal vs lateral acceleration correlation "
         "when the lateral calibration is turned by a known heading error, per correlation mode",
         "subject x IMU x T_ex x T_ap (Table 3's units), each averaged over the repetitions",
-        _named("kong2016.correlation_sensitivity", "correlations"),
+        _named("report.kong2016.correlation_sensitivity", "correlations"),
         _named_markdown,
     ),  # fmt: skip
     Output(
@@ -235,7 +235,7 @@ _ENTRIES = [
         "How well each test determines each IMU's heading by Kong's plane: eigenvalue ratio "
         "(smallest/middle; above 0.5 undetermined) and planarity, flagged calibrations included",
         "subject x sensor set x IMU x test (the calibration from all repetitions)",
-        _named("methods_comparison.conditioning_table", "calibrations"),
+        _named("evaluation.methods_comparison.conditioning_table", "calibrations"),
         _named_markdown,
     ),  # fmt: skip
     *(
@@ -279,7 +279,7 @@ _ENTRIES = [
         ("axes",),
         "Ricci et al. 2014, Table 1: reliability index rho per movement and segment",
         "subjects (each child's rho pooled over its 3 trials, as Ricci: 9-12 repetitions)",
-        _named("ricci2014.rho_table", "axes", "paper_names"),
+        _named("report.ricci2014.rho_table", "axes", "paper_names"),
         _named_markdown,
     ),  # fmt: skip
     Output(
@@ -292,7 +292,7 @@ _ENTRIES = [
         "children, one pair per child and side (rho pooled over the 3 trials); sides tested "
         "separately; p raw and Holm-corrected within each reading; the paper reports only p < "
         "0.05 for each frame",
-        _named("ricci2014.supported_ttest", "axes"),
+        _named("report.ricci2014.supported_ttest", "axes"),
         _named_markdown,
     ),  # fmt: skip
     Output(
@@ -305,7 +305,7 @@ _ENTRIES = [
         "IMUs (subject x side); q0 = identity, lambda = 1e-3, stop at relative cost change < 1e-4; "
         "each fit also from random unit quaternions (how many: random_starts), counted as "
         "reaching the optimum when within 0.1 deg of SciPy's closed-form solution",
-        _named("ricci2014.lm_table", "calibrations"),
+        _named("report.ricci2014.lm_table", "calibrations"),
         _named_markdown,
     ),  # fmt: skip
     Output(
@@ -317,7 +317,7 @@ _ENTRIES = [
         "Ricci et al. 2014, Fig. 5 / Eq. 13: residual angle between each reference axis and its "
         "estimate, before (identity) and after the LM fit (deg)",
         "IMUs (subject x side)",
-        _named("ricci2014.residual_table", "axes", "paper_names"),
+        _named("report.ricci2014.residual_table", "axes", "paper_names"),
         _named_markdown,
     ),  # fmt: skip
     Output(
@@ -350,7 +350,7 @@ _ENTRIES = [
         "subjects (each IMU's calibration from all repetitions of the test; Ricci's design: from "
         "all its axes); retest_*: Kong Obj 4 for each method, subject x IMU units (methods_retest)",
         _named(
-            "methods_comparison.methods_table",
+            "evaluation.methods_comparison.methods_table",
             "calibrations",
             "test_retest_k",
             optional=("retest_units",),
@@ -367,7 +367,7 @@ _ENTRIES = [
         "subsets of k repetitions of one test (Kong Eq. 15), no ground truth needed",
         "subject x sensor set x IMU (each the mean over the pairs of k-repetition subsets)",
         _named(
-            "methods_comparison.retest_table",
+            "evaluation.methods_comparison.retest_table",
             "calibrations",
             "test_retest_k",
             optional=("retest_units",),
@@ -384,7 +384,7 @@ _ENTRIES = [
         "its error to the ground truth: coverage, the share of calibrations whose error (and whose "
         "heading error) lies inside their cone",
         "calibrations from all repetitions of both sensor sets (unflagged, with a cone)",
-        _named("methods_comparison.uncertainty_table", "calibrations"),
+        _named("evaluation.methods_comparison.uncertainty_table", "calibrations"),
         _named_markdown,
     ),  # fmt: skip
     Output(
@@ -396,7 +396,7 @@ _ENTRIES = [
         "Which test to use for which segment: smallest median error per method, beside Kong's "
         "recommendation (T3 upper body, T6 thighs and shanks)",
         "calibrations of both sensor sets",
-        _named("methods_comparison.best_tests", "calibrations"),
+        _named("evaluation.methods_comparison.best_tests", "calibrations"),
         _named_markdown,
     ),  # fmt: skip
     Output(
@@ -419,7 +419,7 @@ _ENTRIES = [
         "uncertainty, the second (marker-frame) truth, and the method's conditioning",
         "one row per sensor, test and method (all repetitions); the truths and their checks are "
         "in the dataset's ground_truth_method.tsv",
-        _named("methods_comparison.truth_errors", "calibrations", "truth_method"),
+        _named("evaluation.methods_comparison.truth_errors", "calibrations", "truth_method"),
         _named_markdown,
     ),  # fmt: skip
     Output(
@@ -433,7 +433,11 @@ _ENTRIES = [
         "the verticals (deg)",
         "one row per sensor, test and method (all repetitions, flagged calibrations included); "
         "the reference and its standing check are in the dataset's loose_reference.tsv",
-        _named("methods_comparison.loose_reference_angles", "calibrations", "loose_reference"),
+        _named(
+            "evaluation.methods_comparison.loose_reference_angles",
+            "calibrations",
+            "loose_reference",
+        ),
         _named_markdown,
     ),  # fmt: skip
 ]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import AlignedAxesError, TooFewAxesError
+from aceval.data.errors import AlignedAxesError, TooFewAxesError
 
 
 def _frame(primary: np.ndarray, secondary: np.ndarray, min_sin: float, name: str) -> np.ndarray:
@@ -56,8 +56,8 @@ def _frames(primary: np.ndarray, secondary: np.ndarray) -> np.ndarray:
 
 def triad_batch(z0: np.ndarray, axes: np.ndarray, rho_static: float, rho: np.ndarray) -> np.ndarray:
     """:func:`triad` of Kong's protocol for a stack of gyroscope axes (B, 3) at once (the bootstrap
-    of :mod:`aceval.uncertainty`): the more reliable of z0 (body z) and the axis (body y) kept
-    exactly, as :func:`aceval.functional.triad_pair` chooses (z0 on a tie); no aligned-axes check
+    of :mod:`aceval.methods.uncertainty`): the more reliable of z0 (body z) and the axis (body y) kept
+    exactly, as :func:`aceval.methods.functional.triad_pair` chooses (z0 on a tie); no aligned-axes check
     (the caller leaves out axes near z0).
     """
     z_first = (rho_static >= rho)[:, None]

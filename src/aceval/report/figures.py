@@ -1,6 +1,6 @@
 """The figures, drawn with seaborn: Kong et al. 2016 Figures 6, 8, 9 and 10 "in spirit" (what
 they plot, not their look), Ricci et al. 2014 Figures 4-5, and the figures beyond the papers.
-Captions are in :mod:`aceval.outputs`.
+Captions are in :mod:`aceval.report.outputs`.
 """
 
 from __future__ import annotations
@@ -14,8 +14,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 import seaborn as sns  # noqa: E402
 
-from .kong2016 import SEGMENT_ORDER, rename_tests  # noqa: E402
-from .objectives import unflagged  # noqa: E402
+from aceval.calibrate.table import unflagged
+from aceval.evaluation.objectives import SEGMENT_ORDER  # noqa: E402
+from aceval.report.kong2016 import rename_tests  # noqa: E402
 
 
 def _segments(values) -> list:
@@ -126,8 +127,8 @@ def _lm_example(axes: pd.DataFrame, figure_title: str, out: Path) -> None:
     import numpy as np
     from scipy.spatial.transform import Rotation
 
-    from .calibration.ricci import lm_fit, quaternion_matrix
-    from .rotations import axis_vector
+    from aceval.data.rotations import axis_vector
+    from aceval.methods.ricci import lm_fit, quaternion_matrix
 
     used = axes.dropna(subset=["residual_after_deg"])
     used = used[used["segment"] == "thorax"] if (used["segment"] == "thorax").any() else used
@@ -178,14 +179,15 @@ def _lm_example(axes: pd.DataFrame, figure_title: str, out: Path) -> None:
 
 
 def plot_named(name: str, data: dict, out: Path, title: str) -> None:
-    """Draw a figure beyond Kong's numbered ones (:mod:`aceval.outputs`) from the tidy tables in
+    """Draw a figure beyond Kong's numbered ones (:mod:`aceval.report.outputs`) from the tidy tables in
     ``data``.
     """
-    from . import methods_comparison, ricci2014
+    from aceval.evaluation import methods_comparison
+    from aceval.report import ricci2014
 
     sns.set_theme(style="whitegrid", context="paper")
     if name == "obj1_sensitivity":
-        from .kong2016 import correlation_sensitivity
+        from aceval.report.kong2016 import correlation_sensitivity
 
         curve = correlation_sensitivity(data.get("correlations"))
         if curve.empty:
@@ -289,4 +291,4 @@ def plot_named(name: str, data: dict, out: Path, title: str) -> None:
         grid.set_titles("{col_name}")
         grid.figure.suptitle(f"Methods against the ground truth, {title}", y=1.02, fontsize=9)
         return _save(grid.figure, out)
-    raise ValueError(f"unknown figure {name!r} (aceval.outputs lists the figures)")
+    raise ValueError(f"unknown figure {name!r} (aceval.report.outputs lists the figures)")

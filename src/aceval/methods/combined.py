@@ -11,7 +11,7 @@ weighted sum of the two horizontal unit vectors.
 The weights are conditioning indices, each 0 at its own method's flag limit and 1 when perfectly
 conditioned: Kong ``1 - normal_ratio / max_normal_ratio`` (smallest/middle eigenvalue: 0 for a
 plane, :class:`KongLimits`), the gyroscope ``(rho - min_rho) / (1 - min_rho)`` (Ricci's reliability
-index, 1 for a rotation about one axis, :class:`aceval.functional.AxisLimits`). A heuristic that
+index, 1 for a rotation about one axis, :class:`aceval.methods.functional.AxisLimits`). A heuristic that
 lets the better-determined estimate lead, not a variance model; a flagged estimate weighs 0, and
 when both weigh 0 the heading is undetermined (NaN).
 """

@@ -22,14 +22,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import (
+from aceval.data.errors import (
     NormalParallelToVerticalError,
     NotPlanarError,
     TooFewSamplesError,
     ZeroGravityError,
     check_samples,
 )
-from ..rotations import axis_vector
+from aceval.data.rotations import axis_vector
 
 
 @dataclass(frozen=True)

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from .errors import NoMovementError, check_samples
+from aceval.data.errors import NoMovementError, check_samples
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,6 @@
 """From a dataset's per-recording statistics to calibrations and correlations.
 
-Data flow one way (docs/design.md, section 2): :mod:`aceval.reduction` reads each recording once and
+Data flow one way (docs/design.md, section 2): :mod:`aceval.signals.reduction` reads each recording once and
 reduces it to a summary (static: the median specific force; motion: the scatter matrix ``sum a
 a^T`` and count of its trimmed samples) and each Obj 1-2 recording pair to its moments; every
 subset of repetitions is then calibrated from the summaries alone, and every calibrated pair
@@ -14,24 +14,21 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from scipy.spatial.transform import Rotation
 
-from .calibration.combined import combined_rotation, gyro_weight, horizontal_right, kong_weight
-from .calibration.kong import KongLimits, kong_from_scatters
-from .calibration.step_harmonic import MAX_STEP_RATIO, step_harmonic_rotation
-from .calibration.step_harmonic import SCATTER_COLUMNS as STEP_COLUMNS
-from .checks import (
-    AGREEMENT_COLUMNS,
-    MAX_STATIC_ANGLE_DEG,
-    STILL_COLUMNS,
-    THIRD_MOMENT_COLUMNS,
-    best_test_agreement,
-    direction_checks,
-    sensor_problem,
-    static_posture,
+from aceval.calibrate.table import (
+    CALIBRATION_COLUMNS,
+    KEY,
+    all_subsets,
+    combine_flags,
+    full_set_rows,
+    has_flag,
+    subset_label,
+    unflagged,
 )
-from .dataset import R_COLUMNS, Dataset
-from .functional import (
+from aceval.data.dataset import R_COLUMNS, Dataset
+from aceval.data.rotations import axis_vector, error_angle_deg
+from aceval.methods.combined import combined_rotation, gyro_weight, horizontal_right, kong_weight
+from aceval.methods.functional import (
     AXIS_METHODS,
     MOMENT_COLUMNS,
     PHASE_COLUMNS,
@@ -45,38 +42,26 @@ from .functional import (
     stable_seed,
     subset_axes,
 )
-from .functional import (
+from aceval.methods.functional import (
     SCATTER_COLUMNS as UNIT_SCATTER_COLUMNS,
 )
-from .methods_comparison import with_truth
-from .objectives import (
-    CORRELATION_MODES,
-    correlation_from_moments,
-    frontal_lateral_plan,
-    full_set_rows,
-    full_sets,
-    segment_pair_plan,
-    unflagged,
+from aceval.methods.kong import KongLimits, kong_from_scatters
+from aceval.methods.step_harmonic import MAX_STEP_RATIO, step_harmonic_rotation
+from aceval.methods.step_harmonic import SCATTER_COLUMNS as STEP_COLUMNS
+from aceval.methods.uncertainty import bootstrap_cone
+from aceval.signals.checks import (
+    AGREEMENT_COLUMNS,
+    MAX_STATIC_ANGLE_DEG,
+    STILL_COLUMNS,
+    THIRD_MOMENT_COLUMNS,
+    best_test_agreement,
+    direction_checks,
+    sensor_problem,
+    static_posture,
 )
-from .reduction import SCATTER_COLUMNS, reduce_recordings
-from .rotations import axis_vector, error_angle_deg, vertical_share
-from .segmentation import TrimParams
-from .signatures import SIGNATURE_COLUMNS, signature_verdicts
-from .uncertainty import bootstrap_cone
-
-KEY = ["subject", "sensor_set", "imu"]
-#: the columns every calibration table has (an empty table keeps them)
-CALIBRATION_COLUMNS = [
-    *KEY,
-    "segment",
-    "side",
-    "test",
-    "repetitions",
-    "n_reps",
-    "method",
-    *R_COLUMNS,
-    "flag",
-]
+from aceval.signals.reduction import SCATTER_COLUMNS, reduce_recordings
+from aceval.signals.segmentation import TrimParams
+from aceval.signals.signatures import SIGNATURE_COLUMNS, signature_verdicts
 
 
 def summarise_recordings(
@@ -86,22 +71,10 @@ def summarise_recordings(
     tests: list[str] | None = None,
 ) -> pd.DataFrame:
     """One summary row per recording of ``subject`` (all subjects if None) that some analysis
-    needs (:func:`aceval.reduction.summarise`); ``tests``: only these motion tests. The recording
-    pairs and file findings of the same pass are in :func:`aceval.reduction.reduce_recordings`.
+    needs (:func:`aceval.signals.reduction.summarise`); ``tests``: only these motion tests. The recording
+    pairs and file findings of the same pass are in :func:`aceval.signals.reduction.reduce_recordings`.
     """
     return reduce_recordings(dataset, subject, trim, tests).summaries
-
-
-def all_subsets(repetitions: list[int]) -> list[tuple[int, ...]]:
-    """Every non-empty subset of the repetitions, by size then lexicographically (31 for 5)."""
-    return [
-        c for k in range(1, len(repetitions) + 1) for c in itertools.combinations(repetitions, k)
-    ]
-
-
-def subset_label(subset) -> str:
-    """``(1, 3)`` -> ``'R1+R3'`` (the inverse of :func:`aceval.objectives.parse_subset`)."""
-    return "+".join(f"R{r}" for r in subset)
 
 
 def calibrate(
@@ -132,21 +105,18 @@ def _identity(dataset: Dataset, subject: str, sensor_set: str, imu: str) -> dict
     }
 
 
-def _truth_columns(truth, R) -> dict:
-    """``error_deg`` and ``error_vertical_share`` of ``R`` (3x3 or a stack) against the ground
-    truth (NaN without).
+def _error_placeholders(R) -> dict:
+    """Empty ``error_deg`` and ``error_vertical_share`` for ``R`` (3x3 or a stack): calibration
+    knows no truth; :func:`aceval.evaluation.methods_comparison.with_truth` fills them in.
     """
-    if truth is None or R is None or not np.isfinite(R).all():  # an undetermined R: no error
-        shape = np.shape(R)[:-2] if R is not None else ()
-        return {"error_deg": np.full(shape, np.nan), "error_vertical_share": np.full(shape, np.nan)}
-    return {
-        "error_deg": error_angle_deg(R, truth),
-        "error_vertical_share": vertical_share(R, truth),
-    }
+    shape = np.shape(R)[:-2] if R is not None else ()
+    return {"error_deg": np.full(shape, np.nan), "error_vertical_share": np.full(shape, np.nan)}
 
 
-def _method_rows(base: dict, fits: dict, truth) -> list[dict]:
-    """One calibration row per method of ``fits`` (R, diagnostics, flag and error to the truth)."""
+def _method_rows(base: dict, fits: dict) -> list[dict]:
+    """One calibration row per method of ``fits`` (R, diagnostics, flag; the errors to the truth
+    empty).
+    """
     rows = []
     for method, fit in fits.items():
         R = fit.get("R")
@@ -155,7 +125,7 @@ def _method_rows(base: dict, fits: dict, truth) -> list[dict]:
             "method": method,
             **dict(zip(R_COLUMNS, R.ravel() if R is not None else [np.nan] * 9)),
             "flag": fit.get("flag", ""),
-            **{k: float(v) for k, v in _truth_columns(truth, R).items()},
+            **{k: float(v) for k, v in _error_placeholders(R).items()},
         }
         row.update({k: v for k, v in fit.items() if k in FIT_COLUMNS})
         rows.append(row)
@@ -201,9 +171,9 @@ def _static_axes(summaries: pd.DataFrame) -> tuple[pd.DataFrame, dict]:
 
 def imu_checks(dataset: Dataset, summaries: pd.DataFrame) -> dict[tuple, dict]:
     """Per (subject, set, IMU), what its motion recordings say about the sensor itself
-    (:func:`aceval.checks.sensor_problem`; walking recordings are left out of the agreement),
-    about its static trial (:func:`aceval.checks.static_posture`) and about its place
-    (:func:`aceval.signatures.signature_verdicts`): ``flag`` (every flag of the IMU's
+    (:func:`aceval.signals.checks.sensor_problem`; walking recordings are left out of the agreement),
+    about its static trial (:func:`aceval.signals.checks.static_posture`) and about its place
+    (:func:`aceval.signals.signatures.signature_verdicts`): ``flag`` (every flag of the IMU's
     calibrations, ';'-joined), ``message``, ``test_flags`` (test -> the flag of that test's
     calibrations only) and the checks' evidence columns.
     """
@@ -281,7 +251,7 @@ class _Repetitions:
         )
 
     def pooled_axis(self, rows, orient: np.ndarray):
-        """:func:`aceval.functional.pool` of the repetitions at ``rows`` (NaN phases skipped)."""
+        """:func:`aceval.methods.functional.pool` of the repetitions at ``rows`` (NaN phases skipped)."""
         return pool_summed(np.nansum(self.moments[rows], axis=0), orient)
 
 
@@ -293,19 +263,6 @@ def _direction(
     )
 
 
-def combine_flags(*flags: str) -> str:
-    """Every flag of a row, each once, in the order given, joined by ';' ('' when none): a check
-    adds its flag beside the others' and never replaces them.
-    """
-    names = [name for f in flags if isinstance(f, str) for name in f.split(";") if name]
-    return ";".join(dict.fromkeys(names))
-
-
-def has_flag(flags: pd.Series, name: str) -> pd.Series:
-    """True for the rows whose ``flag`` (';'-joined, :func:`combine_flags`) includes ``name``."""
-    return flags.fillna("").astype(str).str.split(";").map(lambda names: name in names)
-
-
 def calibrate_sagittal(
     dataset: Dataset,
     summaries: pd.DataFrame,
@@ -315,7 +272,7 @@ def calibrate_sagittal(
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Kong calibrations for every (subject, set, IMU, motion test) in ``summaries`` and every
     subset of its usable repetitions (``subsets='all'``) or all of them together (``'full'``);
-    for all the repetitions together, also the axis methods (:func:`aceval.functional.sagittal_fits`),
+    for all the repetitions together, also the axis methods (:func:`aceval.methods.functional.sagittal_fits`),
     and, with ``retest_k``, the axis methods from every subset of that many repetitions (Obj 4's
     test-retest for every method).
 
@@ -323,8 +280,9 @@ def calibrate_sagittal(
     calibration: key columns, ``repetitions`` ('R1+R3+R4'), ``n_reps``, ``method``, r11..r33,
     diagnostics (Kong: eigenvalues, planarity...; all: ``rho_static`` and ``rho_motion``, the
     reliability of the static and gyroscope axes, Ricci Eq. 2; ``z0_tests``, the static test(s)
-    z0 came from), ``flag`` ('' when valid) and,
-    with ground truth, ``error_deg`` and ``error_vertical_share``. ``axes``: one row per
+    z0 came from), ``flag`` ('' when valid) and ``error_deg``, ``error_vertical_share`` left empty
+    (calibration knows no truth: :func:`aceval.evaluation.methods_comparison.with_truth` fills
+    them in). ``axes``: one row per
     (subject, set, IMU, test) with the axis and rho of all its repetitions.
     """
     z0, static_axes = _static_axes(summaries)
@@ -363,8 +321,7 @@ def calibrate_sagittal(
         )
         static_axis, z0_tests, _ = static_axes[(subject, sensor_set, imu)]
         rho_static = static_axis.rho
-        truth = dataset.ground_truth_matrix(subject, sensor_set, imu)
-        errors = _truth_columns(truth, result.R)
+        errors = _error_placeholders(result.R)
         identity = _identity(dataset, subject, sensor_set, imu)
         sensor = sensors.get((subject, sensor_set, imu), {"flag": ""})
         sensor_flag = combine_flags(sensor["flag"], sensor.get("test_flags", {}).get(test, ""))
@@ -476,17 +433,16 @@ def calibrate_sagittal(
         for method, (cone95_deg, cone_share) in cones.items():
             target = kong_full if method == "kong" else fits[method]
             target.update(cone95_deg=cone95_deg, cone_vertical_share=cone_share)
-        out += _method_rows(base, fits, None)  # errors to the truth below, all rows at once
+        out += _method_rows(base, fits)
         if subsets == "all" and retest_k and len(reps) > retest_k:
             out += _retest_rows(data, base, fits, sensor_flag, z0_imu, rho_static, right,
                                 retest_k, result, kong_at, limits)  # fmt: skip
     calibrations = pd.DataFrame(out, columns=None if out else CALIBRATION_COLUMNS)
-    calibrations = with_truth(calibrations, dataset.ground_truth)
     return propagate_backward(calibrations), pd.DataFrame(axes, columns=AXES_COLUMNS)
 
 
 def _combined_fit(kong, index: int, z0, axis, axis_flag: str, right, limits: KongLimits) -> dict:
-    """The combined heading (:mod:`aceval.calibration.combined`) of Kong's calibration ``index``
+    """The combined heading (:mod:`aceval.methods.combined`) of Kong's calibration ``index``
     of ``kong`` (a :class:`KongResult`) and the pooled gyroscope ``axis`` of the same repetitions:
     each weighted by its conditioning, 0 when flagged; both 0: the heading is undetermined
     (R NaN, flagged as Kong's calibration).
@@ -506,7 +462,7 @@ def _combined_fit(kong, index: int, z0, axis, axis_flag: str, right, limits: Kon
     return {"R": R, "flag": flag, "weight_kong": w_kong, "weight_gyro": w_gyro}
 
 
-#: why a walking test has no step-harmonic calibration (aceval.calibration.step_harmonic)
+#: why a walking test has no step-harmonic calibration (aceval.methods.step_harmonic)
 STEP_TOO_SHORT = (
     "needs walking recordings of at least two cycles of the slowest step (3.3 s) to find the "
     "step frequency; this dataset's repetitions are shorter"
@@ -567,7 +523,6 @@ def _retest_rows(
                 "axis_spread_deg": spread,
             },  # fmt: skip
             sub,
-            None,  # errors to the truth: calibrate_sagittal, all rows at once
         )
     return rows
 
@@ -746,153 +701,10 @@ def calibrate_functional(
                 "n_reps": int(used["n_recordings"].sum()),
                 "n_samples": int(used["n_samples"].sum()),
             }
-            calibrations += _method_rows(
-                base, fits, dataset.ground_truth_matrix(subject, sensor_set, imu)
-            )
+            calibrations += _method_rows(base, fits)
         axes.append(table)
     return pd.DataFrame(calibrations, columns=None if calibrations else CALIBRATION_COLUMNS), (
         pd.concat(axes, ignore_index=True)[AXES_COLUMNS]
         if axes
         else pd.DataFrame(columns=AXES_COLUMNS)
     )
-
-
-CORRELATION_COLUMNS = [
-    "objective",
-    "subject",
-    "sensor_set",
-    "imu",
-    "imu_b",
-    "segment",
-    "pair",
-    "side",
-    "t_ex",
-    "t_ap",
-    "rep",
-    "signal",
-    "mode",
-    "heading_error_deg",
-    "lag_samples",
-    "n_samples",
-    "correlation",
-    "flag",
-]
-#: heading errors (deg, about body z, imposed on the second set's calibration) at which the Obj 1
-#: correlation is also computed, for every mode: how large an error the correlation can detect
-SENSITIVITY_HEADINGS_DEG = (0.0, 1.0, 2.0, 5.0, 10.0, 15.0, 20.0, 30.0)
-
-
-def correlations(
-    dataset: Dataset,
-    calibrations: pd.DataFrame,
-    pairs: pd.DataFrame,
-    mode: str = "concatenated",
-    segment_pairs: dict | None = None,
-    headings_deg: tuple = SENSITIVITY_HEADINGS_DEG,
-) -> pd.DataFrame:
-    """Kong Obj 1 and 2 (Eq. 7-10): full-set calibrations applied to every repetition of every
-    motion test (T_ap), one correlation per recording pair, from the pair moments of the one pass
-    (``pairs``, :func:`aceval.reduction.reduce_recordings`; already aligned in time, Kong Sec. 2.3).
-
-    Obj 1 (``objective='frontal_lateral'``, needs two sensor sets): the same IMU in both sets,
-    ``sensor_set`` = 'set_a|set_b'; acceleration and angular velocity (``signal``). Obj 2
-    (``'segment_pair'``): two segments of one set calibrated from the same T_ex, on the tests that
-    ``segment_pairs`` names; acceleration. ``mode`` as in :func:`aceval.objectives.correlation_3d`
-    (``per_axis_moving``: over the samples either sensor's trimmer keeps as movement). A pair
-    overlapping too little is flagged ``no_overlap`` with no correlation.
-
-    Also, for Obj 1's acceleration (``objective='frontal_lateral_sensitivity'``): the correlation in
-    every mode with the second set's calibration turned by each heading error in ``headings_deg``
-    about body z, to measure what size of calibration error the correlation can detect; one row
-    per unit, mode and heading (the mean over the repetitions).
-    """
-    if calibrations.empty or pairs.empty:
-        return pd.DataFrame(columns=CORRELATION_COLUMNS)
-    full = full_sets(calibrations)
-    motion = [t for t in dataset.tests.index if dataset.tests.loc[t, "kind"] == "motion"]
-    # the pair moments by (objective, subject, set, IMU, IMU b, test, rep, signal, window)
-    keys = ["objective", "subject", "sensor_set", "imu", "imu_b", "test", "rep", "signal", "window"]
-    lookup = pairs[keys].assign(imu_b=pairs["imu_b"].fillna(""), rep=pairs["rep"].astype(int))
-    index = {key: k for k, key in enumerate(lookup.itertuples(index=False, name=None))}
-    reps = lookup.groupby(keys[:4] + ["test"])["rep"].unique().to_dict()
-    # each pair's alignment as arrays, read by position (not a pandas row per pair)
-    lags, n_overlaps = pairs["lag_samples"].to_numpy(), pairs["n_overlap"].to_numpy()
-    pair_flags = pairs["flag"].to_numpy(dtype=object)
-    turns = {h: Rotation.from_euler("z", h, degrees=True).as_matrix() for h in headings_deg}
-    rows: list[dict] = []
-    wanted: list[tuple] = []  # (row, pair row, R_a, R_b, mode)
-
-    def window(m: str) -> str:
-        return "moving" if m == "per_axis_moving" else "all"
-
-    def correlate(base, objective, sensor_set, imu, imu_b, t_ap, R_a, R_b, signals, sensitivity):
-        unit = (objective, base["subject"], sensor_set, imu)
-        for rep in sorted(int(r) for r in reps.get((*unit, t_ap), [])):
-            for signal in signals:
-                key = (*unit, imu_b, t_ap, rep, signal)
-                k = index[(*key, window(mode))]
-                row = {**base, "t_ap": t_ap, "rep": rep, "signal": signal, "mode": mode,
-                       "heading_error_deg": 0.0, "lag_samples": int(lags[k]),
-                       "n_samples": int(n_overlaps[k]), "correlation": np.nan,
-                       "flag": pair_flags[k] if isinstance(pair_flags[k], str) else ""}  # fmt: skip
-                rows.append(row)
-                if row["flag"]:
-                    continue
-                wanted.append((len(rows) - 1, k, R_a, R_b, mode))
-                if sensitivity and signal == "acc":
-                    for heading, turn in turns.items():
-                        for m in CORRELATION_MODES:
-                            rows.append({**row, "objective": "frontal_lateral_sensitivity",
-                                         "mode": m, "heading_error_deg": heading})  # fmt: skip
-                            wanted.append(
-                                (len(rows) - 1, index[(*key, window(m))], R_a, turn @ R_b, m)
-                            )
-
-    sensor_sets = list(dataset.meta["sensor_sets"])
-    if len(sensor_sets) == 2 and len(full):
-        for plan in frontal_lateral_plan(full, sensor_sets).to_dict("records"):
-            base = {"objective": "frontal_lateral", "subject": plan["subject"],
-                    "sensor_set": "|".join(sensor_sets), "imu": plan["imu"],
-                    "segment": plan["segment"], "side": plan["side"], "t_ex": plan["t_ex"]}  # fmt: skip
-            for t_ap in motion:
-                correlate(base, "frontal_lateral", base["sensor_set"], plan["imu"], "", t_ap,
-                          plan["R_a"], plan["R_b"], ("acc", "gyr"), bool(headings_deg))  # fmt: skip
-    if segment_pairs and len(full):
-        for plan in segment_pair_plan(full, segment_pairs).to_dict("records"):
-            base = {"objective": "segment_pair", "subject": plan["subject"],
-                    "sensor_set": plan["sensor_set"], "imu": plan["imu_a"], "imu_b": plan["imu_b"],
-                    "pair": plan["pair"], "side": plan["side"], "t_ex": plan["t_ex"]}  # fmt: skip
-            for t_ap in [t for t in plan["t_ap"] if t in motion]:
-                correlate(base, "segment_pair", plan["sensor_set"], plan["imu_a"], plan["imu_b"],
-                          t_ap, plan["R_a"], plan["R_b"], ("acc",), False)  # fmt: skip
-    table = pd.DataFrame(rows, columns=CORRELATION_COLUMNS)
-    for m in {w[4] for w in wanted}:
-        chosen = [w for w in wanted if w[4] == m]
-        values = correlation_from_moments(
-            pairs.iloc[[w[1] for w in chosen]],
-            np.array([w[2] for w in chosen]),
-            np.array([w[3] for w in chosen]),
-            m,
-        )
-        table.loc[[w[0] for w in chosen], "correlation"] = values
-    return _sensitivity_unit_means(table)
-
-
-def _sensitivity_unit_means(table: pd.DataFrame) -> pd.DataFrame:
-    """The sensitivity rows as what :func:`aceval.kong2016.correlation_sensitivity` reads: one per
-    unit (subject x IMU x T_ex x T_ap), mode and heading error, the mean over the repetitions
-    (``rep``, lag and sample count left empty): five times fewer rows, the same numbers.
-    """
-    sensitivity = (table["objective"] == "frontal_lateral_sensitivity").to_numpy()
-    if not sensitivity.any():
-        return table
-    per_rep = ["rep", "lag_samples", "n_samples", "correlation", "flag"]
-    keys = [c for c in CORRELATION_COLUMNS if c not in per_rep]
-    means = (
-        table[sensitivity]
-        .groupby(keys, sort=False, dropna=False)["correlation"]
-        .mean()
-        .reset_index()
-        .assign(flag="")
-    )
-    return pd.concat([table[~sensitivity], means], ignore_index=True)[CORRELATION_COLUMNS]

@@ -1,5 +1,5 @@
 """A dataset's results folder in one process: the Obj 3-5 angles, every table and figure of its
-analyses (:mod:`aceval.outputs`), SUMMARY.md and validation.txt.
+analyses (:mod:`aceval.report.outputs`), SUMMARY.md and validation.txt.
 
 One process per dataset, not one per output: starting Python with pandas, SciPy, statsmodels and
 seaborn costs seconds, far more than most tables take to build (benchmarks/README.md).
@@ -16,8 +16,8 @@ from pathlib import Path
 import pandas as pd
 import yaml
 
-from .outputs import Output, outputs_of
-from .safety import FileSet, atomic_file
+from aceval.data.safety import FileSet, atomic_file
+from aceval.report.outputs import Output, outputs_of
 
 
 def read_tables(paths, keep: Callable | None = None) -> pd.DataFrame | None:
@@ -101,9 +101,9 @@ def build_data(
     to aceval's, with their error to the ground truth), the dataset's truth and reference sheets,
     its ``paper_names`` (this dataset's test names -> the paper's), sensor sets and Obj 4's k;
     ``retest_units``: aceval's methods' test-retest units, computed per subject
-    (:func:`aceval.methods_comparison.retest_units`; None: from the calibrations).
+    (:func:`aceval.evaluation.methods_comparison.retest_units`; None: from the calibrations).
     """
-    from .methods_comparison import with_truth
+    from aceval.evaluation.methods_comparison import with_truth
 
     meta = dataset_meta(root)
     if peers is not None and len(peers):
@@ -167,7 +167,7 @@ def write_results(
     and figures can be written by two processes at once (the workflow does). With ``files``
     every output is staged there and put in place when the set is committed (all or none).
     """
-    from .objectives import all_angles
+    from aceval.evaluation.objectives import all_angles
 
     results = Path(results)
     chosen = [o for o in outputs_of(analyses) if o.kind in kinds]
@@ -205,8 +205,8 @@ def write_results(
 
 def summary_text(tables: dict, analyses: list[str], data: dict, notes: list[str]) -> str:
     """SUMMARY.md from the tables as read back (Kong's keyed by number, the others by name)."""
-    from . import summary
-    from .methods_comparison import truth_warning
+    from aceval.evaluation.methods_comparison import truth_warning
+    from aceval.report import summary
 
     meta = data["meta"]
     # Kong's claims and the truth warning read the angles and calibrations; the other analyses'

@@ -4,7 +4,7 @@ combined and the step-harmonic (not the peers', which run in their own environme
 functional design, whose axes pool all trials of several tests).
 
 Every repetition of a motion test is reduced to a 3x3 acceleration scatter and a 3x3 unit
-gyroscope scatter (:mod:`aceval.reduction`), so a calibration from any resample of repetitions
+gyroscope scatter (:mod:`aceval.signals.reduction`), so a calibration from any resample of repetitions
 costs one weighted 3x3 sum and one ``eigh``. :func:`bootstrap_cone` draws ``n_boot`` resamples
 of the repetitions with replacement (Efron's bootstrap, the repetition as the unit), calibrates
 each, and reports the 95th percentile of the angle between a resample's calibration and the
@@ -23,13 +23,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .calibration.combined import combined_rotation, gyro_weight, horizontal_right, kong_weight
-from .calibration.kong import KongLimits, kong_from_scatters
-from .calibration.ricci import wahba_batch
-from .calibration.step_harmonic import MAX_STEP_RATIO, step_harmonic_rotation
-from .calibration.triad import triad_batch
-from .functional import SAGITTAL_REFERENCE, AxisLimits, subset_axes
-from .rotations import error_angle_deg, vertical_share
+from aceval.data.rotations import error_angle_deg, vertical_share
+from aceval.methods.combined import combined_rotation, gyro_weight, horizontal_right, kong_weight
+from aceval.methods.functional import SAGITTAL_REFERENCE, AxisLimits, subset_axes
+from aceval.methods.kong import KongLimits, kong_from_scatters
+from aceval.methods.ricci import wahba_batch
+from aceval.methods.step_harmonic import MAX_STEP_RATIO, step_harmonic_rotation
+from aceval.methods.triad import triad_batch
 
 #: resamples per calibration (the 95th percentile of 200 angles: its 10th largest)
 N_BOOT = 200
@@ -65,7 +65,7 @@ def _axis_method_cones(rho, axes, z0, right, rho_static, R_axis, rho_min) -> dic
     optimum (``align_vectors``). Ricci's LM minimises the same cost and reaches that optimum
     (``optimum_distance_deg`` in its calibration), so its cone is the optimum's resampled spread,
     not 200 LM runs. A resample whose axis would be flagged (``low_rho``, ``axis_near_vertical``:
-    :class:`aceval.functional.AxisLimits`) counts as NaN.
+    :class:`aceval.methods.functional.AxisLimits`) counts as NaN.
     """
     if not R_axis:
         return {}

@@ -28,7 +28,9 @@ import numpy as np
 import pandas as pd
 from scipy.spatial.transform import Rotation
 
-from .calibration.ricci import (
+from aceval.data.errors import CalibrationError
+from aceval.data.rotations import axis_vector, error_angle_deg
+from aceval.methods.ricci import (
     AxisEstimate,
     axis_from_moments,
     first_phase_sign,
@@ -38,10 +40,8 @@ from .calibration.ricci import (
     wahba_batch,
     wahba_fit,
 )
-from .calibration.triad import MIN_ANGLE_DEG as TRIAD_MIN_ANGLE_DEG
-from .calibration.triad import triad, triad_batch
-from .errors import CalibrationError
-from .rotations import axis_vector, error_angle_deg
+from aceval.methods.triad import MIN_ANGLE_DEG as TRIAD_MIN_ANGLE_DEG
+from aceval.methods.triad import triad, triad_batch
 
 SUM_COLUMNS = ["m_x", "m_y", "m_z"]
 SCATTER_COLUMNS = [f"u{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]

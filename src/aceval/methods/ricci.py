@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..errors import TooFewAxesError, TooFewSamplesError, check_samples
+from aceval.data.errors import TooFewAxesError, TooFewSamplesError, check_samples
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .stats import TTEST_COLUMNS, holm, paired_ttest
+from aceval.evaluation.stats import TTEST_COLUMNS, holm, paired_ttest
 
 REFERENCE = Path(__file__).parent / "reference" / "ricci2014"
 #: Ricci's supported (with a bar) vs unsupported comparisons: (reading, frame, supported,

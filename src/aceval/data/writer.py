@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .dataset import (
+from aceval.data.dataset import (
     ACC_UNITS,
     GYR_UNITS,
     KONG_FIRST_PHASE,
@@ -149,7 +149,7 @@ class DatasetWriter:
 
     def protocol_sheets(self, tests: dict, repetitions: dict, calibrates: dict) -> None:
         """tests.tsv from ``{test: (kind, description)}`` and ``{test: repetitions}`` (``first_phase``
-        from Kong's test names, :data:`aceval.dataset.KONG_FIRST_PHASE`), and
+        from Kong's test names, :data:`aceval.data.dataset.KONG_FIRST_PHASE`), and
         calibrates.tsv from ``{test: [imu, ...]}``.
         """
         write_sheet(

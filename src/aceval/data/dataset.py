@@ -20,8 +20,8 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from .rotations import AXIS_VECTORS
-from .safety import path_problem
+from aceval.data.rotations import AXIS_VECTORS
+from aceval.data.safety import path_problem
 
 GRAVITY = 9.81  # m/s^2: 1 g, used for unit conversion and by the simulator's physics
 ACC_UNITS = {"g": GRAVITY, "m/s^2": 1.0}

@@ -2,8 +2,8 @@
 every reproduced one (``reference/kong2016``, see its SOURCE.md).
 
 Each builder returns one tidy frame: key columns, this run's values, ``n`` (what is counted is
-stated in the table's entry of :mod:`aceval.outputs`), ``published_*`` and ``difference``. :func:`to_markdown`
-renders it in the paper's layout plus a long comparison table.
+stated in the table's entry of :mod:`aceval.report.outputs`), ``published_*`` and
+``difference``. :func:`to_markdown` renders it in the paper's layout plus a long comparison table.
 """
 
 from __future__ import annotations
@@ -13,12 +13,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .objectives import unflagged
+from aceval.calibrate.table import unflagged
+from aceval.evaluation.objectives import SEGMENT_ORDER
 
 REFERENCE = Path(__file__).parent / "reference" / "kong2016"
-SEGMENT_ORDER = ["head", "chest", "waist", "thigh", "shank", "foot"]
 
-#: layout of each Kong table (titles, objective and unit: :mod:`aceval.outputs`)
+#: layout of each Kong table (titles, objective and unit: :mod:`aceval.report.outputs`)
 TABLES = {
     3: dict(
         reference="table3_frontal_lateral_correlation",
@@ -155,10 +155,10 @@ def table6(correlations: pd.DataFrame, paper_names: dict) -> pd.DataFrame:
 
 def correlation_factors(correlations: pd.DataFrame | None) -> pd.DataFrame:
     """Kong Obj 1-2, "not related with T_ex but highly related with T_ap and body segment": the
-    share of variance (eta squared, :func:`aceval.stats.variance_shares`) of the correlations of
+    share of variance (eta squared, :func:`aceval.evaluation.stats.variance_shares`) of the correlations of
     Table 3's units (factors T_ex, T_ap, segment) and Table 6's (T_ex, T_ap, pair).
     """
-    from .stats import variance_shares
+    from aceval.evaluation.stats import variance_shares
 
     columns = ["objective", "factor", "eta_squared", "n"]
     if correlations is None or correlations.empty:
@@ -274,7 +274,7 @@ def ttest_table(
     so its p is optimistic), a paired t-test on per-subject x IMU (Table 7: x side) means, and two
     mixed models. ``p_holm`` corrects each test's p within the table (one family per test).
     """
-    from .stats import holm, mixed_model_by_set, paired_by_set, unit_means_by_set
+    from aceval.evaluation.stats import holm, mixed_model_by_set, paired_by_set, unit_means_by_set
 
     set_a, set_b = (list(sensor_sets) + ["(no second set)"] * 2)[:2]  # one set: n = 0
     sets = [set_a, set_b]
@@ -418,11 +418,12 @@ def _heading(title: str, dataset: str, simulated: bool, what: str) -> list[str]:
     ]
 
 
-def to_markdown(table: pd.DataFrame, number: int, dataset: str, simulated: bool) -> str:
-    """Kong Table ``number`` as Markdown: the paper's layout, then beside the published values."""
-    from .outputs import find
-
-    spec, output = TABLES[number], find("table", str(number))
+def to_markdown(table: pd.DataFrame, output, dataset: str, simulated: bool) -> str:
+    """Kong Table ``number`` as Markdown: the paper's layout, then beside the published values.
+    ``output``: its entry in the registry (:mod:`aceval.report.outputs`: title, paper, unit).
+    """
+    number = int(output.name.removeprefix("table"))
+    spec = TABLES[number]
     objective = output.paper.split("(")[-1].rstrip(")")
     lines = _heading(
         f"Kong et al. 2016, Table {number}: {output.title}",

@@ -1,0 +1,109 @@
+"""The calibrations table: its columns, its flags and the selections every later stage makes of it
+(one row per calibration: subject, set, IMU, test, the repetitions it used, the method, R and
+``flag``).
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pandas as pd
+
+from aceval.data.dataset import R_COLUMNS
+
+CALIBRATION_KEY = ["subject", "sensor_set", "imu", "test"]
+KEY = ["subject", "sensor_set", "imu"]
+#: the columns every calibration table has (an empty table keeps them)
+CALIBRATION_COLUMNS = [
+    *KEY,
+    "segment",
+    "side",
+    "test",
+    "repetitions",
+    "n_reps",
+    "method",
+    *R_COLUMNS,
+    "flag",
+]
+
+
+def all_subsets(repetitions: list[int]) -> list[tuple[int, ...]]:
+    """Every non-empty subset of the repetitions, by size then lexicographically (31 for 5)."""
+    return [
+        c for k in range(1, len(repetitions) + 1) for c in itertools.combinations(repetitions, k)
+    ]
+
+
+def subset_label(subset) -> str:
+    """``(1, 3)`` -> ``'R1+R3'`` (the inverse of :func:`aceval.calibrate.table.parse_subset`)."""
+    return "+".join(f"R{r}" for r in subset)
+
+
+def combine_flags(*flags: str) -> str:
+    """Every flag of a row, each once, in the order given, joined by ';' ('' when none): a check
+    adds its flag beside the others' and never replaces them.
+    """
+    names = [name for f in flags if isinstance(f, str) for name in f.split(";") if name]
+    return ";".join(dict.fromkeys(names))
+
+
+def has_flag(flags: pd.Series, name: str) -> pd.Series:
+    """True for the rows whose ``flag`` (';'-joined, :func:`combine_flags`) includes ``name``."""
+    return flags.fillna("").astype(str).str.split(";").map(lambda names: name in names)
+
+
+def parse_subset(label: str) -> tuple[int, ...]:
+    """``'R1+R3'`` -> ``(1, 3)`` (the inverse of :func:`aceval.calibrate.table.subset_label`)."""
+    return tuple(int(part[1:]) for part in label.split("+"))
+
+
+def matrices(table: pd.DataFrame) -> np.ndarray:
+    """The rotations of a calibration table, shape (n, 3, 3)."""
+    return table[R_COLUMNS].to_numpy(float).reshape(-1, 3, 3)
+
+
+def unflagged(table: pd.DataFrame) -> pd.Series:
+    """True for the rows whose ``flag`` is empty (read back from a CSV, an empty flag is NaN; a
+    column with no flag at all is read as numbers, and is not turned into a million strings).
+    """
+    flag = table["flag"]
+    if pd.api.types.is_numeric_dtype(flag):
+        return flag.isna()
+    return flag.isna() | (flag.astype(str) == "")
+
+
+def usable(calibrations: pd.DataFrame, method: str = "kong") -> pd.DataFrame:
+    """A method's calibrations that are not flagged (Objectives 1-5 are about Kong's method; the
+    other methods are compared in :mod:`aceval.evaluation.methods_comparison`).
+    """
+    calibrations = kong_rows(calibrations, method)
+    return calibrations[unflagged(calibrations)]
+
+
+def kong_rows(calibrations: pd.DataFrame, method: str = "kong") -> pd.DataFrame:
+    """The rows of Kong's method, or of ``method`` (all rows of a table without ``method``)."""
+    return (
+        calibrations[calibrations["method"] == method]
+        if "method" in calibrations.columns
+        else calibrations
+    )
+
+
+def full_set_rows(calibrations: pd.DataFrame) -> pd.DataFrame:
+    """Every method's calibrations from the most repetitions of each (subject, set, IMU, test),
+    flagged ones included: the one definition of "the calibration from all repetitions", and all
+    that the tables and figures read besides the Obj 3-5 angles and the methods' test-retest units
+    (:func:`all_angles`, :func:`aceval.evaluation.methods_comparison.retest_units`), which are computed per
+    subject from the subsets (7 % of Kong's rows).
+    """
+    key = [*CALIBRATION_KEY, "method"] if "method" in calibrations else CALIBRATION_KEY
+    most = calibrations.groupby(key)["n_reps"].transform("max")
+    return calibrations[calibrations["n_reps"] == most]
+
+
+def full_sets(calibrations: pd.DataFrame) -> pd.DataFrame:
+    """The calibration from all usable repetitions of each (subject, set, IMU, test); left out when
+    that calibration itself is flagged.
+    """
+    return usable(full_set_rows(kong_rows(calibrations)))
