@@ -83,6 +83,7 @@ def test_lm_and_residual_tables():
             "fixed_n_iterations": [4, 5, 100],
             "fixed_cost": [0.01, 0.02, 0.05],
             "fixed_optimum_distance_deg": [0.0, 0.001, 3.0],
+            "fixed_converged": [True, True, False],
             "converged": [True, True, False],
             "random_starts": 5,
             "random_starts_optimum": [5, 4, 5],
@@ -96,6 +97,11 @@ def test_lm_and_residual_tables():
     assert lm.loc["forearm", "converged_share"] == 0
     assert lm.loc["thorax", "fixed_mean"] == 4.5 and lm.loc["forearm", "rejected_mean"] == 2
     assert lm.loc["forearm", "fixed_optimum_distance_deg_median"] == 3.0
+    assert (
+        lm.loc["forearm", "fixed_off_optimum_share"] == 1
+        and lm.loc["thorax", "off_optimum_share"] == 0
+    )
+    assert lm.loc["forearm", "fixed_converged_share"] == 0
     axes = pd.DataFrame(
         {
             "segment": "thorax",

@@ -139,6 +139,7 @@ FIT_COLUMNS = [
     "fixed_n_iterations",
     "fixed_cost",
     "fixed_optimum_distance_deg",
+    "fixed_converged",
     "converged",
     "cost",
     "random_starts",

@@ -156,6 +156,7 @@ def fit_axes(
             entry.update(
                 fixed_n_iterations=fixed.n_iterations,
                 fixed_cost=fixed.cost,
+                fixed_converged=fixed.converged,
                 fixed_optimum_distance_deg=_distance_deg(fixed.R, optimum),
             )
         if random_starts and optimum is not None:

@@ -302,9 +302,12 @@ _ENTRIES = [
         "Ricci et al. 2014, Sec. 3 (LM iterations)",
         ("calibrations",),
         "Ricci et al. 2014: Levenberg-Marquardt iterations per frame, and random starts",
-        "IMUs (subject x side); q0 = identity, lambda = 1e-3, stop at relative cost change < 1e-4; "
-        "each fit also from random unit quaternions (how many: random_starts), counted as "
-        "reaching the optimum when within 0.1 deg of SciPy's closed-form solution",
+        "IMUs (subject x side); q0 = identity, steps on the unit sphere; columns without a prefix: "
+        "Hartley & Zisserman's adaptive damping from lambda = 1e-3 (floored at 1e-6), fixed_*: "
+        "lambda fixed at 1e-3; stop at relative cost change < 1e-4 (Eq. 11) with the gradient on "
+        "the sphere < 1e-6, converged = that gradient reached; off_optimum: more than 0.1 deg "
+        "from SciPy's closed-form solution; each fit also from random unit quaternions (how many: "
+        "random_starts), counted as reaching the optimum when within 0.1 deg of it",
         _named("report.ricci2014.lm_table", "calibrations"),
         _named_markdown,
     ),  # fmt: skip
