@@ -272,3 +272,51 @@ def test_unflagged_reads_an_empty_flag_however_the_csv_reader_typed_the_column(t
     assert calibrations_table.unflagged(joined).tolist() == [True, True, False, True]
     by_hand = pd.DataFrame({"flag": ["", "no_overlap", np.nan]})
     assert calibrations_table.unflagged(by_hand).tolist() == [True, False, True]
+
+
+def test_one_offset_per_repetition_is_pooled_over_the_pairs():
+    """Two sets on two clocks: the pooled offset is the true one even where one pair alone would
+    pick another (a pair whose magnitudes carry little but noise)."""
+    rng = np.random.default_rng(1)
+    pairs = []
+    for k in range(4):
+        signal = rng.normal(0, 1, (400, 3)) + np.sin(np.arange(400) / (7 + k))[:, None]
+        pairs.append((signal[9:], signal[:-9] + 0.05 * rng.normal(0, 1, (391, 3))))
+    flat = rng.normal(0, 1, (391, 3))
+    pairs.append((flat, rng.normal(0, 1, (391, 3))))  # noise: its own best lag is anywhere
+    assert alignment.pooled_lag(pairs, max_lag=25) == -9
+    assert alignment.best_lag(*pairs[-1], max_lag=25) != -9
+
+
+@pytest.mark.slow
+def test_the_pass_aligns_the_two_sets_by_one_offset_and_none_inside_a_set(tmp_path):
+    """Simulated sets share one time base: each repetition gets one offset for all its
+    frontal-lateral pairs, near 0 (the two sets sit at different points of the segment and wobble
+    apart, so their magnitudes differ: here 5, -1, 0, 0 samples), and Obj 2's pairs (inside one
+    set) are never shifted; the lateral set's recordings delayed by 7 samples move the offset by
+    -7 (within a sample)."""
+    from aceval.cli import main
+    from aceval.data.dataset import load_dataset
+    from aceval.signals.reduction import reduce_recordings
+
+    lab = tmp_path / "lab"
+    assert main(["simulate", "kong", "--out", str(lab), "--subjects", "1", "--repetitions", "2",
+                 "--seed", "2"]) == 0  # fmt: skip
+    pairs = reduce_recordings(load_dataset(lab), tests=["T1", "T5"]).pairs
+    assert (pairs["flag"] == "").all()
+    per_rep = pairs.groupby(["objective", "test", "rep"])["lag_samples"]
+    assert (per_rep.nunique() == 1).all() and (pairs["lag_samples"].abs() <= 10).all()
+    before = per_rep.first()["frontal_lateral"]["T5"]
+    sheet = pd.read_csv(lab / "recordings.tsv", sep="\t")
+    for path in sheet[(sheet["sensor_set"] == "lateral") & (sheet["test"] == "T5")]["path"]:
+        table = pd.read_csv(lab / path)
+        values = table.columns.drop("t")
+        table[values] = np.vstack([np.repeat(table[values].to_numpy()[:1], 7, 0),
+                                   table[values].to_numpy()[:-7]])  # fmt: skip
+        table.to_csv(lab / path, index=False)
+    pairs = reduce_recordings(load_dataset(lab), tests=["T5"]).pairs
+    frontal_lateral = pairs[pairs["objective"] == "frontal_lateral"]
+    after = frontal_lateral.groupby("rep")["lag_samples"]
+    assert (after.nunique() == 1).all()
+    assert all(abs(after.first()[rep] - (lag - 7)) <= 1 for rep, lag in before.items())
+    assert (pairs.loc[pairs["objective"] != "frontal_lateral", "lag_samples"] == 0).all()

@@ -40,7 +40,7 @@ from aceval.methods.functional import recording_moments
 from aceval.methods.kong import scatter, vertical_axis
 from aceval.methods.step_harmonic import SCATTER_COLUMNS as STEP_COLUMNS
 from aceval.methods.step_harmonic import step_scatter
-from aceval.signals.alignment import aligned, best_lag
+from aceval.signals.alignment import aligned, pooled_lag
 from aceval.signals.checks import MIN_STILL_S, STILL_COLUMNS, agreement_moments, third_moments
 from aceval.signals.segmentation import TrimParams, mask_to_ranges, movement_mask
 from aceval.signals.signatures import motion_signatures, sagittal_rate, speed_envelope
@@ -269,27 +269,29 @@ def _pair_rows(
     rows = []
     sets = list(dataset.meta["sensor_sets"])
     base = {"subject": subject, "test": test, "rep": rep}
-    if len(sets) == 2:
-        for set_a, imu in [key for key in loaded if key[0] == sets[0]]:
-            if (sets[1], imu) in loaded:
-                rows += pair_moments(
-                    loaded[(set_a, imu)],
-                    loaded[(sets[1], imu)],
-                    {
-                        **base,
-                        "objective": "frontal_lateral",
-                        "sensor_set": "|".join(sets),
-                        "imu": imu,
-                        "imu_b": "",
-                    },  # fmt: skip
-                    ("acc", "gyr"),
-                    max_lag,
-                )
+    common = [i for s, i in loaded if len(sets) == 2 and s == sets[0] and (sets[1], i) in loaded]
+    if common:
+        pairs = [(loaded[(sets[0], imu)], loaded[(sets[1], imu)]) for imu in common]
+        magnitudes = [
+            (getattr(a, q), getattr(b, q)) for (a, _), (b, _) in pairs for q in ("acc", "gyr")
+        ]
+        lag = pooled_lag(magnitudes, max_lag)
+        at_bound = max_lag > 0 and abs(lag) == max_lag  # the true offset may lie beyond
+        for imu, (first, second) in zip(common, pairs):
+            rows += pair_moments(
+                first,
+                second,
+                {**base, "objective": "frontal_lateral", "sensor_set": "|".join(sets),
+                 "imu": imu, "imu_b": ""},
+                ("acc", "gyr"),
+                lag,
+                "lag_at_bound" if at_bound else "",
+            )  # fmt: skip
     imus = dataset.imus.reset_index()
-    return rows + _segment_pair_rows(loaded, imus, segment_pairs, base, max_lag)
+    return rows + _segment_pair_rows(loaded, imus, segment_pairs, base)
 
 
-def _segment_pair_rows(loaded, imus, segment_pairs, base, max_lag) -> list[dict]:
+def _segment_pair_rows(loaded, imus, segment_pairs, base) -> list[dict]:
     """Obj 2 pairs of :func:`_pair_rows`: each IMU pair once, however many specs name it."""
     rows = []
     done = set()
@@ -322,27 +324,28 @@ def _segment_pair_rows(loaded, imus, segment_pairs, base, max_lag) -> list[dict]
                     "imu_b": imu_b,
                 },  # fmt: skip
                 ("acc",),
-                max_lag,
+                0,  # one set, one clock: no offset
             )
     return rows
 
 
-def pair_moments(first, second, base: dict, signals: tuple, max_lag: int) -> list[dict]:
-    """Rows of :data:`PAIR_COLUMNS` for two recordings ((recording, moving mask) each): aligned in
-    time by the lag that best correlates their acceleration magnitudes (Kong Sec. 2.3,
-    :func:`aceval.signals.alignment.best_lag`), then, per signal, the moments of the overlap (window
-    ``all``) and of the samples either sensor's trimmer keeps as movement (``moving``). A pair
-    overlapping less than :data:`MIN_OVERLAP` of the shorter recording is flagged ``no_overlap``.
+def pair_moments(first, second, base: dict, signals: tuple, lag: int, flag: str = "") -> list[dict]:
+    """Rows of :data:`PAIR_COLUMNS` for two recordings ((recording, moving mask) each) aligned in
+    time by ``lag`` (samples; ``a[t + lag]`` matches ``b[t]``: one offset per repetition between
+    the two sensor sets, :func:`aceval.signals.alignment.pooled_lag`, Kong Sec. 2.3; 0 inside one
+    set), then, per signal, the moments of the overlap (window ``all``) and of the samples either
+    sensor's trimmer keeps as movement (``moving``). A pair overlapping less than
+    :data:`MIN_OVERLAP` of the shorter recording is flagged ``no_overlap``, one whose offset sits
+    at the search bound ``flag`` ('lag_at_bound'); either has no moments.
     """
     (a, moving_a), (b, moving_b) = first, second
-    lag = best_lag(a.acc, b.acc, max_lag)
     part_a, part_b = aligned(len(a.t), len(b.t), lag)
     n = part_b.stop - part_b.start
     common = {**base, "lag_samples": lag, "n_overlap": n, "flag": ""}
     if n < MIN_OVERLAP * min(len(a.t), len(b.t)):
-        return [
-            {**common, "signal": s, "window": "all", "flag": "no_overlap", "n": 0} for s in signals
-        ]
+        flag = "no_overlap"
+    if flag:
+        return [{**common, "signal": s, "window": "all", "flag": flag, "n": 0} for s in signals]
     moving = moving_a[part_a] | moving_b[part_b]
     rows = []
     for signal in signals:
