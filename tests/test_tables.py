@@ -142,11 +142,34 @@ def test_independent_units_and_mixed_model_on_a_known_table():
     assert mixed["mean_difference"] == pytest.approx(
         means["frontal"].mean() - means["lateral"].mean(), abs=1e-4
     )
-    assert mixed["n"] == 200 and mixed["n_groups"] == 5
+    assert mixed["n"] == 100 and mixed["n_groups"] == 5  # the paired differences
+    assert mixed["fit_flags"] in ("", "boundary") and np.isfinite(mixed["p"])
     markdown = kong2016.to_markdown(
         kong2016.build(8, None, angles, ["frontal", "lateral"]), find("table", "8"), "demo", False
     )
-    assert "independent units" in markdown and "random intercept per subject" in markdown
+    assert "paired t-test on subjects" in markdown and "random intercept per subject" in markdown
+
+
+def test_a_mixed_model_says_how_its_fit_ended():
+    """The same set effect in every subject: the subject's variance is estimated at zero, a
+    boundary (singular) fit, flagged and still tested; one subject only: not fitted, no p."""
+    from aceval.evaluation.stats import mixed_model_by_set
+
+    rng = np.random.default_rng(0)
+    rows = [
+        {"subject": f"S{s}", "imu": "IMU1", "rep": r, "sensor_set": name, "v": value}
+        for s in range(6)
+        for r in range(8)
+        for name, value in (("a", 1.0 + rng.normal(0, 0.1)), ("b", 0.8 + rng.normal(0, 0.1)))
+    ]
+    table = pd.DataFrame(rows)
+    fit = mixed_model_by_set(table, "v", ["subject", "imu", "rep"], ["a", "b"])
+    assert "boundary" in fit["fit_flags"].split(";") and fit["p"] < 1e-6
+    assert fit["mean_difference"] == pytest.approx(0.2, abs=0.05) and fit["n_groups"] == 6
+    one = mixed_model_by_set(
+        table[table["subject"] == "S0"], "v", ["subject", "imu", "rep"], ["a", "b"]
+    )
+    assert np.isnan(one["p"]) and one["note"].startswith("not fitted")
 
 
 def _claim(claims, start):

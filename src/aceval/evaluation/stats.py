@@ -100,67 +100,101 @@ def unit_means_by_set(
     sets: list[str],
     set_column: str = "sensor_set",
 ) -> dict:
-    """Paired t-test on independent units: each unit's (e.g. subject x IMU) mean ``value`` per
-    sensor set, paired across the sets; units present in only one set are dropped.
+    """Paired t-test on independent units: each unit's (the subject: its IMUs and sides averaged
+    inside it) mean ``value`` per sensor set, paired across the sets; units present in only one
+    set are dropped.
     """
     return paired_by_set(table, value, unit, sets, set_column)
+
+
+#: the ways a mixed-model fit can end, each a flag of its own (``fit_flags``, ';'-joined)
+FIT_FLAGS = ("not_converged", "hessian_not_pd", "boundary")
 
 
 def mixed_model_by_set(
     table: pd.DataFrame,
     value: str,
+    pair_on: list[str],
     sets: list[str],
     group: str = "subject",
+    nested: str | None = None,
     set_column: str = "sensor_set",
-    random_slope: bool = False,
 ) -> dict:
-    """Linear mixed model ``value ~ set`` with a random intercept per ``group`` (statsmodels
-    MixedLM, REML) and, with ``random_slope``, a random set effect per group too, on every row of
-    ``table``: the contrast set a - set b with its 95 % CI, z and p (Wald). A random intercept
-    alone still treats the rows of one group as independent given its mean, so with many
-    dependent rows per subject it keeps the pooled test's optimism; the random slope lets the set
-    effect vary by subject, which is what a test across subjects needs. ``n`` counts rows,
-    ``n_groups`` the groups; NaN where the model cannot be fitted (fewer than 2 groups, one set
-    missing, or no variation); ``note`` says why or how it ended.
+    """Linear mixed model of the paired differences set a - set b (statsmodels MixedLM, REML):
+    ``value`` is paired across the sets on ``pair_on`` (as the paper pairs it), and the
+    differences ``d ~ 1`` get a random intercept per ``group`` (the subject) and, with ``nested``
+    (e.g. 'imu' or 'side'), a variance component for that level within the subject: the design's
+    dependence (many pairs per IMU, several IMUs per subject) is in the model, not in n. The
+    intercept is the set effect, with its 95 % CI, z and p (Wald).
+
+    ``fit_flags`` (:data:`FIT_FLAGS`, ';'-joined): ``not_converged`` (the optimiser says so, or
+    ``fit.converged`` is false), ``hessian_not_pd`` (no valid standard errors) and ``boundary``
+    (a variance component estimated at zero: a singular fit; its p stands, flagged). A fit that did
+    not converge or has no positive-definite Hessian has no p (it leaves the Holm family). ``n``
+    counts paired rows, ``n_groups`` subjects; ``note`` says why a model was not fitted.
     """
-    data = table[table[set_column].isin(sets)][[value, set_column, group]].dropna()
     out = {
         "mean_a": np.nan, "mean_b": np.nan, "mean_difference": np.nan, "ci95_low": np.nan,
-        "ci95_high": np.nan, "n": len(data), "n_groups": data[group].nunique(), "z": np.nan, "p": np.nan,
-        "note": "",
+        "ci95_high": np.nan, "n": 0, "n_groups": 0, "z": np.nan, "p": np.nan, "note": "",
+        "fit_flags": "",
     }  # fmt: skip
-    if data[set_column].nunique() < 2:  # nothing to compare
-        out.update(n=0, n_groups=0, note="not fitted: one set only")
+    wide = table.pivot_table(index=pair_on, columns=set_column, values=value, aggfunc="mean")
+    if not set(sets) <= set(wide.columns):
+        out["note"] = "not fitted: one set only"
         return out
-    means = data.groupby(set_column)[value].mean()
-    out["mean_a"], out["mean_b"] = means.get(sets[0], np.nan), means.get(sets[1], np.nan)
-    if out["n_groups"] < 2 or data[value].std() == 0:
+    wide = wide[sets].dropna().reset_index()
+    d = wide.assign(d=wide[sets[0]] - wide[sets[1]])
+    out.update(
+        mean_a=float(wide[sets[0]].mean()), mean_b=float(wide[sets[1]].mean()), n=len(d),
+        n_groups=int(d[group].nunique()),
+    )  # fmt: skip
+    if out["n_groups"] < 2 or d["d"].std() == 0:
         out["note"] = "not fitted: needs 2 subjects and some variation"
         return out
+    fit, flags = _fit_differences(d, group, nested)
+    if fit is None:
+        out["note"] = f"not fitted: {flags}"
+        return out
+    low, high = fit.conf_int().loc["Intercept"]
+    failed = "not_converged" in flags or "hessian_not_pd" in flags
+    out.update(
+        mean_difference=float(fit.params["Intercept"]), fit_flags=";".join(flags),
+        ci95_low=np.nan if failed else float(low), ci95_high=np.nan if failed else float(high),
+        z=np.nan if failed else float(fit.tvalues["Intercept"]),
+        p=np.nan if failed else float(fit.pvalues["Intercept"]),
+    )  # fmt: skip
+    return out
+
+
+def _fit_differences(d: pd.DataFrame, group: str, nested: str | None):
+    """(fit, flags) of ``d ~ 1`` (:func:`mixed_model_by_set`); (None, cause) when it cannot be fitted."""
     import warnings
 
     import statsmodels.formula.api as smf
     from statsmodels.tools.sm_exceptions import ConvergenceWarning
 
-    data = data.assign(in_a=(data[set_column] == sets[0]).astype(float), y=data[value])
+    data = d.assign(level=d[nested].astype(str)) if nested else d
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ConvergenceWarning)
         warnings.simplefilter("ignore", RuntimeWarning)
         try:
             model = smf.mixedlm(
-                "y ~ in_a", data, groups=data[group], re_formula="~in_a" if random_slope else None
-            )
+                "d ~ 1", data, groups=data[group],
+                vc_formula={"level": "0 + C(level)"} if nested else None,
+            )  # fmt: skip
             fit = model.fit(reml=True)
         except (ValueError, np.linalg.LinAlgError) as exc:
-            out["note"] = f"not fitted: {exc}"
-            return out
-    low, high = fit.conf_int().loc["in_a"]
-    out.update(
-        mean_difference=float(fit.params["in_a"]), ci95_low=float(low), ci95_high=float(high),
-        z=float(fit.tvalues["in_a"]), p=float(fit.pvalues["in_a"]),
-        note="did not converge" if any(issubclass(w.category, ConvergenceWarning) for w in caught) else "",
-    )  # fmt: skip
-    return out
+            return None, str(exc)
+    said = " ".join(str(w.message) for w in caught if issubclass(w.category, ConvergenceWarning))
+    flags = []
+    if not getattr(fit, "converged", True) or "converge" in said or "failed" in said:
+        flags.append("not_converged")
+    if "Hessian" in said or not np.isfinite(fit.bse).all():
+        flags.append("hessian_not_pd")
+    variances = np.concatenate([np.diag(np.atleast_2d(fit.cov_re)), np.atleast_1d(fit.vcomp)])
+    if "boundary" in said or (variances <= 1e-8 * max(float(fit.scale), 1e-300)).any():
+        flags.append("boundary")
+    return fit, flags
 
 
 def variance_shares(table: pd.DataFrame, value: str, factors: list[str]) -> dict[str, float]:

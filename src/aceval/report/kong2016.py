@@ -250,15 +250,16 @@ def angle_table(number: int, angles: pd.DataFrame, paper_names: dict) -> pd.Data
 #: the tests of a set comparison, in the order they are shown (Tables 7, 8, 10)
 SET_TESTS = {
     "paper": "paper-style paired t-test on pooled dependent units",
-    "units": "paired t-test on independent units (per-subject x IMU means)",
-    "mixed": "mixed model, random intercept per subject",
-    "mixed_slope": "mixed model, random intercept and set effect per subject",
+    "units": "paired t-test on subjects (per-subject means: its IMUs and sides averaged)",
+    "mixed": "mixed model of the paired differences, random intercept per subject",
+    "mixed_nested": "mixed model of the paired differences, subject and IMU (Table 7: side) "
+    "within subject",
 }
 #: the test on which set-preference claims are judged
 DEFENSIBLE_TEST = "units"
 TTEST_TABLE_COLUMNS = [
     "test", "mean_a", "sd_a", "mean_b", "sd_b", "mean_difference", "ci95_low", "ci95_high",
-    "cohens_dz", "n", "n_groups", "t", "z", "p", "note",
+    "cohens_dz", "n", "n_groups", "t", "z", "p", "note", "fit_flags",
 ]  # fmt: skip
 
 
@@ -271,8 +272,10 @@ def ttest_table(
     """First vs second sensor set of the dataset (the paper's frontal/back vs lateral): per row of
     the paper's table, four tests of the same contrast (:data:`SET_TESTS`): the paper-style paired
     t-test on pooled units (what the paper did: repetitions, subsets and T_ex are not independent,
-    so its p is optimistic), a paired t-test on per-subject x IMU (Table 7: x side) means, and two
-    mixed models. ``p_holm`` corrects each test's p within the table (one family per test).
+    so its p is optimistic), a paired t-test on per-subject means (the subject is the independent
+    unit: a subject's left and right thighs are not two), and two mixed models of the paired
+    differences. ``p_holm`` corrects each test's p within the table (one family per test; a
+    failed fit has no p and is not in it).
     """
     from aceval.evaluation.stats import holm, mixed_model_by_set, paired_by_set, unit_means_by_set
 
@@ -280,23 +283,24 @@ def ttest_table(
     sets = [set_a, set_b]
     if number == 7:
         data = correlations[(correlations["objective"] == "segment_pair") & unflagged(correlations)]
-        rows, value = "pair", "correlation"
-        pair_on, unit = ["subject", "side", "t_ex", "t_ap", "rep"], ["subject", "side"]
+        rows, value, nested = "pair", "correlation", "side"
+        pair_on = ["subject", "side", "t_ex", "t_ap", "rep"]
     else:
         comparison = "incremental" if number == 8 else "test_retest"
         data = angles[angles["comparison"] == comparison]
-        rows, value = "segment", "error_angle_deg"
+        rows, value, nested = "segment", "error_angle_deg", "imu"
         pair_on = ["subject", "imu", "test", "calibration_a", "calibration_b"]
-        unit = ["subject", "imu"]
     results = []
     for key, group in data.groupby(rows, sort=False):
         for test in SET_TESTS:
             if test == "paper":
                 result = paired_by_set(group, value, pair_on, sets)
             elif test == "units":
-                result = unit_means_by_set(group, value, unit, sets)
+                result = unit_means_by_set(group, value, ["subject"], sets)
             else:
-                result = mixed_model_by_set(group, value, sets, random_slope=test == "mixed_slope")
+                result = mixed_model_by_set(
+                    group, value, pair_on, sets, nested=nested if test == "mixed_nested" else None
+                )
             results.append({rows: key, "test": test, **result})
     result = pd.DataFrame(results, columns=[rows, *TTEST_TABLE_COLUMNS])
     result["p_holm"] = np.nan
@@ -527,8 +531,13 @@ def _ttest_markdown(table: pd.DataFrame, spec: dict) -> list[str]:
         return _fmt(r[f"mean_{side}"]) + (f" ± {_fmt(sd)}" if np.isfinite(sd) else "")
 
     def units(r):
-        if r["test"] in ("mixed", "mixed_slope"):
-            return f"{int(r['n'])} rows, {int(r['n_groups'])} subjects" if r["n"] else "0"
+        if str(r["test"]).startswith("mixed"):
+            fit = (
+                f"; fit: {r['fit_flags']}"
+                if isinstance(r["fit_flags"], str) and r["fit_flags"]
+                else ""
+            )
+            return f"{int(r['n'])} pairs, {int(r['n_groups'])} subjects{fit}" if r["n"] else "0"
         return str(int(r["n"]))
 
     is_paper = table["test"] == "paper"
@@ -569,11 +578,14 @@ def _ttest_markdown(table: pd.DataFrame, spec: dict) -> list[str]:
         f"{set_a} vs {set_b} (compared with the paper's frontal/back and lateral sets); difference = "
         f"{set_a} - {set_b}. Four tests of the same contrast per row: the paper's paired t-test on "
         "pooled units (repetitions, subsets and T_ex of one subject are not independent, so its p is "
-        "optimistic: it is shown because it is what the paper did); a paired t-test on independent "
-        "units (each subject x IMU's mean per set; Table 7: subject x side), on which aceval judges "
-        "the paper's set-preference claims; a linear mixed model with a random intercept per subject "
-        "(statsmodels MixedLM, Wald z), and one with the set effect varying by subject too (with 5 "
-        "subjects its Wald z is still optimistic). d_z = mean difference / SD of the differences. "
+        "optimistic: it is shown because it is what the paper did); a paired t-test on the subjects "
+        "(each subject's mean per set, its IMUs and sides averaged: a subject's left and right are "
+        "not two units), on which aceval judges the paper's set-preference claims; two linear mixed "
+        "models of the paired differences (statsmodels MixedLM, REML, Wald z): a random intercept "
+        "per subject, then also IMU (Table 7: side) within subject. A fit that did not converge or "
+        "whose Hessian is not positive definite has no p; a variance estimated at zero is flagged "
+        "'boundary' (column n). With 5 subjects a Wald z is optimistic. d_z = mean difference / SD "
+        "of the differences. "
         f"p is raw; p (Holm) corrects each test's p across the rows of this table. {better}.",
         "",
         long.to_markdown(index=False, disable_numparse=True),

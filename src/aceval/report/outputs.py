@@ -136,16 +136,16 @@ _KONG_TABLES = {
     6: ("Obj 2", "Acceleration correlation between segments moved as one rigid body (same sensor "
         "set)", "subject x sensor set x side x T_ex, each averaged over the repetitions of T_ap"),
     7: ("Obj 2", "Paired t-test, segment-pair correlation, first vs second sensor set",
-        "pairs matched on subject, side, T_ex, T_ap and repetition (paper-style); subject x side "
-        "(independent units)"),
+        "pairs matched on subject, side, T_ex, T_ap and repetition (paper-style); subjects "
+        "(independent units, sides averaged)"),
     8: ("Obj 3", "Paired t-test, 'incremental' error angle (deg), first vs second sensor set",
-        "pairs matched on subject, IMU, T_ex and the two subsets compared (paper-style); subject x "
-        "IMU (independent units)"),
+        "pairs matched on subject, IMU, T_ex and the two subsets compared (paper-style); subjects "
+        "(independent units, IMUs averaged)"),
     9: ("Obj 4", "Error angle (deg) between different subsets of three repetitions of the same "
         "test", "subject x set x IMU x pair of 3-repetition subsets"),
     10: ("Obj 4", "Paired t-test, test-retest error angle (deg), first vs second sensor set",
-         "pairs matched on subject, IMU, T_ex and the two subsets compared (paper-style); subject "
-         "x IMU (independent units)"),
+         "pairs matched on subject, IMU, T_ex and the two subsets compared (paper-style); "
+         "subjects (independent units, IMUs averaged)"),
     11: ("Obj 5", "Error angle (deg) between the calibrations from two different tests",
          "subject x set x IMU"),
 }  # fmt: skip

@@ -169,7 +169,7 @@ def factor_claim(factors: pd.DataFrame | None) -> Claim:
 
 def _defensible(table: pd.DataFrame | None) -> pd.DataFrame:
     """The rows of a set-comparison table (7, 8, 10) on which claims are judged: the paired t-test
-    on independent units (per-subject x IMU means).
+    on independent units (per-subject means).
     """
     from aceval.report.kong2016 import DEFENSIBLE_TEST
 
@@ -206,8 +206,8 @@ def obj2_claims(t6, t7) -> list[Claim]:
         "(p = 0.682)"
     )
     rule = (
-        "paired t-test on independent units (subject x side means; Table 7): head-chest lateral mean "
-        "> frontal with raw p < 0.01, thighs-shanks raw p >= 0.05 (the paper quotes raw p)"
+        "paired t-test on independent units (subject means, sides averaged; Table 7): head-chest "
+        "lateral mean > frontal with raw p < 0.01, thighs-shanks raw p >= 0.05 (the paper quotes raw p)"
     )
     if not {"head-chest", "thighs-shanks"} <= set(tests.index):
         out.append(
@@ -232,7 +232,7 @@ def obj2_claims(t6, t7) -> list[Claim]:
 
 def _set_preference(table, objective, claim, exceptions="") -> Claim:
     rule = (
-        "paired t-test on independent units (subject x IMU means): for every segment the better set "
+        "paired t-test on independent units (subject means, IMUs averaged): for every segment the better set "
         "(smaller mean angle) is the paper's (frontal for head/chest/waist, lateral for thigh/shank/"
         "foot) with raw p < 0.001 (the threshold the paper quotes)"
     )
