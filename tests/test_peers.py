@@ -29,3 +29,28 @@ def test_an_axis_near_vertical_is_signed_by_its_horizontal_part():
     np.testing.assert_allclose(R[1], right, atol=1e-12)
     # and an axis with no vertical part gives the same frame whichever sign it comes with
     np.testing.assert_allclose(frame_from_axes(down, -right, declared), R, atol=1e-12)
+
+
+def test_peer_rows_pass_the_same_rotation_gate_as_acevals():
+    """Issue 32: a peer's calibration whose body y is 90 deg from the declared right axis is
+    flagged right_axis_mismatch (and leaves the medians), as aceval's own would be; one within
+    60 deg is not, and a peer's own flag is kept beside it."""
+    import numpy as np
+    import pandas as pd
+    from scipy.spatial.transform import Rotation
+
+    from aceval.data.dataset import R_COLUMNS
+    from aceval.evaluation.methods_comparison import gate_peers
+
+    turned = Rotation.from_euler("z", 90, degrees=True).as_matrix()  # body y -> sensor -x
+    rows = pd.DataFrame(
+        [
+            {"sensor_set": "s", "imu": "A", "flag": "", **dict(zip(R_COLUMNS, np.eye(3).ravel()))},
+            {"sensor_set": "s", "imu": "A", "flag": "", **dict(zip(R_COLUMNS, turned.ravel()))},
+            {"sensor_set": "s", "imu": "A", "flag": "not_applicable",
+             **dict(zip(R_COLUMNS, np.full(9, np.nan)))},
+        ]
+    )  # fmt: skip
+    gated = gate_peers(rows, lambda sensor_set, imu: "+y")
+    assert gated["flag"].tolist() == ["", "right_axis_mismatch", "not_applicable"]
+    assert gated["right_axis_angle_deg"].iloc[:2].round(6).tolist() == [0.0, 90.0]

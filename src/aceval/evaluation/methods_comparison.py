@@ -204,6 +204,34 @@ def uncertainty_table(calibrations: pd.DataFrame) -> pd.DataFrame:
     return _method_order(table, ["segment", "test"])[columns]
 
 
+def gate_peers(peers: pd.DataFrame, right_axis_of) -> pd.DataFrame:
+    """The peers' rows through the gate aceval's own rows pass that needs only the rotation: the
+    declared right axis (``right_axis_of(sensor_set, imu)`` -> '+y', ...) within
+    :data:`aceval.signals.checks.MAX_RIGHT_AXIS_ANGLE_DEG` of the calibration's body y, else
+    ``right_axis_mismatch`` beside the peer's own flag; column ``right_axis_angle_deg``. Flagged
+    rows leave the medians, as aceval's do. (The direction vote and the axis and plane limits
+    need the recordings' statistics, which a peer's output does not carry.)
+    """
+    from aceval.calibrate.table import combine_flags
+    from aceval.data.rotations import axis_vector
+    from aceval.signals.checks import MAX_RIGHT_AXIS_ANGLE_DEG
+
+    if peers.empty:
+        return peers
+    body_y = peers[R_COLUMNS].to_numpy(float).reshape(-1, 3, 3)[:, 1, :]
+    right = np.array(
+        [axis_vector(right_axis_of(s, i)) for s, i in zip(peers["sensor_set"], peers["imu"])]
+    )
+    with np.errstate(invalid="ignore"):
+        angle = np.degrees(np.arccos(np.clip(np.sum(body_y * right, axis=1), -1.0, 1.0)))
+    mismatch = angle > MAX_RIGHT_AXIS_ANGLE_DEG
+    flags = [
+        combine_flags(f, "right_axis_mismatch" if m else "")
+        for f, m in zip(peers["flag"].fillna("").astype(str), mismatch)
+    ]
+    return peers.assign(right_axis_angle_deg=angle, flag=flags)
+
+
 def with_truth(calibrations: pd.DataFrame, ground_truth: pd.DataFrame | None) -> pd.DataFrame:
     """``error_deg`` and ``error_vertical_share`` (Kong Eq. 11) filled in for rows that lack them
     (the peers' calibrations, made without the truth) from ``ground_truth`` (indexed by subject,

@@ -98,15 +98,18 @@ def build_data(
     retest_units=None,
 ) -> dict:
     """The ``data`` dict the builders read: the tidy tables (the ``peers``' calibrations joined
-    to aceval's, with their error to the ground truth), the dataset's truth and reference sheets,
+    to aceval's, through the same rotation gate (:func:`aceval.evaluation.methods_comparison.
+    gate_peers`) and with their error to the ground truth), the dataset's truth and reference sheets,
     its ``paper_names`` (this dataset's test names -> the paper's), sensor sets and Obj 4's k;
     ``retest_units``: aceval's methods' test-retest units, computed per subject
     (:func:`aceval.evaluation.methods_comparison.retest_units`; None: from the calibrations).
     """
-    from aceval.evaluation.methods_comparison import with_truth
+    from aceval.data.dataset import load_dataset
+    from aceval.evaluation.methods_comparison import gate_peers, with_truth
 
     meta = dataset_meta(root)
     if peers is not None and len(peers):
+        peers = gate_peers(peers, load_dataset(root).right_axis)
         peers = with_truth(peers, ground_truth_sheet(root))
         calibrations = pd.concat([calibrations, peers], ignore_index=True)
     return {
