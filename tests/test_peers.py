@@ -54,3 +54,29 @@ def test_peer_rows_pass_the_same_rotation_gate_as_acevals():
     gated = gate_peers(rows, lambda sensor_set, imu: "+y")
     assert gated["flag"].tolist() == ["", "right_axis_mismatch", "not_applicable"]
     assert gated["right_axis_angle_deg"].iloc[:2].round(6).tolist() == [0.0, 90.0]
+
+
+def test_methods_are_compared_on_the_cells_they_share():
+    """Issue 32: a method present on few cells (qmt's hinge: thighs and shanks) is compared with
+    the others on those cells only, with the count; each method's own median keeps its count."""
+    import pandas as pd
+
+    from aceval.report.summary import _shared_cells_line, methods_section
+
+    rows = [
+        ("chest", "T1", "kong", 2.0), ("chest", "T1", "triad", 3.0),
+        ("thigh", "T5", "kong", 4.0), ("thigh", "T5", "triad", 5.0), ("thigh", "T5", "qmt", 4.5),
+        ("shank", "T5", "kong", 6.0), ("shank", "T5", "triad", 1.0), ("shank", "T5", "qmt", 7.0),
+    ]  # fmt: skip
+    methods = pd.DataFrame(rows, columns=["segment", "test", "method", "median"]).assign(
+        sensor_set="s"
+    )
+    line = _shared_cells_line(methods, ["kong", "triad", "qmt"])
+    assert (
+        line.startswith("On the 2 cell(s)") and "kong 5.00 deg" in line and "qmt 5.75 deg" in line
+    )
+    best = methods.assign(
+        best_test=methods["test"], best_median_deg=methods["median"], kong_recommends=""
+    )
+    text = "\n".join(methods_section({"methods": methods, "methods_best": best}))
+    assert "kong 4.00 deg (3 cells)" in text and "qmt 5.75 deg (2 cells)" in text

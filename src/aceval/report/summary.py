@@ -695,6 +695,24 @@ def claims(
     return found
 
 
+def _shared_cells_line(methods: pd.DataFrame, compared: list[str]) -> str:
+    """The methods' median errors over the cells (segment x test x set) where every one of
+    ``compared`` has an unflagged value: the comparison on the same cells.
+    """
+    key = ["segment", "test", "sensor_set"]
+    wide = methods[methods["method"].isin(compared)].pivot_table(
+        index=key, columns="method", values="median"
+    )
+    shared = wide.reindex(columns=compared).dropna()
+    if shared.empty:
+        return "No cell has an unflagged value of every method: no comparison on shared cells."
+    medians = shared.median().sort_values()
+    return (
+        f"On the {len(shared)} cell(s) where every method has an unflagged value (the fair "
+        "comparison): " + ", ".join(f"{m} {v:.2f} deg" for m, v in medians.items()) + "."
+    )
+
+
 def methods_section(tables: dict) -> list[str]:
     """Which method and which test, per segment, against the ground truth (tables methods*)."""
     best, methods = tables.get("methods_best"), tables.get("methods")
@@ -702,12 +720,14 @@ def methods_section(tables: dict) -> list[str]:
         return []
     lines = ["## Methods against the ground truth: which test for which segment", ""]
     overall = methods.groupby("method")["median"].median().dropna().sort_values()
+    cells = methods.dropna(subset=["median"]).groupby("method").size()
     lines.append(
         "Median error to the true mounting (median over segment x test x set cells of the per-cell "
-        "medians; table `methods`): "
-        + ", ".join(f"{m} {v:.2f} deg" for m, v in overall.items())
+        "medians; table `methods`), each method over all its own cells: "
+        + ", ".join(f"{m} {v:.2f} deg ({cells[m]} cells)" for m, v in overall.items())
         + "."
     )
+    lines += ["", _shared_cells_line(methods, list(overall.index))]
     if "note" in methods:
         never = methods[~methods["method"].isin(overall.index)].groupby("method")["note"].first()
         lines += [
@@ -873,10 +893,11 @@ def recommendation_section(tables: dict) -> list[str]:
                 f"; the truth +- {truth_rows['truth_split_half_deg'].max():.1f} deg (split-half), "
                 f"its two methods up to {truth_rows['methods_differ_deg'].max():.1f} deg apart"
             )
-        others = group[group["method"] != best["method"]]
-        if len(others):
+        same_cell = (group["test"] == best["test"]) & (group["sensor_set"] == best["sensor_set"])
+        others = group[same_cell & (group["method"] != best["method"])]
+        if len(others):  # on the same cell: the same subjects, recordings and test
             runner = others.loc[others["median"].idxmin()]
-            evidence += f"; next: {runner['method']} {runner['test']} {runner['median']:.2f} deg"
+            evidence += f"; next on the same test: {runner['method']} {runner['median']:.2f} deg"
         caveat = " (one unit: not evidence enough to generalise)" if int(best["n"]) < 2 else ""
         where = f", {best['sensor_set']} set" if data["sensor_set"].nunique() > 1 else ""
         lines.append(
