@@ -4,6 +4,7 @@ builds from a peer's vertical and medial-lateral axis."""
 import sys
 
 import numpy as np
+import pytest
 
 from .runner import REPO
 
@@ -80,3 +81,28 @@ def test_methods_are_compared_on_the_cells_they_share():
     )
     text = "\n".join(methods_section({"methods": methods, "methods_best": best}))
     assert "kong 4.00 deg (3 cells)" in text and "qmt 5.75 deg (2 cells)" in text
+    assert "outside their authors' design" not in text  # no gaitmap or OpenSense rows here
+    gaitmap = pd.concat([methods, methods.assign(method="gaitmap_pca")])
+    text = "\n".join(methods_section({"methods": gaitmap, "methods_best": best}))
+    assert "its rows on chest, shank, thigh are outside that design" in text
+
+
+def test_qmt_is_flagged_where_the_knee_barely_flexes():
+    """Issue 32: qmt's hinge axis needs the knee to flex; the flexion range is read from the two
+    gyroscopes about the estimated axes, whatever sign the estimate gave each axis."""
+    import types
+
+    sys.modules.setdefault("qmt", types.ModuleType("qmt"))  # the estimator itself is not called
+    from qmt_hinge import MIN_KNEE_RANGE_DEG, knee_range_deg
+
+    fs = 100.0
+    t = np.arange(0, 4, 1 / fs)
+    swing = np.radians(35) * 2 * np.pi * 0.5 * np.cos(2 * np.pi * 0.5 * t)  # leg, rad/s about y
+    for flexion_deg, flexed in ((60.0, True), (12.0, False)):
+        knee = np.radians(flexion_deg / 2) * 2 * np.pi * 0.5 * np.cos(2 * np.pi * 0.5 * t)
+        thigh = np.column_stack([0 * t, swing, 0 * t])
+        shank = np.column_stack([0 * t, swing + knee, 0 * t])
+        for sign in (1.0, -1.0):  # the estimate's sign of the shank axis
+            found = knee_range_deg(thigh, shank, [0, 1, 0], [0, sign, 0], fs)
+            assert found == pytest.approx(flexion_deg, rel=0.02)
+            assert (found >= MIN_KNEE_RANGE_DEG) == flexed

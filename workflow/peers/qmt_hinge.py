@@ -6,7 +6,10 @@ of a hinge joint in the frames of the two sensors on either side of it, from the
 accelerometer and gyroscope samples: for the knee, the medial-lateral axis of the thigh and of
 the shank at once. So it calibrates a thigh and a shank of one leg from a test that moves the knee
 and records both (the plan lists a test for an IMU only where calibrates.tsv lets the test
-calibrate it); every other calibration gets the flag ``not_applicable``, with the reason. The
+calibrate it); every other calibration gets the flag ``not_applicable``, with the reason. A test
+in which the knee flexes less than :data:`MIN_KNEE_RANGE_DEG` is outside the method's design: its
+calibrations are flagged ``knee_barely_flexes`` (they leave the medians, as aceval's flagged rows
+do). The
 vertical comes from quiet standing (the median specific force, as for Kong and gaitmap); the sign
 of the axis, which the estimate leaves open, from the declared right axis. The repetitions of the
 subset are concatenated, each cut to the shorter of its two recordings.
@@ -22,6 +25,14 @@ import qmt
 from peer_io import Timer, frame_from_axes, main, read_recording, row
 
 METHOD = "qmt_hinge"
+#: the knee must flex for a hinge axis to be seen (Seel et al. 2012 excite the joint on purpose);
+#: below this flexion range (deg, median over the repetitions, as :func:`knee_range_deg` reads it)
+#: a calibration is flagged ``knee_barely_flexes``. A choice, not from qmt, between what the
+#: range reads on the committed data (one subject each, 2026-11-24): kong_sim's straight-leg swing
+#: T5 (3.5 deg of knee flexion simulated; read 7.6-35.9, median 12.0: the axes themselves are
+#: poorly seen there) against walking (kong_sim 59.9-81.3, HuGaDB 57.3-271.3, qmt 116-157) and
+#: sit-to-stand (qmt 50.6-106.9); walking flexes the knee about 60 deg (Perry & Burnfield 2010)
+MIN_KNEE_RANGE_DEG = 40.0
 NOT_A_JOINT = (
     "needs a hinge joint with a sensor on each side recorded together (a thigh and a shank of one "
     "leg, calibrated from the same test)"
@@ -33,6 +44,17 @@ def down_axis(plan: dict, entry: dict) -> np.ndarray:
     acc = np.vstack([read_recording(plan, p)[0] for p in entry["static"]])
     median = np.median(acc, axis=0)
     return -median / np.linalg.norm(median)
+
+
+def knee_range_deg(gyr1: np.ndarray, gyr2: np.ndarray, j1, j2, fs_hz: float) -> float:
+    """The flexion range (deg) of the hinge seen by ``j1`` (thigh frame) and ``j2`` (shank frame):
+    the integral of the two sensors' angular velocities about their axes, differenced (the
+    estimate leaves each axis' sign open: the sign that cancels the leg's common rotation best).
+    """
+    a, b = gyr1 @ np.ravel(j1), gyr2 @ np.ravel(j2)
+    rate = min((b - a, b + a), key=lambda r: float(np.sum(r * r)))
+    angle = np.degrees(np.cumsum(rate) / fs_hz)
+    return float(np.ptp(angle))
 
 
 def calibrate(plan: dict) -> list[dict]:
@@ -57,9 +79,20 @@ def calibrate(plan: dict) -> list[dict]:
             acc1, gyr1, acc2, gyr2 = (np.vstack([p[i] for p in parts]) for i in range(4))
             with Timer() as timer, contextlib.redirect_stdout(io.StringIO()):  # its iterations
                 j1, j2 = qmt.jointAxisEstHingeOlsson(acc1, acc2, gyr1, gyr2)
+            knee = np.median(
+                [knee_range_deg(p[1], p[3], j1, j2, plan["fs_hz"]) for p in parts]
+            )  # each repetition's range: integrating across the joins would drift
+            flag, note = (
+                (
+                    "knee_barely_flexes",
+                    f"knee flexion range {knee:.1f} deg < {MIN_KNEE_RANGE_DEG:g}",
+                )
+                if knee < MIN_KNEE_RANGE_DEG
+                else ("", "")
+            )
             for name, entry, axis in (("thigh", thigh, j1), ("shank", shank, j2)):
                 R = frame_from_axes(down[name], np.ravel(axis), entry["right_axis"])
-                rows.append(row(entry, subset, METHOD, R, timer.seconds / 2))
+                rows.append(row(entry, subset, METHOD, R, timer.seconds / 2, flag, note))
         done |= {id(thigh), id(shank)}
     for entry in entries:
         if id(entry) not in done:

@@ -695,6 +695,32 @@ def claims(
     return found
 
 
+#: where each peer's authors meant it, and what it reads (a note when it is shown elsewhere)
+PEER_DESIGN = {
+    "gaitmap_pca": (
+        ("foot",),
+        "gaitmap's PCA alignment is written for the foot's medial-lateral axis in gait (its "
+        "docstring); its rows on {others} are outside that design",
+    ),
+    "opensense_imuplacer": (
+        None,
+        "OpenSense's IMUPlacer reads the static pose (the first sample of quiet standing) and the "
+        "vendor's headings only: it is listed under each motion test but uses none of it",
+    ),
+}
+
+
+def _design_notes(methods: pd.DataFrame) -> list[str]:
+    """One line per peer shown outside what its authors meant it for (:data:`PEER_DESIGN`)."""
+    notes = []
+    for method, (segments, text) in PEER_DESIGN.items():
+        rows = methods[(methods["method"] == method) & methods["median"].notna()]
+        others = sorted(set(rows["segment"]) - set(segments or ()))
+        if len(rows) and (segments is None or others):
+            notes.append("- " + text.format(others=", ".join(others)) + ".")
+    return ["", "Peers outside their authors' design here:", *notes] if notes else []
+
+
 def _shared_cells_line(methods: pd.DataFrame, compared: list[str]) -> str:
     """The methods' median errors over the cells (segment x test x set) where every one of
     ``compared`` has an unflagged value: the comparison on the same cells.
@@ -727,7 +753,7 @@ def methods_section(tables: dict) -> list[str]:
         + ", ".join(f"{m} {v:.2f} deg ({cells[m]} cells)" for m, v in overall.items())
         + "."
     )
-    lines += ["", _shared_cells_line(methods, list(overall.index))]
+    lines += ["", _shared_cells_line(methods, list(overall.index)), *_design_notes(methods)]
     if "note" in methods:
         never = methods[~methods["method"].isin(overall.index)].groupby("method")["note"].first()
         lines += [
