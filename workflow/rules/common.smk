@@ -148,8 +148,13 @@ def _recordings_sheet(dataset):
 def dataset_input(wildcards):
     """The dataset as an input: the generated folder, or a lab dataset's sheets (its recording
     files enter through :func:`recordings_fingerprint`)."""
-    root = dataset_dir(wildcards.dataset)
-    if wildcards.dataset in GENERATED:
+    return dataset_files(wildcards.dataset)
+
+
+def dataset_files(dataset):
+    """:func:`dataset_input` of the dataset named ``dataset``."""
+    root = dataset_dir(dataset)
+    if dataset in GENERATED:
         return root
     names = ["dataset.yaml", "imus.tsv", "tests.tsv", "calibrates.tsv", "subjects.tsv"]
     names += ["recordings.tsv", "ground_truth.tsv", "functional_axes.tsv"]
@@ -373,10 +378,12 @@ def unit_files(dataset, pattern):
 
 def results_inputs(dataset):
     """What the results jobs of ``dataset`` read: every calibration job's tables and findings,
-    and the sheets gate's findings."""
+    the sheets gate's findings, and the dataset itself (its ground truth and reference sheets: a
+    re-import that changes only them reruns the results)."""
 
     def inputs(wildcards):
         return {
+            "dataset": dataset_files(dataset),
             "sheets": f"results/{dataset}/validation/sheets.tsv",
             "calibrations": unit_files(dataset, "calibrations/{unit}.csv"),
             "axes": unit_files(dataset, "calibrations/{unit}_axes.csv"),

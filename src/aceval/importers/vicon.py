@@ -8,8 +8,9 @@ the marker-frame method of this module (:func:`ground_truth`, the second estimat
    segment (:data:`SEGMENT_MARKERS`) give an orthonormal frame ``R_world_seg(t)``.
 2. Optical angular velocity in the segment frame from consecutive frames (central difference of
    ``R(t-1)^T R(t+1)``); the gyroscope is low-passed alike and its bias (mean while standing) removed.
-3. Time alignment: the lag (within +-0.3 s) that maximises the correlation of the two angular
-   speeds during the walk (used by both methods).
+3. Time alignment: one lag per sensor set (one recording system, one clock; within +-0.3 s), the
+   one that maximises the summed correlations of its sensors' two angular speeds during the walk
+   (used by both methods).
 4. ``R_seg_sensor`` = the rotation that maps the accelerometer's vertical while standing exactly
    onto the Vicon vertical in the segment frame, and best maps gyroscope onto optical angular
    velocity over the walk about it (Wahba problem with one exact pair,
@@ -101,16 +102,45 @@ def optical_angular_velocity(frames: Rotation, fs_hz: float) -> np.ndarray:
     return np.vstack([omega[:1], omega, omega[-1:]])
 
 
-def best_lag(optical: np.ndarray, gyr: np.ndarray, span: tuple[int, int], fs_hz: float) -> int:
-    """Lag (samples; gyroscope sample ``t + lag`` matches optical ``t``) maximising the correlation
-    of the angular speeds within ``span``.
+def lag_scores(
+    optical: np.ndarray, gyr: np.ndarray, span: tuple[int, int], fs_hz: float
+) -> pd.Series:
+    """The correlation of the optical and gyroscope angular speeds within ``span`` for each lag
+    (samples, within :data:`MAX_LAG_S`; gyroscope sample ``t + lag`` matches optical ``t``).
     """
     a, b = span
     limit = int(MAX_LAG_S * fs_hz)
     speed_opt, speed_gyr = np.linalg.norm(optical, axis=1), np.linalg.norm(gyr, axis=1)
     lags = [lag for lag in range(-limit, limit + 1) if a + lag >= 0 and b + lag <= len(gyr)]
     scores = [np.corrcoef(speed_opt[a:b], speed_gyr[a + lag : b + lag])[0, 1] for lag in lags]
-    return int(lags[int(np.argmax(scores))])
+    return pd.Series(scores, index=lags)
+
+
+def best_lag(optical: np.ndarray, gyr: np.ndarray, span: tuple[int, int], fs_hz: float) -> int:
+    """The lag of :func:`lag_scores` with the highest correlation."""
+    return int(lag_scores(optical, gyr, span, fs_hz).idxmax())
+
+
+def _filtered_gyr(gyr: np.ndarray, standing: tuple[int, int], fs_hz: float) -> np.ndarray:
+    """The gyroscope without its bias (mean while standing), low-passed as the markers are."""
+    return _lowpass(gyr - gyr[standing[0] : standing[1]].mean(axis=0), fs_hz)
+
+
+def common_lags(
+    markers: dict, sensors: dict, standing: tuple[int, int], walk: tuple[int, int], fs_hz: float
+) -> dict:
+    """One lag per sensor set (one recording system, one clock): the lag of the sum of its
+    sensors' :func:`lag_scores` over the walk. Before, each sensor chose its own inside one
+    synchronised recording (NeuRA: thigh_l -1, the others +2). ``{sensor_set: lag}``.
+    """
+    totals: dict = {}
+    for (sensor_set, _), sensor in sensors.items():
+        optical = optical_angular_velocity(segment_frames(markers, sensor["frame"], fs_hz), fs_hz)
+        scores = lag_scores(optical, _filtered_gyr(sensor["gyr"], standing, fs_hz), walk, fs_hz)
+        totals[sensor_set] = (
+            totals[sensor_set].add(scores, fill_value=0) if sensor_set in totals else scores
+        )
+    return {sensor_set: int(total.idxmax()) for sensor_set, total in totals.items()}
 
 
 def sensor_to_segment(
@@ -148,10 +178,12 @@ def ground_truth(
     standing: tuple[int, int],
     walk: tuple[int, int],
     fs_hz: float,
+    lag: int | None = None,
 ) -> dict:
     """The marker-frame method (module docstring): the sensor's orientation while standing,
     ``R_ws0`` (Rotation, sensor -> world), from the segment frame of the three points ``names``,
-    with its uncertainty.
+    with its uncertainty. ``lag``: the recording's time offset (:func:`common_lags`); None: this
+    sensor's own best.
     """
     n = len(next(iter(markers.values())))
     if len(gyr) != n:
@@ -160,9 +192,8 @@ def ground_truth(
         )
     frames = segment_frames(markers, names, fs_hz)
     optical = optical_angular_velocity(frames, fs_hz)
-    bias = gyr[standing[0] : standing[1]].mean(axis=0)
-    gyr_filtered = _lowpass(gyr - bias, fs_hz)
-    lag = best_lag(optical, gyr_filtered, walk, fs_hz)
+    gyr_filtered = _filtered_gyr(gyr, standing, fs_hz)
+    lag = best_lag(optical, gyr_filtered, walk, fs_hz) if lag is None else lag
     a, b = walk
     shifted = gyr_filtered[a + lag : b + lag]
     stand_frames = frames[standing[0] : standing[1]].mean()
@@ -286,9 +317,12 @@ def truth_rows(
     # from the end of quiet standing (gait initiation included) to the end of the first straight stretch
     bout = (standing[1], spans.get("first_straight", spans["T6"][:1])[0][1])
     rows, kept = [], {}
+    lags = common_lags(markers, sensors, standing, walk, fs_hz)
     for (sensor_set, imu), sensor in sensors.items():
         gyr, acc = sensor["gyr"], sensor["acc"]
-        old = ground_truth(markers, sensor["frame"], gyr, acc, standing, walk, fs_hz)
+        old = ground_truth(
+            markers, sensor["frame"], gyr, acc, standing, walk, fs_hz, lags[sensor_set]
+        )
         new = acceleration_truth(
             acc, gyr, sensor["point"], standing, bout, fs_hz, old["lag_samples"]
         )

@@ -13,6 +13,7 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import yaml
 
@@ -110,8 +111,15 @@ def build_data(
     meta = dataset_meta(root)
     if peers is not None and len(peers):
         peers = gate_peers(peers, load_dataset(root).right_axis)
-        peers = with_truth(peers, ground_truth_sheet(root))
         calibrations = pd.concat([calibrations, peers], ignore_index=True)
+    if calibrations is not None and len(calibrations):  # against the truth as it is now
+        errors = ["error_deg", "error_vertical_share"]
+        calibrations = with_truth(
+            calibrations.drop(columns=errors, errors="ignore").assign(
+                error_deg=np.nan, error_vertical_share=np.nan
+            ),
+            ground_truth_sheet(root),
+        )
     return {
         "test_retest_k": test_retest_k,
         "calibrations": calibrations,
