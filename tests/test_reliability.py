@@ -8,7 +8,7 @@ import pytest
 from scipy import stats
 
 from aceval.evaluation import methods_comparison
-from aceval.report import outputs, ricci2014, summary
+from aceval.report import outputs, ricci2014, ricci_claims, summary
 
 
 def axes_table(rho: dict) -> pd.DataFrame:
@@ -308,7 +308,7 @@ def test_ricci_claims_from_known_tables():
     )
 
     def verdict():
-        found = {c.claim: c.verdict for c in summary.ricci_claims({"ricci_ttest": ttest})}
+        found = {c.claim: c.verdict for c in ricci_claims.ricci_claims({"ricci_ttest": ttest})}
         return found[next(k for k in found if k.startswith("Supported"))], found
 
     holds, found = verdict()

@@ -5,7 +5,7 @@ import pandas as pd
 import pytest
 
 from aceval.evaluation.stats import holm, paired_by_set, paired_ttest
-from aceval.report import kong2016, summary
+from aceval.report import kong2016, kong_claims, summary
 from aceval.report.outputs import find
 
 
@@ -180,41 +180,43 @@ def test_claim_rules_hold_and_fail_on_built_tables():
     # Obj 1-2: T_ex unrelated, T_ap and segment related
     factors = pd.DataFrame({"objective": "Obj 1", "factor": ["t_ex", "t_ap", "segment"],
                             "eta_squared": [0.01, 0.3, 0.2], "n": 120})  # fmt: skip
-    assert summary.factor_claim(factors).verdict == summary.HOLDS
+    assert kong_claims.factor_claim(factors).verdict == summary.HOLDS
     assert (
-        summary.factor_claim(factors.assign(eta_squared=[0.08, 0.3, 0.2])).verdict == summary.FAILS
+        kong_claims.factor_claim(factors.assign(eta_squared=[0.08, 0.3, 0.2])).verdict
+        == summary.FAILS
     )
     # Obj 5: the recommended tests agree with the designed ones within about 5 deg (Table 11)
     table11 = pd.DataFrame({"t_ex_pair": ["T1-T3", "T2-T3", "T5-T6", "T4-T6"],
                             "segment": ["head", "chest", "thigh", "shank"], "mean": [3.0, 5.2, 4.4, 3.7],
                             "n": 4})  # fmt: skip
-    assert summary.recommendation_claim(table11).verdict == summary.HOLDS
+    assert kong_claims.recommendation_claim(table11).verdict == summary.HOLDS
     assert (
-        summary.recommendation_claim(table11.assign(mean=[3.0, 6.1, 4.4, 3.7])).verdict
+        kong_claims.recommendation_claim(table11.assign(mean=[3.0, 6.1, 4.4, 3.7])).verdict
         == summary.FAILS
     )
     # set preference, judged on the independent units with the paper's raw p < 0.001
     rows = pd.DataFrame({"segment": ["head", "thigh"], "test": "units", "set_a": "frontal",
                          "set_b": "lateral", "better": ["frontal", "lateral"], "p": [1e-4, 5e-4],
                          "n": 10})  # fmt: skip
-    assert summary._set_preference(rows, "Obj 3", "x").verdict == summary.HOLDS
+    assert kong_claims._set_preference(rows, "Obj 3", "x").verdict == summary.HOLDS
     assert (
-        summary._set_preference(rows.assign(p=[1e-4, 0.01]), "Obj 3", "x").verdict == summary.FAILS
+        kong_claims._set_preference(rows.assign(p=[1e-4, 0.01]), "Obj 3", "x").verdict
+        == summary.FAILS
     )
     pooled = rows.assign(test="paper")  # the pooled test is not what the claim is judged on
-    assert summary._set_preference(pooled, "Obj 3", "x").verdict == summary.UNTESTABLE
+    assert kong_claims._set_preference(pooled, "Obj 3", "x").verdict == summary.UNTESTABLE
     # Obj 2 (Table 7), raw p on independent units
     t6 = pd.DataFrame({"pair": ["head-chest"], "t_ap": ["T1"], "mean": [0.97], "n": [5]})
     t7 = pd.DataFrame({"pair": ["head-chest", "thighs-shanks"], "test": "units", "mean_a": [0.96, 0.97],
                        "mean_b": [0.97, 0.97], "p": [0.005, 0.6], "n": 5})  # fmt: skip
-    verdict = _claim(summary.obj2_claims(t6, t7), "Paired t-test").verdict
+    verdict = _claim(kong_claims.obj2_claims(t6, t7), "Paired t-test").verdict
     assert verdict == summary.HOLDS
     t7.loc[0, "p"] = 0.02
-    assert _claim(summary.obj2_claims(t6, t7), "Paired t-test").verdict == summary.FAILS
+    assert _claim(kong_claims.obj2_claims(t6, t7), "Paired t-test").verdict == summary.FAILS
     # the z0 check is reported as a check of the code, not as a claim
     angles = angle_rows({"frontal": [1.0, 2.0]})
-    assert [c.section for c in summary.code_checks(angles)] == [summary.CODE]
-    assert all(c.section == summary.PAPER for c in summary.obj5_claims(table11))
+    assert [c.section for c in kong_claims.code_checks(angles)] == [summary.CODE]
+    assert all(c.section == summary.PAPER for c in kong_claims.obj5_claims(table11))
 
 
 def test_tables_refuse_numbers_the_paper_does_not_have():
@@ -226,13 +228,13 @@ def test_claims_with_known_tables():
     table9 = pd.DataFrame(
         {"t_ex": ["T1", "T5"], "segment": ["head", "foot"], "mean": [0.5, 1.8], "n": [4, 4]}
     )
-    verdicts = {c.claim: c.verdict for c in summary.obj4_claims(table9, None)}
+    verdicts = {c.claim: c.verdict for c in kong_claims.obj4_claims(table9, None)}
     assert verdicts["Any-3-of-5 test-retest error angle < 2.1 deg on average"] == summary.HOLDS
     assert verdicts["< 1 deg excluding T5 and the feet"] == summary.HOLDS
     table9.loc[0, "mean"] = 1.2
-    verdicts = {c.claim: c.verdict for c in summary.obj4_claims(table9, None)}
+    verdicts = {c.claim: c.verdict for c in kong_claims.obj4_claims(table9, None)}
     assert verdicts["< 1 deg excluding T5 and the feet"] == summary.FAILS
-    assert all(c.verdict == summary.UNTESTABLE for c in summary.obj2_claims(None, None))
+    assert all(c.verdict == summary.UNTESTABLE for c in kong_claims.obj2_claims(None, None))
 
 
 def test_one_sensor_set_gives_untestable_ttests_and_an_explicit_figure(tmp_path):
