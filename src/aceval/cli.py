@@ -174,7 +174,8 @@ def _calibrate_into(args, dataset, files) -> int:
 
     import pandas as pd
 
-    from aceval.calibrate.pipeline import AXES_COLUMNS, calibrate
+    from aceval.calibrate.pipeline import calibrate
+    from aceval.calibrate.rows import AXES_COLUMNS
     from aceval.calibrate.table import CALIBRATION_COLUMNS
     from aceval.data.dataset import ValidationReport
     from aceval.evaluation.correlations import correlations
@@ -280,7 +281,7 @@ def _write_calibrate_outputs(args, files, tables: dict, report, dataset) -> None
     if args.angles_out or args.retest_out:
         _write_angles(args, files)
     if args.plan_out:
-        from aceval.calibrate.pipeline import calibration_plan
+        from aceval.calibrate.plan import calibration_plan
 
         plan = json.dumps(
             calibration_plan(dataset, tables["recordings_out"], args.retest_k), indent=1

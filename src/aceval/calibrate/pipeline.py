@@ -15,6 +15,14 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from aceval.calibrate.functional_design import calibrate_functional  # noqa: E402
+from aceval.calibrate.rows import (  # noqa: E402
+    AXES_COLUMNS,
+    axis_row,
+    error_placeholders,
+    imu_identity,
+    method_rows,
+)
 from aceval.calibrate.table import (
     CALIBRATION_COLUMNS,
     KEY,
@@ -34,7 +42,6 @@ from aceval.methods.functional import (
     PHASE_COLUMNS,
     AxisLimits,
     axis_spread_deg,
-    functional_fits,
     pool,
     pool_summed,
     sagittal_fits,
@@ -92,70 +99,6 @@ def calibrate(
     if dataset.functional_axes is not None:
         return calibrate_functional(dataset, summaries)
     return calibrate_sagittal(dataset, summaries, subsets, limits, retest_k)
-
-
-def _identity(dataset: Dataset, subject: str, sensor_set: str, imu: str) -> dict:
-    segment, side = dataset.imus.loc[(sensor_set, imu), ["segment", "side"]]
-    return {
-        "subject": subject,
-        "sensor_set": sensor_set,
-        "imu": imu,
-        "segment": segment,
-        "side": side,
-    }
-
-
-def _error_placeholders(R) -> dict:
-    """Empty ``error_deg`` and ``error_vertical_share`` for ``R`` (3x3 or a stack): calibration
-    knows no truth; :func:`aceval.evaluation.methods_comparison.with_truth` fills them in.
-    """
-    shape = np.shape(R)[:-2] if R is not None else ()
-    return {"error_deg": np.full(shape, np.nan), "error_vertical_share": np.full(shape, np.nan)}
-
-
-def _method_rows(base: dict, fits: dict) -> list[dict]:
-    """One calibration row per method of ``fits`` (R, diagnostics, flag; the errors to the truth
-    empty).
-    """
-    rows = []
-    for method, fit in fits.items():
-        R = fit.get("R")
-        row = {
-            **base,
-            "method": method,
-            **dict(zip(R_COLUMNS, R.ravel() if R is not None else [np.nan] * 9)),
-            "flag": fit.get("flag", ""),
-            **{k: float(v) for k, v in _error_placeholders(R).items()},
-        }
-        row.update({k: v for k, v in fit.items() if k in FIT_COLUMNS})
-        rows.append(row)
-    return rows
-
-
-FIT_COLUMNS = [
-    "n_iterations",
-    "n_rejected",
-    "optimum_distance_deg",
-    "fixed_n_iterations",
-    "fixed_cost",
-    "fixed_optimum_distance_deg",
-    "fixed_converged",
-    "converged",
-    "cost",
-    "random_starts",
-    "random_starts_optimum",
-    "random_start_iterations_mean",
-    "random_start_iterations_max",
-    "first_phase_agreement",
-    "right_axis_angle_deg",
-    "weight_kong",
-    "weight_gyro",
-    "cone95_deg",
-    "cone_vertical_share",
-    "step_ratio",
-    "step_hz",
-    "note",
-]
 
 
 def _static_axes(summaries: pd.DataFrame) -> tuple[pd.DataFrame, dict]:
@@ -292,7 +235,7 @@ def calibrate_sagittal(
     out, axes = [], []
     for key, (estimate, tests, n_recordings) in static_axes.items():
         axes.append(
-            _axis_row(_identity(dataset, *key), tests, "static", estimate, "-z", n_recordings)
+            axis_row(imu_identity(dataset, *key), tests, "static", estimate, "-z", n_recordings)
         )
     for (subject, sensor_set, imu, test), group in motion.groupby(KEY + ["test"], sort=True):
         data = _Repetitions.of(group)
@@ -322,8 +265,8 @@ def calibrate_sagittal(
         )
         static_axis, z0_tests, _ = static_axes[(subject, sensor_set, imu)]
         rho_static = static_axis.rho
-        errors = _error_placeholders(result.R)
-        identity = _identity(dataset, subject, sensor_set, imu)
+        errors = error_placeholders(result.R)
+        identity = imu_identity(dataset, subject, sensor_set, imu)
         sensor = sensors.get((subject, sensor_set, imu), {"flag": ""})
         sensor_flag = combine_flags(sensor["flag"], sensor.get("test_flags", {}).get(test, ""))
         sensor_columns = {
@@ -371,7 +314,7 @@ def calibrate_sagittal(
             )
         kong_full = out[-1]  # the calibration from all repetitions (the last subset)
         gyro_axis = data.pooled_axis(slice(None), right)
-        axes.append(_axis_row(identity, test, "motion", gyro_axis, "+y", len(reps)))
+        axes.append(axis_row(identity, test, "motion", gyro_axis, "+y", len(reps)))
         spread = axis_spread_deg(data.phases, gyro_axis.axis)
         base = {
             **identity,
@@ -434,7 +377,7 @@ def calibrate_sagittal(
         for method, (cone95_deg, cone_share) in cones.items():
             target = kong_full if method == "kong" else fits[method]
             target.update(cone95_deg=cone95_deg, cone_vertical_share=cone_share)
-        out += _method_rows(base, fits)
+        out += method_rows(base, fits)
         if subsets == "all" and retest_k and len(reps) > retest_k:
             out += _retest_rows(data, base, fits, sensor_flag, z0_imu, rho_static, right,
                                 retest_k, result, kong_at, limits)  # fmt: skip
@@ -514,7 +457,7 @@ def _retest_rows(
             sub[method]["flag"] = combine_flags(
                 sensor_flag, sub[method].get("flag", ""), fits[method].get("flag", "")
             )
-        rows += _method_rows(
+        rows += method_rows(
             {
                 **base,
                 "repetitions": subset_label(reps),
@@ -526,60 +469,6 @@ def _retest_rows(
             sub,
         )
     return rows
-
-
-def calibration_plan(dataset: Dataset, summaries: pd.DataFrame, retest_k: int | None = 3) -> dict:
-    """What a peer tool calibrates, in the file interface of workflow/peers/peer_io.py: per (subject,
-    set, IMU, motion test) that Kong's method calibrates, the static and motion recording files
-    this pass found usable, the declared right axis as a vector, and the subsets of repetitions
-    (all of them, then every subset of ``retest_k``); and (``static``) every IMU's quiet-standing
-    files. Ricci's functional design has no calibration here (the peers calibrate from a vertical
-    and one movement axis).
-    """
-    plan = {
-        "dataset": str(dataset.root.resolve()),
-        "fs_hz": dataset.fs_hz,
-        "acc_scale": dataset.acc_scale,
-        "gyr_scale": dataset.gyr_scale,
-        "calibrations": [],
-        "static": [],
-    }
-    if dataset.functional_axes is not None or summaries.empty:
-        return plan
-    usable = summaries[summaries["flag"] == ""]
-    paths = dataset.recordings.set_index(["subject", "sensor_set", "test", "rep", "imu"])["path"]
-    static = usable[usable["kind"] == "static"]
-    static_paths = {
-        key: [paths[(*key[:2], t, r, key[2])] for t, r in zip(g["test"], g["rep"])]
-        for key, g in static.groupby(KEY)
-    }
-    plan["static"] = [  # every IMU's quiet standing, whether a motion test calibrates it or not
-        {
-            **_identity(dataset, *key),
-            "right_axis": axis_vector(dataset.right_axis(*key[1:])).tolist(),
-            "paths": files,
-        }
-        for key, files in sorted(static_paths.items())
-    ]
-    motion = usable[usable["kind"] == "motion"]
-    for (subject, sensor_set, imu, test), group in motion.groupby(KEY + ["test"], sort=True):
-        if (subject, sensor_set, imu) not in static_paths:
-            continue
-        reps = sorted(int(r) for r in group["rep"])
-        chosen = [reps]
-        if retest_k and len(reps) > retest_k:
-            chosen += [list(c) for c in itertools.combinations(reps, retest_k)]
-        plan["calibrations"].append(
-            {
-                **_identity(dataset, subject, sensor_set, imu),
-                "test": test,
-                "right_axis": axis_vector(dataset.right_axis(sensor_set, imu)).tolist(),
-                "static": static_paths[(subject, sensor_set, imu)],
-                "reps": {str(r): paths[(subject, sensor_set, test, r, imu)] for r in reps},
-                "subsets": chosen,
-            }
-        )
-    return plan
 
 
 def propagate_backward(calibrations: pd.DataFrame) -> pd.DataFrame:
@@ -607,105 +496,3 @@ def propagate_backward(calibrations: pd.DataFrame) -> pd.DataFrame:
             ).to_numpy()
             flags[same] = [combine_flags(f, "backward") for f in flags[same]]
     return calibrations.assign(flag=flags)
-
-
-AXES_COLUMNS = [
-    "subject",
-    "sensor_set",
-    "imu",
-    "segment",
-    "side",
-    "test",
-    "kind",
-    "signal",
-    "n_recordings",
-    "n_samples",
-    "axis_x",
-    "axis_y",
-    "axis_z",
-    "rho",
-    "reference",
-    "residual_before_deg",
-    "residual_after_deg",
-]
-
-
-def _axis_row(
-    identity: dict, test: str, kind: str, estimate, reference: str, n_recordings: int | None = None
-) -> dict:
-    return {
-        **identity,
-        "test": test,
-        "kind": kind,
-        "signal": "acc" if kind == "static" else "gyr",
-        "n_recordings": n_recordings,
-        "n_samples": estimate.n_samples,
-        "axis_x": estimate.axis[0],
-        "axis_y": estimate.axis[1],
-        "axis_z": estimate.axis[2],
-        "rho": estimate.rho,
-        "reference": reference,
-        "residual_before_deg": np.nan,
-        "residual_after_deg": np.nan,
-    }
-
-
-def calibrate_functional(
-    dataset: Dataset, summaries: pd.DataFrame
-) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Ricci's protocol: for every (subject, set, IMU), the axes of the tests functional_axes.tsv
-    lists for its segment (each pooled over all trials: Ricci computes rho from the 9-12
-    repetitions of a movement), then one calibration per axis method.
-
-    ``axes`` has one row per (subject, set, IMU, test) recorded, with rho (Ricci Table 1), the
-    reference axis when the test is used for the IMU's segment, and the LM residual angles
-    before (identity) and after the fit (Ricci Eq. 13, Fig. 5).
-    """
-    usable_rows = summaries[
-        (summaries["flag"] == "") & summaries["kind"].isin(["static", "motion"])
-    ]
-    summed = usable_rows.groupby(KEY + ["test", "kind"], sort=True)[MOMENT_COLUMNS].sum()
-    counts = usable_rows.groupby(KEY + ["test", "kind"], sort=True).size()
-    references = {}
-    calibrations, axes = [], []
-    for (subject, sensor_set, imu), per_test in summed.groupby(level=[0, 1, 2], sort=True):
-        identity = _identity(dataset, subject, sensor_set, imu)
-        if (sensor_set, imu) not in references:
-            sheet = dataset.reference_axes(sensor_set, imu)
-            references[(sensor_set, imu)] = dict(zip(sheet["test"], sheet["axis"]))
-        reference = references[(sensor_set, imu)]
-        rows = []
-        for (*_, test, kind), moments in zip(per_test.index, per_test.to_numpy(float)):
-            estimate = pool_summed(moments, orient="mean" if kind == "static" else "phase")
-            rows.append(
-                _axis_row(
-                    identity,
-                    test,
-                    kind,
-                    estimate,
-                    reference.get(test, ""),
-                    int(counts[(subject, sensor_set, imu, test, kind)]),
-                )
-            )
-        table = pd.DataFrame(rows)
-        used = table[table["reference"] != ""]
-        if len(used) >= 2:
-            fits = functional_fits(used, seed_key=(subject, sensor_set, imu))
-            lm = fits["ricci_lm"]
-            if lm.get("R") is not None:
-                table.loc[used.index, "residual_before_deg"] = lm["residual_before_deg"]
-                table.loc[used.index, "residual_after_deg"] = lm["residual_after_deg"]
-            base = {
-                **identity,
-                "test": "+".join(used["test"]),
-                "repetitions": "all",
-                "n_reps": int(used["n_recordings"].sum()),
-                "n_samples": int(used["n_samples"].sum()),
-            }
-            calibrations += _method_rows(base, fits)
-        axes.append(table)
-    return pd.DataFrame(calibrations, columns=None if calibrations else CALIBRATION_COLUMNS), (
-        pd.concat(axes, ignore_index=True)[AXES_COLUMNS]
-        if axes
-        else pd.DataFrame(columns=AXES_COLUMNS)
-    )
