@@ -248,3 +248,25 @@ def test_one_sensor_set_gives_untestable_ttests_and_an_explicit_figure(tmp_path)
     empty = pd.DataFrame(columns=CORRELATION_COLUMNS)
     figures.plot(6, empty, None, tmp_path / "figure6.png", "demo")
     assert (tmp_path / "figure6.png").stat().st_size > 0
+
+
+def test_every_committed_subject_test_is_recomputed_from_its_committed_units():
+    """Issue 27: the p of each committed Table 7, 8, 10 row's test on subjects follows from the
+    committed per-subject means (results/*/tables/set_test_units.csv) by scipy's paired t-test."""
+    from scipy import stats
+
+    from .runner import REPO
+
+    checked = 0
+    for units_path in sorted((REPO / "results").glob("*/tables/set_test_units.csv")):
+        units = pd.read_csv(units_path)
+        for (number, row), group in units.groupby(["table", "row"]):
+            table = pd.read_csv(units_path.parent / f"table{number}.csv")
+            key = table.columns[0]
+            committed = table[(table[key] == row) & (table["test"] == "units")].iloc[0]
+            assert committed["n"] == len(group), (units_path, number, row)
+            if len(group) > 1 and (group["mean_a"] - group["mean_b"]).std() > 0:
+                p = stats.ttest_rel(group["mean_a"], group["mean_b"]).pvalue
+                assert p == pytest.approx(committed["p"], rel=0.01, abs=2e-4), (number, row)
+                checked += 1
+    assert checked >= 10

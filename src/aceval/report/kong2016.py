@@ -15,6 +15,7 @@ import pandas as pd
 
 from aceval.calibrate.table import unflagged
 from aceval.evaluation.objectives import SEGMENT_ORDER
+from aceval.report.set_tests import SET_TESTS, ttest_table
 
 REFERENCE = Path(__file__).parent / "reference" / "kong2016"
 
@@ -247,106 +248,6 @@ def angle_table(number: int, angles: pd.DataFrame, paper_names: dict) -> pd.Data
 # --- paired t-tests (7, 8, 10) ----------------------------------------------------------------
 
 
-#: the tests of a set comparison, in the order they are shown (Tables 7, 8, 10)
-SET_TESTS = {
-    "paper": "paper-style paired t-test on pooled dependent units",
-    "units": "paired t-test on subjects (per-subject means: its IMUs and sides averaged)",
-    "mixed": "mixed model of the paired differences, random intercept per subject",
-    "mixed_nested": "mixed model of the paired differences, subject and IMU (Table 7: side) "
-    "within subject",
-}
-#: the test on which set-preference claims are judged
-DEFENSIBLE_TEST = "units"
-TTEST_TABLE_COLUMNS = [
-    "test", "mean_a", "sd_a", "mean_b", "sd_b", "mean_difference", "ci95_low", "ci95_high",
-    "cohens_dz", "n", "n_groups", "t", "z", "p", "note", "fit_flags",
-]  # fmt: skip
-
-
-def ttest_table(
-    number: int,
-    correlations: pd.DataFrame | None,
-    angles: pd.DataFrame | None,
-    sensor_sets: list[str],
-) -> pd.DataFrame:
-    """First vs second sensor set of the dataset (the paper's frontal/back vs lateral): per row of
-    the paper's table, four tests of the same contrast (:data:`SET_TESTS`): the paper-style paired
-    t-test on pooled units (what the paper did: repetitions, subsets and T_ex are not independent,
-    so its p is optimistic), a paired t-test on per-subject means (the subject is the independent
-    unit: a subject's left and right thighs are not two), and two mixed models of the paired
-    differences. ``p_holm`` corrects each test's p within the table (one family per test; a
-    failed fit has no p and is not in it).
-    """
-    from aceval.evaluation.stats import holm, mixed_model_by_set, paired_by_set, unit_means_by_set
-
-    set_a, set_b = (list(sensor_sets) + ["(no second set)"] * 2)[:2]  # one set: n = 0
-    sets = [set_a, set_b]
-    if number == 7:
-        data = correlations[(correlations["objective"] == "segment_pair") & unflagged(correlations)]
-        rows, value, nested = "pair", "correlation", "side"
-        pair_on = ["subject", "side", "t_ex", "t_ap", "rep"]
-    else:
-        comparison = "incremental" if number == 8 else "test_retest"
-        data = angles[angles["comparison"] == comparison]
-        rows, value, nested = "segment", "error_angle_deg", "imu"
-        pair_on = ["subject", "imu", "test", "calibration_a", "calibration_b"]
-    results = []
-    for key, group in data.groupby(rows, sort=False):
-        for test in SET_TESTS:
-            if test == "paper":
-                result = paired_by_set(group, value, pair_on, sets)
-            elif test == "units":
-                result = unit_means_by_set(group, value, ["subject"], sets)
-            else:
-                result = mixed_model_by_set(
-                    group, value, pair_on, sets, nested=nested if test == "mixed_nested" else None
-                )
-            results.append({rows: key, "test": test, **result})
-    result = pd.DataFrame(results, columns=[rows, *TTEST_TABLE_COLUMNS])
-    result["p_holm"] = np.nan
-    for _, index in result.groupby("test", sort=False).groups.items():
-        result.loc[index, "p_holm"] = holm(result.loc[index, "p"])
-    # for an angle the smaller set is the better one (the paper's grey cells); for a correlation
-    # the larger one (Table 7 marks none)
-    better_a = (
-        result["mean_a"] > result["mean_b"] if number == 7 else result["mean_a"] < result["mean_b"]
-    )
-    better_b = (
-        result["mean_b"] > result["mean_a"] if number == 7 else result["mean_b"] < result["mean_a"]
-    )
-    result["better"] = np.where(better_a, set_a, np.where(better_b, set_b, ""))
-    published = reference(number)
-    suffix = "" if number == 7 else "_deg"
-    published = published.rename(
-        columns={
-            f"frontal_mean{suffix}": "published_mean_a",
-            f"lateral_mean{suffix}": "published_mean_b",
-            "frontal_sd": "published_sd_a",
-            "lateral_sd": "published_sd_b",
-            "p_value": "published_p",
-        }
-    )
-    merged = result.merge(published, on=rows, how="outer")
-    high, low = ("frontal", "lateral")
-    published_a_better = (
-        merged["published_mean_a"] > merged["published_mean_b"]
-        if number == 7
-        else merged["published_mean_a"] < merged["published_mean_b"]
-    )
-    published_b_better = (
-        merged["published_mean_b"] > merged["published_mean_a"]
-        if number == 7
-        else merged["published_mean_b"] < merged["published_mean_a"]
-    )
-    merged["published_better"] = np.where(
-        published_a_better, high, np.where(published_b_better, low, "")
-    )
-    merged["test"] = merged["test"].fillna("paper")
-    merged.insert(1, "set_a", set_a)
-    merged.insert(2, "set_b", set_b)
-    return merged
-
-
 # --- one entry point --------------------------------------------------------------------------
 
 
@@ -368,7 +269,7 @@ def build(
     elif number == 6:
         table = table6(correlations, names)
     elif number in (7, 8, 10):
-        table = ttest_table(number, correlations, angles, sensor_sets)
+        table = ttest_table(number, correlations, angles, sensor_sets, reference(number))
     elif number in (9, 11):
         table = angle_table(number, angles, names)
     else:

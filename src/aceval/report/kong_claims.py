@@ -140,7 +140,7 @@ def _defensible(table: pd.DataFrame | None) -> pd.DataFrame:
     """The rows of a set-comparison table (7, 8, 10) on which claims are judged: the paired t-test
     on independent units (per-subject means).
     """
-    from aceval.report.kong2016 import DEFENSIBLE_TEST
+    from aceval.report.set_tests import DEFENSIBLE_TEST
 
     cells = _cells(table)
     return cells[cells["test"] == DEFENSIBLE_TEST] if len(cells) else cells

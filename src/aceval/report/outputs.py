@@ -72,9 +72,12 @@ def _named_markdown(table, output: Output, dataset: str, simulated: bool) -> str
     return named_markdown(table, output.title, output.unit, dataset, simulated)
 
 
-def _named(function: str, *kinds: str, optional: tuple[str, ...] = ()) -> Callable:
+def _named(
+    function: str, *kinds: str, optional: tuple[str, ...] = (), exact: bool = False
+) -> Callable:
     """A builder calling ``module.function(data[kind], ...)`` (``optional`` kinds may be None),
-    then rounding as every table is rounded.
+    then rounding as every table is rounded (``exact``: not, for a table whose numbers feed a
+    recomputation).
     """
     module, name = function.rsplit(".", 1)
 
@@ -85,7 +88,8 @@ def _named(function: str, *kinds: str, optional: tuple[str, ...] = ()) -> Callab
 
         call = getattr(importlib.import_module(f"aceval.{module}"), name)
         arguments = [data[k] for k in kinds] + [data.get(k) for k in optional]
-        return rounded(call(*arguments).reset_index(drop=True))
+        table = call(*arguments).reset_index(drop=True)
+        return table if exact else rounded(table)
 
     return build
 
@@ -177,6 +181,23 @@ _ENTRIES = [
         )  # fmt: skip
         for n, (objective, title, unit) in _KONG_TABLES.items()
     ),
+    Output(
+        "set_test_units",
+        "table",
+        "kong",
+        "Kong et al. 2016, Tables 7, 8, 10 (the units of the defensible test)",
+        ("correlations", "angles"),
+        "The units behind the set comparison on which the claims are judged: each subject's mean "
+        "per sensor set, per table and row (the test on subjects of Tables 7, 8, 10)",
+        "subjects (IMUs and sides averaged inside each)",
+        _named(
+            "report.set_tests.set_test_units",
+            "sensor_sets",
+            optional=("correlations", "angles"),
+            exact=True,
+        ),
+        _named_markdown,
+    ),  # fmt: skip
     Output(
         "correlation_factors",
         "table",
