@@ -1,0 +1,515 @@
+"""The work of each ``aceval`` command once its arguments are parsed (:mod:`aceval.cli` parses
+them and checks where they write): simulate, import, validate, calibrate, apply, angles, table,
+figure, outputs. Each returns the exit code (0 ok, 1 bad input, 2 refused).
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from aceval.data.safety import FileSet, UnsafeOutputError
+
+if (
+    TYPE_CHECKING
+):  # imported where used: pandas costs start-up time for the commands that never need it
+    import pandas as pd
+
+
+def _staged(out: Path, force: bool, command: str, write) -> int:
+    """Write a folder output through :func:`aceval.data.safety.staged_folder` (nothing is left behind
+    on failure; ``--force`` replaces only a folder aceval wrote).
+    """
+    from aceval.data.safety import UnsafeOutputError, fail, staged_folder
+
+    try:
+        staged_folder(out, force, write)
+    except UnsafeOutputError as exc:
+        return fail(command, exc)
+    print(f"wrote {out}", file=sys.stderr)
+    return 0
+
+
+def simulate(args) -> int:
+    """`aceval simulate`: a simulated dataset in the contract."""
+    from aceval.simulate import GENERATORS, SimOptions
+
+    options = SimOptions(
+        noise=not args.no_noise,
+        offplane=0.0 if args.no_offplane else 1.0,
+        wobble=0.0 if args.no_wobble else 1.0,
+        repetitions=args.repetitions,
+        jobs=args.jobs,
+    )
+    kwargs = {"options": options}
+    if args.subjects is not None:
+        kwargs["n_subjects"] = args.subjects
+    return _staged(
+        Path(args.out),
+        args.force,
+        "simulate",
+        lambda folder: GENERATORS[args.protocol](folder, args.seed, **kwargs),
+    )
+
+
+def import_dataset(args) -> int:
+    """`aceval import`: foreign recordings converted into the contract."""
+    from aceval.importers import FormatError
+    from aceval.importers.run import run_import
+
+    try:
+        return _staged(
+            Path(args.out),
+            args.force,
+            "import",
+            lambda folder: print(
+                run_import(
+                    folder, args.format, args.src, args.sensors, args.subject, args.vicon, args.name
+                ).summary(),
+                file=sys.stderr,
+            ),
+        )
+    except (FormatError, OSError) as exc:
+        print(f"aceval import {args.format}: {exc}", file=sys.stderr)
+        return 1
+
+
+def validate(args) -> int:
+    """`aceval validate`: every problem of a dataset's sheets and files."""
+    from aceval.data.dataset import validate
+
+    _, report = validate(args.dataset, check_files="headers" if args.sheets_only else "all")
+    print(report.format(), file=sys.stdout if report.ok else sys.stderr)
+    if report.ok and (args.out or args.findings_out):
+        with FileSet([args.out, args.findings_out]) as files:
+            if args.out:
+                files.write(args.out, lambda tmp: Path(tmp).write_text(report.format() + "\n"))
+            if args.findings_out:
+                table = _findings_table(report)
+                files.write(args.findings_out, lambda tmp: table.to_csv(tmp, sep="\t", index=False))
+    return 0 if report.ok else 1
+
+
+def _atomic(path: str | Path, write) -> None:
+    from aceval.data.safety import atomic_file
+
+    atomic_file(path, write)
+
+
+def _write_csv(path, table) -> None:
+    _atomic(path, lambda tmp: table.to_csv(tmp, index=False))
+
+
+def _write_text(path, text: str) -> None:
+    _atomic(path, lambda tmp: Path(tmp).write_text(text))
+
+
+def _read_csvs(paths) -> pd.DataFrame:
+    from aceval.report.results import read_tables
+
+    return read_tables(paths)
+
+
+#: ``--method`` choices of ``aceval calibrate`` -> the ``method`` values of the calibrations table
+METHODS = {
+    "kong": ["kong"],
+    "ricci": ["ricci_lm"],
+    "align_vectors": ["align_vectors"],
+    "triad": ["triad"],
+    "combined": ["combined"],
+    "step_harmonic": ["step_harmonic"],
+    "all": ["kong", "ricci_lm", "align_vectors", "triad", "combined", "step_harmonic"],
+}
+
+
+def _progress(done: int, total: int, what: str) -> None:
+    """A one-line progress bar on stderr (only on a terminal: logs stay clean)."""
+    if sys.stderr.isatty():
+        filled = int(30 * done / total)
+        print(
+            f"\r[{'#' * filled}{'.' * (30 - filled)}] {done}/{total} {what}",
+            end="" if done < total else "\n",
+            file=sys.stderr,
+            flush=True,
+        )
+
+
+def calibrate(args) -> int:
+    """`aceval calibrate`: every calibration of a dataset, with the pass's other tables on request."""
+    from aceval.data.dataset import DatasetError, load_dataset
+
+    try:  # the sheets here; each recording file is checked in the pass that reads it
+        dataset = load_dataset(args.dataset)
+    except DatasetError as exc:
+        print(f"aceval calibrate: {args.dataset} is not a valid dataset:\n{exc}", file=sys.stderr)
+        return 1
+    unknown = [s for s in args.subject or [] if s not in dataset.subjects.index]
+    if unknown:
+        print(
+            f"aceval calibrate: subject(s) {', '.join(map(repr, unknown))} not in "
+            f"{args.dataset}/subjects.tsv",
+            file=sys.stderr,
+        )
+        return 2
+    unknown = sorted(set(args.tests or []) - set(dataset.tests.index))
+    if unknown:
+        print(
+            f"aceval calibrate: test(s) {', '.join(unknown)} not in {args.dataset}/tests.tsv",
+            file=sys.stderr,
+        )
+        return 2
+    outputs = [args.out, args.recordings_out, args.axes_out, args.pairs_out, args.correlations_out]
+    outputs += [args.findings_out, args.angles_out, args.retest_out, args.plan_out]
+    try:  # every folder writable before the work; all outputs put in place together, or none
+        files = FileSet(outputs)
+    except UnsafeOutputError as exc:
+        print(f"aceval calibrate: {exc}", file=sys.stderr)
+        return 2
+    with files:
+        return _calibrate_into(args, dataset, files)
+
+
+def _calibrate_into(args, dataset, files) -> int:
+    """The work of `aceval calibrate` once its inputs and outputs are checked: its outputs are
+    written into ``files`` (a :class:`aceval.data.safety.FileSet`).
+    """
+    import json
+
+    import pandas as pd
+
+    from aceval.calibrate.pipeline import calibrate
+    from aceval.calibrate.rows import AXES_COLUMNS
+    from aceval.calibrate.table import CALIBRATION_COLUMNS
+    from aceval.data.dataset import ValidationReport
+    from aceval.evaluation.correlations import correlations
+    from aceval.report.summary import calibration_screen
+    from aceval.signals.reduction import reduce_recordings
+
+    trim = _trim(args)
+    segment_pairs = json.loads(args.pairs)
+    subjects = args.subject if args.subject is not None else list(dataset.subjects.index)
+    summaries, pairs, report = [], [], ValidationReport(dataset.name)
+    for done, subject in enumerate(subjects, start=1):
+        reduced = reduce_recordings(
+            dataset, subject, trim, args.tests, segment_pairs, args.max_lag_s
+        )
+        summaries.append(reduced.summaries)
+        pairs.append(reduced.pairs)
+        report.findings += reduced.report.findings
+        _progress(done, len(subjects), "subjects read")
+    if not report.ok:
+        print(
+            f"aceval calibrate: {args.dataset}: recording files that cannot be used; no file "
+            f"written:\n{report.format()}",
+            file=sys.stderr,
+        )
+        return 1
+    summaries = _concat_tables(summaries)
+    pairs = _concat_tables(pairs)
+    unusable = summaries[summaries["flag"] != ""] if len(summaries) else summaries
+    for message in unusable.get("message", []):
+        print(f"aceval calibrate: left out {message}", file=sys.stderr)
+    calibrations, axes = (
+        calibrate(dataset, summaries, args.subsets, retest_k=args.retest_k)
+        if len(summaries)
+        else (pd.DataFrame(columns=CALIBRATION_COLUMNS), pd.DataFrame(columns=AXES_COLUMNS))
+    )
+    if len(calibrations):
+        from aceval.apply import FINGERPRINT, recordings_fingerprint
+        from aceval.evaluation.methods_comparison import with_truth
+
+        calibrations = with_truth(calibrations, dataset.ground_truth)
+
+        calibrations = calibrations[calibrations["method"].isin(METHODS[args.method])].reset_index(
+            drop=True
+        )
+        fingerprints = {
+            s: recordings_fingerprint(dataset, s) for s in calibrations["subject"].unique()
+        }
+        calibrations[FINGERPRINT] = calibrations["subject"].map(fingerprints)
+    if calibrations.empty and not args.allow_empty:
+        why = (
+            f"{len(unusable)} recording(s) were left out (listed above) and none remained"
+            if len(unusable)
+            else "no subject has a static test and a motion test that calibrates one of its IMUs "
+            "(calibrates.tsv)"
+            if len(summaries)
+            else "no recording of a test that calibrates an IMU"
+        )
+        print(
+            f"aceval calibrate: nothing to calibrate in {args.dataset}: {why}; no file written",
+            file=sys.stderr,
+        )
+        return 1
+    tables = {"out": calibrations, "recordings_out": summaries, "axes_out": axes}
+    tables["pairs_out"] = pairs
+    if args.correlations_out:
+        tables["correlations_out"] = correlations(
+            dataset, calibrations, pairs, args.mode, segment_pairs
+        )
+    _write_calibrate_outputs(args, files, tables, report, dataset)
+    _say_findings(report, dataset, summaries)
+    print(calibration_screen(calibrations, len(unusable), args.out), file=sys.stderr)
+    return 0
+
+
+def _say_findings(report, dataset, summaries) -> None:
+    """The files' warnings and what the checks found about each sensor (its calibrations are
+    flagged), on stderr.
+    """
+    if report.warnings:
+        print(f"aceval calibrate: {len(report.warnings)} file warning(s):", file=sys.stderr)
+        print("\n".join(map(str, report.warnings)), file=sys.stderr)
+    if len(summaries):
+        from aceval.calibrate.pipeline import imu_checks
+
+        for verdict in imu_checks(dataset, summaries).values():
+            if verdict["message"]:
+                print(f"aceval calibrate: flagged {verdict['message']}", file=sys.stderr)
+
+
+def _write_calibrate_outputs(args, files, tables: dict, report, dataset) -> None:
+    """Stage every output `aceval calibrate` was asked for in ``files``: the ``tables`` (by the
+    option that names each file), the findings, the Obj 3-5 angles and test-retest units, and
+    the peers' plan.
+    """
+    import json
+
+    for option, table in tables.items():
+        if getattr(args, option):
+            files.write(getattr(args, option), lambda tmp, t=table: t.to_csv(tmp, index=False))
+    if args.findings_out:
+        findings = _findings_table(report)
+        files.write(args.findings_out, lambda tmp: findings.to_csv(tmp, sep="\t", index=False))
+    if args.angles_out or args.retest_out:
+        _write_angles(args, files)
+    if args.plan_out:
+        from aceval.calibrate.plan import calibration_plan
+
+        plan = json.dumps(
+            calibration_plan(dataset, tables["recordings_out"], args.retest_k), indent=1
+        )
+        files.write(args.plan_out, lambda tmp: Path(tmp).write_text(plan + "\n"))
+
+
+def _write_angles(args, files) -> None:
+    """Kong's Obj 3-5 angles (--angles-out) and every method's test-retest units (--retest-out)
+    of this job's subjects, from its calibrations as a reader of ``args.out`` sees them (what the
+    results jobs computed from before): the only tables that need the calibrations from subsets
+    of repetitions, so the results jobs read only those from all repetitions.
+    """
+    from aceval.evaluation.methods_comparison import retest_units
+    from aceval.evaluation.objectives import all_angles
+    from aceval.report.results import read_tables
+
+    calibrations = read_tables([files.staged[Path(args.out)]])
+    if args.angles_out:
+        table = all_angles(calibrations, args.retest_k)
+        files.write(args.angles_out, lambda tmp: table.to_csv(tmp, index=False))
+    if args.retest_out:
+        table = retest_units(calibrations, args.retest_k)
+        files.write(args.retest_out, lambda tmp: table.to_csv(tmp, index=False))
+
+
+def _concat_tables(parts: list) -> pd.DataFrame:
+    import pandas as pd
+
+    non_empty = [p for p in parts if len(p)]
+    return (
+        pd.concat(non_empty, ignore_index=True)
+        if non_empty
+        else (parts[0] if parts else pd.DataFrame())
+    )
+
+
+def _findings_table(report) -> pd.DataFrame:
+    """The file findings of a pass as a table (level, where, cause)."""
+    import pandas as pd
+
+    return pd.DataFrame(
+        [(f.level, f.where, f.cause) for f in report.findings], columns=["level", "where", "cause"]
+    )
+
+
+def _trim(args):
+    import numpy as np
+
+    from aceval.signals.segmentation import TrimParams
+
+    return TrimParams(
+        threshold=args.trim_threshold,
+        closing_s=args.closing_s,
+        window_s=args.window_s,
+        min_peak_rad_s=np.radians(args.min_peak_deg_s),
+    )
+
+
+def apply(args) -> int:
+    """`aceval apply`: body-frame copies of a dataset's recordings."""
+    from aceval.apply import (
+        ApplyError,
+        apply_calibrations,
+        check_rotations,
+        chosen_calibrations,
+        read_calibrations,
+    )
+    from aceval.data.dataset import DatasetError, load_dataset
+    from aceval.data.safety import check_writable
+
+    try:
+        check_writable([Path(args.out).parent])  # before any work
+    except UnsafeOutputError as exc:
+        print(f"aceval apply: {exc}", file=sys.stderr)
+        return 2
+    try:
+        dataset = load_dataset(args.dataset)
+    except DatasetError as exc:
+        print(f"aceval apply: {args.dataset} is not a valid dataset:\n{exc}", file=sys.stderr)
+        return 1
+    try:
+        calibrations = read_calibrations(args.calibrations)
+        chosen = chosen_calibrations(dataset, calibrations, args.method, args.test)
+        if chosen.empty:
+            raise ApplyError(
+                f"{args.calibrations} has no valid {args.method} calibration"
+                + (f" from test {args.test}" if args.test else "")
+                + ": nothing to apply"
+            )
+        check_rotations(chosen, args.calibrations)
+    except ApplyError as exc:
+        print(f"aceval apply: {exc}", file=sys.stderr)
+        return 1
+    source = None if args.other_dataset else args.calibrations
+
+    def write(folder):
+        for line in apply_calibrations(
+            dataset, calibrations, folder, args.method, args.test, _progress, source
+        ):
+            print(
+                line if line.startswith("aceval") else f"aceval apply: warning: {line}",
+                file=sys.stderr,
+            )
+
+    try:
+        return _staged(Path(args.out), args.force, "apply", write)
+    except ApplyError as exc:  # nothing was put in place
+        print(f"aceval apply: nothing written:\n{exc}", file=sys.stderr)
+        return 1
+
+
+def angles(args) -> int:
+    """`aceval angles`: Kong's Obj 3-5 angles of a calibrations table."""
+    from aceval.evaluation.objectives import all_angles
+
+    _write_csv(args.out, all_angles(_read_csvs(args.calibrations), args.test_retest_k))
+    return 0
+
+
+def _single_output(args, kind: str) -> int:
+    """``aceval table|figure NAME``: one output of the registry, from the given tidy tables."""
+    import json
+
+    from aceval.report.outputs import find
+    from aceval.report.results import build_data, read_tables, write_figure, write_table
+
+    try:
+        output = find(kind, args.name)
+    except ValueError as exc:
+        print(f"aceval {kind}: {exc}", file=sys.stderr)
+        return 2
+    data = build_data(
+        args.dataset,
+        read_tables(args.calibrations),
+        read_tables(args.axes),
+        read_tables(args.correlations),
+        read_tables([args.angles] if args.angles else []),
+        json.loads(args.paper_names),
+    )
+    missing = [k for k in output.inputs if data.get(k) is None]
+    if missing:
+        print(
+            f"aceval {kind} {output.name}: needs {', '.join('--' + k for k in missing)} "
+            f"({output.paper})",
+            file=sys.stderr,
+        )
+        return 2
+    if kind == "table":
+        write_table(output, data, Path(args.csv), Path(args.md))
+    else:
+        write_figure(output, data, Path(args.out))
+    return 0
+
+
+def table(args) -> int:
+    """`aceval table`: one output table of the registry."""
+    return _single_output(args, "table")
+
+
+def figure(args) -> int:
+    """`aceval figure`: one figure of the registry."""
+    return _single_output(args, "figure")
+
+
+def outputs(args) -> int:
+    """``aceval outputs``: a dataset's whole results folder (the workflow's job per dataset)."""
+    import json
+
+    from aceval.calibrate.table import full_set_rows
+    from aceval.data.dataset import Finding, ValidationReport
+    from aceval.evaluation.objectives import in_angle_order
+    from aceval.report.results import build_data, dataset_meta, read_tables
+
+    try:  # the results folder writable before the work; its files put in place together
+        files = FileSet([], folders=[args.results])
+    except UnsafeOutputError as exc:
+        print(f"aceval outputs: {exc}", file=sys.stderr)
+        return 2
+    # the per-subject angles and test-retest units hold all the subsets are needed for: with
+    # them, only the calibrations from all repetitions are held (7 % of Kong's rows)
+    precomputed = bool(args.angles and args.retest_units)
+    data = build_data(
+        args.dataset,
+        read_tables(args.calibrations, full_set_rows if precomputed else None),
+        read_tables(args.axes),
+        read_tables(args.correlations),
+        in_angle_order(read_tables(args.angles)) if args.angles else None,
+        paper_names=json.loads(args.paper_names),
+        peers=read_tables(args.peers),
+        test_retest_k=args.test_retest_k,
+        retest_units=read_tables(args.retest_units) if args.retest_units else None,
+    )
+    print("aceval outputs: read the inputs", file=sys.stderr)
+    validation = None
+    if args.findings:
+        report = ValidationReport(str(dataset_meta(args.dataset).get("name", args.dataset)))
+        for path in args.findings:
+            table = _read_findings(path)
+            report.findings += [Finding(*row) for row in table.itertuples(index=False)]
+        validation = report.format() + "\n"
+    with files:
+        _write_results(args, data, validation, files)
+    return 0
+
+
+def _write_results(args, data, validation, files) -> None:
+    from aceval.report.results import write_results
+
+    write_results(
+        Path(args.results),
+        args.dataset,
+        args.analyses,
+        data,
+        args.test_retest_k,
+        args.note,
+        validation,
+        lambda what: print(f"aceval outputs: wrote {what}", file=sys.stderr),
+        tuple(args.kinds),
+        files,
+    )
+
+
+def _read_findings(path):
+    import pandas as pd
+
+    return pd.read_csv(path, sep="\t", dtype=str, keep_default_na=False)
