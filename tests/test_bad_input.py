@@ -25,7 +25,8 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from aceval.cli import main
-from aceval.data.dataset import RecordingError, load_dataset, recording_values
+from aceval.data.contract import RecordingError, recording_values
+from aceval.data.dataset import load_dataset
 from aceval.data.safety import MARKER
 from aceval.methods.functional import AXIS_METHODS
 

@@ -3,7 +3,8 @@ import pytest
 
 from aceval.calibrate.pipeline import calibrate, summarise_recordings
 from aceval.cli import main
-from aceval.data.dataset import DatasetError, load_dataset, read_as_missing, validate
+from aceval.data.contract import DatasetError
+from aceval.data.dataset import load_dataset, read_as_missing, validate
 
 from .minidataset import make_dataset, write_csv
 

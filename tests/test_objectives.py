@@ -9,7 +9,7 @@ from scipy.spatial.transform import Rotation
 
 from aceval.calibrate import table as calibrations_table
 from aceval.calibrate.table import all_subsets, subset_label
-from aceval.data.dataset import R_COLUMNS
+from aceval.data.contract import R_COLUMNS
 from aceval.evaluation import objectives
 from aceval.signals import alignment
 

@@ -40,7 +40,7 @@ def test_peer_rows_pass_the_same_rotation_gate_as_acevals():
     import pandas as pd
     from scipy.spatial.transform import Rotation
 
-    from aceval.data.dataset import R_COLUMNS
+    from aceval.data.contract import R_COLUMNS
     from aceval.evaluation.methods_comparison import gate_peers
 
     turned = Rotation.from_euler("z", 90, degrees=True).as_matrix()  # body y -> sensor -x

@@ -343,7 +343,7 @@ def test_conditioning_keeps_flagged_full_sets_and_says_when_the_heading_is_undet
 def test_truth_errors_measure_against_both_truths_and_carry_the_truths_flag():
     from scipy.spatial.transform import Rotation
 
-    from aceval.data.dataset import R_COLUMNS
+    from aceval.data.contract import R_COLUMNS
 
     estimate = Rotation.from_euler("z", 10, degrees=True).as_matrix().ravel()
     marker_frame = Rotation.from_euler("z", 25, degrees=True).as_matrix().ravel()
@@ -378,7 +378,7 @@ def test_truth_errors_measure_against_both_truths_and_carry_the_truths_flag():
 def test_loose_reference_angles_between_right_axes_and_verticals():
     from scipy.spatial.transform import Rotation
 
-    from aceval.data.dataset import R_COLUMNS
+    from aceval.data.contract import R_COLUMNS
 
     key = {"subject": "S1", "sensor_set": "main", "imu": "thigh_r"}
     # Kong's R maps sensor to body: turned 30 deg about the vertical from the identity

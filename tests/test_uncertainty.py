@@ -197,7 +197,7 @@ def test_recommendation_uses_the_truth_where_there_is_one_and_test_retest_otherw
 
 
 def test_an_undetermined_calibration_has_no_error_to_the_truth_rather_than_a_crash():
-    from aceval.data.dataset import R_COLUMNS
+    from aceval.data.contract import R_COLUMNS
     from aceval.evaluation.methods_comparison import with_truth
 
     both_flagged = combined_rotation(

@@ -22,7 +22,9 @@ import pandas as pd
 from scipy.spatial.transform import Rotation
 
 from aceval.calibrate.table import unflagged
-from aceval.data.dataset import QUAT_COLUMNS, R_COLUMNS, Dataset, ValidationReport, read_checked
+from aceval.data.contract import QUAT_COLUMNS, R_COLUMNS, ValidationReport
+from aceval.data.dataset import Dataset
+from aceval.data.recording_checks import read_checked
 from aceval.data.safety import contained
 from aceval.data.writer import write_sheet
 

@@ -137,7 +137,8 @@ def _progress(done: int, total: int, what: str) -> None:
 
 def calibrate(args) -> int:
     """`aceval calibrate`: every calibration of a dataset, with the pass's other tables on request."""
-    from aceval.data.dataset import DatasetError, load_dataset
+    from aceval.data.contract import DatasetError
+    from aceval.data.dataset import load_dataset
 
     try:  # the sheets here; each recording file is checked in the pass that reads it
         dataset = load_dataset(args.dataset)
@@ -181,7 +182,7 @@ def _calibrate_into(args, dataset, files) -> int:
     from aceval.calibrate.pipeline import calibrate
     from aceval.calibrate.rows import AXES_COLUMNS
     from aceval.calibrate.table import CALIBRATION_COLUMNS
-    from aceval.data.dataset import ValidationReport
+    from aceval.data.contract import ValidationReport
     from aceval.evaluation.correlations import correlations
     from aceval.report.summary import calibration_screen
     from aceval.signals.reduction import reduce_recordings
@@ -354,7 +355,8 @@ def apply(args) -> int:
         chosen_calibrations,
         read_calibrations,
     )
-    from aceval.data.dataset import DatasetError, load_dataset
+    from aceval.data.contract import DatasetError
+    from aceval.data.dataset import load_dataset
     from aceval.data.safety import check_writable
 
     try:
@@ -456,7 +458,7 @@ def outputs(args) -> int:
     import json
 
     from aceval.calibrate.table import full_set_rows
-    from aceval.data.dataset import Finding, ValidationReport
+    from aceval.data.contract import Finding, ValidationReport
     from aceval.evaluation.objectives import in_angle_order
     from aceval.report.results import build_data, dataset_meta, read_tables
 

@@ -33,7 +33,8 @@ from aceval.calibrate.table import (
     subset_label,
     unflagged,
 )
-from aceval.data.dataset import R_COLUMNS, Dataset
+from aceval.data.contract import R_COLUMNS
+from aceval.data.dataset import Dataset
 from aceval.data.rotations import axis_vector, error_angle_deg
 from aceval.methods.combined import combined_rotation, gyro_weight, horizontal_right, kong_weight
 from aceval.methods.functional import (

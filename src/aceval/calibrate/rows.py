@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from aceval.data.dataset import R_COLUMNS, Dataset
+from aceval.data.contract import R_COLUMNS
+from aceval.data.dataset import Dataset
 
 
 def imu_identity(dataset: Dataset, subject: str, sensor_set: str, imu: str) -> dict:

@@ -10,7 +10,7 @@ import itertools
 import numpy as np
 import pandas as pd
 
-from aceval.data.dataset import R_COLUMNS
+from aceval.data.contract import R_COLUMNS
 
 CALIBRATION_KEY = ["subject", "sensor_set", "imu", "test"]
 KEY = ["subject", "sensor_set", "imu"]

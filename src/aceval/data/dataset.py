@@ -9,10 +9,9 @@ config/README.md for the user-facing description.
 from __future__ import annotations
 
 import csv
-import gzip
 import io
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
 
@@ -20,114 +19,30 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from aceval.data.contract import (
+    ACC_UNITS,
+    FIRST_PHASES,
+    GRAVITY,
+    GYR_UNITS,
+    KONG_FIRST_PHASE,
+    OPTIONAL_SHEETS,
+    R_COLUMNS,
+    RIGHT_AXIS_SPELLINGS,
+    SATURATION_FRACTION,
+    SHEETS,
+    DatasetError,
+    Recording,
+    RecordingError,
+    ValidationReport,
+    recording_values,
+)
+from aceval.data.recording_checks import (
+    check_header,
+    check_recording,
+    known_recordings,
+)
 from aceval.data.rotations import AXIS_VECTORS
 from aceval.data.safety import path_problem
-
-GRAVITY = 9.81  # m/s^2: 1 g, used for unit conversion and by the simulator's physics
-ACC_UNITS = {"g": GRAVITY, "m/s^2": 1.0}
-GYR_UNITS = {"deg/s": np.pi / 180.0, "rad/s": 1.0}
-RECORDING_COLUMNS = ["t", "acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z"]
-#: optional columns of a recording: the vendor's orientation estimate (scalar first, sensor -> the
-#: vendor's z-up world); read only by the OpenSense peer (workflow/peers/)
-QUAT_COLUMNS = ["quat_w", "quat_x", "quat_y", "quat_z"]
-R_COLUMNS = [f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
-SHEETS = {
-    "imus.tsv": ["imu", "segment", "side", "region", "right_axis"],
-    "tests.tsv": ["test", "kind", "repetitions"],
-    "calibrates.tsv": ["test", "imu"],
-    "subjects.tsv": ["subject"],
-    "recordings.tsv": ["subject", "sensor_set", "test", "rep", "imu", "path"],
-}
-OPTIONAL_SHEETS = {
-    "ground_truth.tsv": ["subject", "sensor_set", "imu", *R_COLUMNS],
-    "functional_axes.tsv": ["test", "segment", "axis"],
-}
-#: median |acc| (g) of a static recording: outside the wide band the declared units are wrong (an
-#: error: g and m/s^2 differ 9.81-fold); outside the narrow one the subject was not at rest (a
-#: warning: e.g. a fallback static test taken from walking)
-UNITS_GRAVITY_BAND = (0.5, 2.0)
-REST_GRAVITY_BAND = (0.8, 1.2)
-#: a sample within this fraction of the declared range counts as saturated
-SATURATION_FRACTION = 0.999
-#: imus.tsv right_axis: a signed sensor axis; a bare letter means the positive axis
-RIGHT_AXIS_SPELLINGS = (*AXIS_VECTORS, "x", "y", "z")
-#: tests.tsv first_phase: the body-frame rotation of the first movement phase (right-hand rule:
-#: -y = the segment's top tilts forward, e.g. bowing), or ``gait`` (walking: no first phase, the
-#: shanks swing forward fastest), or empty (no direction check)
-FIRST_PHASES = ("-y", "+y", "gait", "")
-#: first_phase of Kong's tests when tests.tsv has no first_phase column (Kong Sec. 2.2: bowing,
-#: sit-to-stand flex forward first; the seated shank lift and the leg swing move forward first)
-KONG_FIRST_PHASE = {"T1": "-y", "T2": "-y", "T3": "-y", "T4": "+y", "T5": "+y", "T6": "gait"}
-#: a run of at least this many equal samples at a signal's largest |value| is a clipping plateau
-PLATEAU_RUN = 3
-#: recordings shorter than this (s) get a warning
-SHORT_RECORDING_S = 1.0
-#: sampling interval in t may differ from 1/sampling_rate_hz by this fraction
-FS_TOLERANCE = 0.02
-
-
-class DatasetError(ValueError):
-    """The dataset does not satisfy the contract; the message is the validation report."""
-
-
-@dataclass
-class Finding:
-    """One problem found by the validation: level, where (sheet or file, line) and cause."""
-
-    level: str  # "error" | "warning"
-    where: str  # sheet or file, with line
-    cause: str
-
-    def __str__(self) -> str:
-        return f"{self.level.upper():7s} {self.where}: {self.cause}"
-
-
-@dataclass
-class ValidationReport:
-    """Every finding of one validation; ``ok`` when there is no error."""
-
-    dataset: str
-    findings: list[Finding] = field(default_factory=list)
-
-    def error(self, where, cause):
-        """Record an error at ``where``."""
-        self.findings.append(Finding("error", where, cause))
-
-    def warning(self, where, cause):
-        """Record a warning at ``where``."""
-        self.findings.append(Finding("warning", where, cause))
-
-    @property
-    def errors(self) -> list[Finding]:
-        """The error findings."""
-        return [f for f in self.findings if f.level == "error"]
-
-    @property
-    def warnings(self) -> list[Finding]:
-        """The warning findings."""
-        return [f for f in self.findings if f.level == "warning"]
-
-    @property
-    def ok(self) -> bool:
-        """True when there is no error."""
-        return not self.errors
-
-    def format(self) -> str:
-        """The report as text: a count line, then errors, then warnings."""
-        head = (
-            f"dataset {self.dataset}: {len(self.errors)} error(s), {len(self.warnings)} warning(s)"
-        )
-        return "\n".join([head, *map(str, self.errors), *map(str, self.warnings)])
-
-
-@dataclass
-class Recording:
-    """One recording in SI units: t (s), acc (N, 3) m/s^2, gyr (N, 3) rad/s."""
-
-    t: np.ndarray
-    acc: np.ndarray
-    gyr: np.ndarray
-    path: Path
 
 
 @dataclass
@@ -236,48 +151,6 @@ class Dataset:
         except KeyError:
             return None
         return row[R_COLUMNS].to_numpy(dtype=float).reshape(3, 3)
-
-
-class RecordingError(ValueError):
-    """A recording file cannot be read as the contract says. ``cause`` is the reason without the
-    file name; the message names the file.
-    """
-
-    def __init__(self, path, cause: str):
-        super().__init__(f"{path}: {cause}")
-        self.path, self.cause = path, cause
-
-
-def recording_values(path: Path) -> np.ndarray:
-    """The (N, 7) values of a recording file (``RECORDING_COLUMNS``, in the file's units; a cell
-    that is not a number becomes NaN). RecordingError when it is missing, unreadable or lacks a
-    column.
-    """
-    try:
-        table = pd.read_csv(path, sep=",", engine="c")
-    except FileNotFoundError:
-        raise RecordingError(path, "file is missing") from None
-    except Exception as exc:  # pandas raises many types for a damaged or binary file
-        raise RecordingError(
-            path, f"cannot be read as CSV: {str(exc).splitlines()[0] if str(exc) else exc!r}"
-        ) from None
-    missing = [c for c in RECORDING_COLUMNS if c not in table.columns]
-    if missing:
-        header = ",".join(map(str, table.columns))[:60]
-        hint = " (is the file comma-separated?)" if len(table.columns) == 1 else ""
-        raise RecordingError(
-            path, f"missing column(s) {', '.join(missing)}; the header is {header!r}{hint}"
-        )
-    return _numeric_values(table)
-
-
-def _numeric_values(table: pd.DataFrame) -> np.ndarray:
-    """The recording columns as floats; non-numeric cells become NaN (and are reported)."""
-    columns = table if list(table.columns) == RECORDING_COLUMNS else table[RECORDING_COLUMNS]
-    try:
-        return columns.to_numpy(dtype=float)
-    except (TypeError, ValueError):  # some cell is not a number
-        return columns.apply(pd.to_numeric, errors="coerce").to_numpy(dtype=float)
 
 
 def _read_sheet(root: Path, name: str, required: list[str], report: ValidationReport):
@@ -655,169 +528,6 @@ def _check_ground_truth(ground_truth, report):
     out = ground_truth.copy()
     out[R_COLUMNS] = values
     return out.set_index(["subject", "sensor_set", "imu"])
-
-
-def recording_where(row) -> str:
-    """How findings name a recording: its path and what it is (subject, set, test, rep, IMU)."""
-    return f"{row['path']} ({row['subject']} {row['sensor_set']} {row['test']} R{row['rep']} {row['imu']})"
-
-
-def read_checked(dataset: Dataset, row, report: ValidationReport) -> Recording | None:
-    """Read one recording (a recordings.tsv row) and run every file-level check on it, adding
-    findings to ``report``: the recording in SI units, or None when it has an error.
-    """
-    where = recording_where(row)
-    path = dataset.root / row["path"]
-    if not path.is_file():
-        report.error(where, "file is missing")
-        return None
-    try:
-        values = recording_values(path)
-    except RecordingError as exc:
-        report.error(where, exc.cause)
-        return None
-    errors = len(report.errors)
-    check_values(dataset, row, values, report)
-    if len(report.errors) > errors:
-        return None
-    return Recording(
-        values[:, 0], values[:, 1:4] * dataset.acc_scale, values[:, 4:7] * dataset.gyr_scale, path
-    )
-
-
-def check_recording(dataset: Dataset, row, report: ValidationReport) -> None:
-    """File-level checks of one recording, adding findings to ``report``."""
-    read_checked(dataset, row, report)
-
-
-def check_values(dataset: Dataset, row, values: np.ndarray, report: ValidationReport) -> None:
-    """File-level checks of one recording's (N, 7) values (file units), adding findings to
-    ``report``: sample count, NaN, time, sampling rate, units at rest, saturation and clipping.
-    """
-    where = recording_where(row)
-    if len(values) < 2:
-        report.error(where, f"{len(values)} samples: a recording needs at least 2")
-        return
-    bad = ~np.isfinite(values)
-    if bad.any():
-        line = int(np.flatnonzero(bad.any(axis=1))[0]) + 2
-        report.error(
-            where,
-            f"{int(bad.any(axis=1).sum())} rows with NaN, inf or non-numeric values (first at line {line})",
-        )
-        return
-    t = values[:, 0]
-    dt = np.diff(t)
-    if np.any(dt <= 0):
-        line = int(np.flatnonzero(dt <= 0)[0]) + 3
-        kind = "duplicate" if np.any(dt == 0) else "decreasing"
-        report.error(where, f"t is not strictly increasing ({kind} time at line {line})")
-        return
-    fs_in_t = 1.0 / float(np.median(dt))
-    if abs(fs_in_t - dataset.fs_hz) > FS_TOLERANCE * dataset.fs_hz:
-        report.error(
-            where,
-            f"sampling rate in t is {fs_in_t:.4g} Hz, dataset.yaml declares {dataset.fs_hz:g} Hz",
-        )
-    duration = t[-1] - t[0]
-    if duration < SHORT_RECORDING_S:
-        report.warning(where, f"very short recording: {duration:.2f} s")
-    acc = values[:, 1:4]
-    if dataset.test_kinds[row["test"]] == "static":
-        magnitude_g = float(np.median(np.linalg.norm(acc, axis=1))) * dataset.acc_scale / GRAVITY
-        if not UNITS_GRAVITY_BAND[0] <= magnitude_g <= UNITS_GRAVITY_BAND[1]:
-            report.error(
-                where,
-                f"acceleration at rest is {magnitude_g:.3g} g (expected about 1 g): "
-                f"are units.acc ({dataset.meta['units']['acc']}) right?",
-            )
-        elif not REST_GRAVITY_BAND[0] <= magnitude_g <= REST_GRAVITY_BAND[1]:
-            report.warning(
-                where, f"static recording with median |acc| {magnitude_g:.3g} g: not at rest"
-            )
-    region = dataset.imu_regions[(row["sensor_set"], row["imu"])]
-    acc_range = (dataset.meta.get("acc_range_g") or {}).get(region)
-    if acc_range:
-        limit = SATURATION_FRACTION * float(acc_range) * GRAVITY / dataset.acc_scale
-        n_sat = int((np.abs(acc) >= limit).any(axis=1).sum())
-        if n_sat:
-            report.warning(
-                where, f"{n_sat} samples at the accelerometer range +-{acc_range} g (saturated)"
-            )
-    if dataset.test_kinds[row["test"]] == "motion" and (plateau := plateau_limit(acc)) is not None:
-        level_g = plateau * dataset.acc_scale / GRAVITY
-        if not acc_range or level_g < SATURATION_FRACTION * float(acc_range):
-            n_flat = int((np.abs(acc) >= plateau).any(axis=1).sum())
-            report.warning(
-                where,
-                f"{n_flat} samples sit at +-{level_g:.3g} g, {PLATEAU_RUN} or more in a row: "
-                f"clipped below the declared range ({acc_range or 'none'} g)? aceval leaves them out",
-            )
-    gyr_range = dataset.meta.get("gyr_range_dps")
-    if gyr_range:
-        limit = SATURATION_FRACTION * np.radians(float(gyr_range)) / dataset.gyr_scale
-        n_sat = int((np.abs(values[:, 4:7]) >= limit).any(axis=1).sum())
-        if n_sat:
-            report.warning(
-                where, f"{n_sat} samples at the gyroscope range +-{gyr_range} deg/s (saturated)"
-            )
-
-
-def plateau_limit(signal: np.ndarray, run: int = PLATEAU_RUN) -> float | None:
-    """The |value| (in the signal's units) at which an (N, 3) signal is clipped, found from the data
-    alone: the largest |value| of an axis held for ``run`` or more consecutive samples (a smooth
-    signal passes its peak in one sample; a clipped one sits on the rail). The lowest such level over
-    the axes, or None when no axis has a plateau at its extreme.
-    """
-    magnitude = np.abs(np.asarray(signal, dtype=float))
-    if len(magnitude) < run:
-        return None
-    peak = magnitude.max(axis=0)
-    at_peak = magnitude >= peak * (1 - 1e-9)
-    # a window of ``run`` samples all at the peak <=> a plateau
-    windows = np.lib.stride_tricks.sliding_window_view(at_peak, run, axis=0).all(axis=-1)
-    clipped = windows.any(axis=0) & (peak > 0)
-    return float(peak[clipped].min()) if clipped.any() else None
-
-
-def known_recordings(dataset: Dataset) -> pd.DataFrame:
-    """Recordings whose subject, set, test and IMU the sheets define (the rest are reported)."""
-    recordings = dataset.recordings
-    known = (
-        recordings["subject"].isin(dataset.subjects.index)
-        & recordings["test"].isin(dataset.tests.index)
-        & pd.MultiIndex.from_arrays([recordings["sensor_set"], recordings["imu"]]).isin(
-            dataset.imus.index
-        )
-    )
-    return recordings[known]
-
-
-def check_header(dataset: Dataset, row, report: ValidationReport) -> None:
-    """The cheap file checks of one recording: it exists and its first line names every column
-    of the contract (a file separated by anything but commas fails here). Its values are checked
-    by :func:`read_checked` in the pass that reads them.
-    """
-    where = recording_where(row)
-    path = dataset.root / row["path"]
-    if not path.is_file():
-        report.error(where, "file is missing")
-        return
-    try:
-        opener = gzip.open if path.suffix == ".gz" else open
-        with opener(path, "rt", errors="replace") as handle:
-            header = handle.readline().strip()
-    except (OSError, EOFError) as exc:
-        report.error(where, f"cannot be read: {exc}")
-        return
-    columns = [c.strip().strip('"') for c in header.split(",")]
-    missing = [c for c in RECORDING_COLUMNS if c not in columns]
-    if missing:
-        hint = " (is the file comma-separated?)" if len(columns) == 1 else ""
-        report.error(
-            where,
-            f"missing column(s) {', '.join(missing)}; the header is {header[:60]!r}{hint}",
-        )
 
 
 def validate(

@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from aceval.data.dataset import GRAVITY
+from aceval.data.contract import GRAVITY
 
 LOWPASS_HZ = 6.0
 #: gravity in a world frame with z up: specific force = acceleration - this

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from aceval.data.dataset import (
+from aceval.data.contract import (
     ACC_UNITS,
     GYR_UNITS,
     KONG_FIRST_PHASE,

@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 
 from aceval.calibrate.table import CALIBRATION_KEY, full_set_rows, full_sets, kong_rows, unflagged
-from aceval.data.dataset import R_COLUMNS
+from aceval.data.contract import R_COLUMNS
 from aceval.data.rotations import error_angle_deg, vertical_share
 from aceval.evaluation.objectives import SEGMENT_ORDER, test_retest_angles
 from aceval.evaluation.stats import holm
@@ -352,7 +352,7 @@ def truth_errors(calibrations: pd.DataFrame, method_sheet: pd.DataFrame | None) 
     ]  # fmt: skip
     if method_sheet is None or calibrations.empty or "error_deg" not in calibrations:
         return pd.DataFrame(columns=columns)
-    from aceval.data.dataset import R_COLUMNS
+    from aceval.data.contract import R_COLUMNS
     from aceval.data.rotations import error_angle_deg
 
     key = ["subject", "sensor_set", "imu"]
@@ -394,7 +394,7 @@ def loose_reference_angles(
     ]  # fmt: skip
     if reference is None or calibrations.empty:
         return pd.DataFrame(columns=columns)
-    from aceval.data.dataset import R_COLUMNS
+    from aceval.data.contract import R_COLUMNS
 
     key = ["subject", "sensor_set", "imu"]
     full = full_set_rows(calibrations)

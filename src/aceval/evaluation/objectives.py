@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from aceval.calibrate.table import CALIBRATION_KEY, full_sets, matrices, parse_subset, usable
-from aceval.data.dataset import R_COLUMNS
+from aceval.data.contract import R_COLUMNS
 from aceval.data.rotations import error_angle_deg, vertical_share
 
 CORRELATION_MODES = ("concatenated", "per_axis", "per_axis_moving")

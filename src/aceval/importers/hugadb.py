@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from aceval.data.dataset import GRAVITY
+from aceval.data.contract import GRAVITY
 from aceval.data.writer import DatasetWriter, write_sheet
 from aceval.importers.common import (
     FormatError,

@@ -76,7 +76,7 @@ def _with_truth(
     out: Path, report: ImportReport, table: pd.DataFrame, source: str, subject: str
 ) -> ImportReport:
     """Write ground_truth.tsv (R) and ground_truth_method.tsv (how it was made, its uncertainty)."""
-    from aceval.data.dataset import R_COLUMNS
+    from aceval.data.contract import R_COLUMNS
 
     columns = ["subject", "sensor_set", "imu", *R_COLUMNS]
     write_sheet(

@@ -52,7 +52,7 @@ import itertools
 import numpy as np
 from scipy.ndimage import maximum_filter1d
 
-from aceval.data.dataset import GRAVITY
+from aceval.data.contract import GRAVITY
 
 WINDOW_S = 0.25
 SLOW_MAX_DEV_G = 0.1

@@ -26,15 +26,10 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from aceval.data.dataset import (
-    Dataset,
-    Recording,
-    ValidationReport,
-    known_recordings,
-    plateau_limit,
-    read_checked,
-)
+from aceval.data.contract import Recording, ValidationReport
+from aceval.data.dataset import Dataset
 from aceval.data.errors import CalibrationError, SaturatedError
+from aceval.data.recording_checks import known_recordings, plateau_limit, read_checked
 from aceval.data.rotations import axis_vector
 from aceval.methods.functional import recording_moments
 from aceval.methods.kong import scatter, vertical_axis

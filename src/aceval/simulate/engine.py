@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from aceval.data.dataset import GRAVITY
+from aceval.data.contract import GRAVITY
 
 #: fine grid = OVERSAMPLE x the output rate; with the 5-point (4th-order) central differences
 #: below, 4x differs from a 20x grid by < 1 mg and < 0.05 deg/s (docs/simulation.md)

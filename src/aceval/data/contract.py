@@ -1,0 +1,161 @@
+"""The dataset contract's vocabulary (docs/design.md, section 1): units, columns, limits, the
+validation report, and one recording file read into SI units.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from aceval.data.rotations import AXIS_VECTORS
+
+GRAVITY = 9.81  # m/s^2: 1 g, used for unit conversion and by the simulator's physics
+ACC_UNITS = {"g": GRAVITY, "m/s^2": 1.0}
+GYR_UNITS = {"deg/s": np.pi / 180.0, "rad/s": 1.0}
+RECORDING_COLUMNS = ["t", "acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z"]
+#: optional columns of a recording: the vendor's orientation estimate (scalar first, sensor -> the
+#: vendor's z-up world); read only by the OpenSense peer (workflow/peers/)
+QUAT_COLUMNS = ["quat_w", "quat_x", "quat_y", "quat_z"]
+R_COLUMNS = [f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
+SHEETS = {
+    "imus.tsv": ["imu", "segment", "side", "region", "right_axis"],
+    "tests.tsv": ["test", "kind", "repetitions"],
+    "calibrates.tsv": ["test", "imu"],
+    "subjects.tsv": ["subject"],
+    "recordings.tsv": ["subject", "sensor_set", "test", "rep", "imu", "path"],
+}
+OPTIONAL_SHEETS = {
+    "ground_truth.tsv": ["subject", "sensor_set", "imu", *R_COLUMNS],
+    "functional_axes.tsv": ["test", "segment", "axis"],
+}
+#: median |acc| (g) of a static recording: outside the wide band the declared units are wrong (an
+#: error: g and m/s^2 differ 9.81-fold); outside the narrow one the subject was not at rest (a
+#: warning: e.g. a fallback static test taken from walking)
+UNITS_GRAVITY_BAND = (0.5, 2.0)
+REST_GRAVITY_BAND = (0.8, 1.2)
+#: a sample within this fraction of the declared range counts as saturated
+SATURATION_FRACTION = 0.999
+#: imus.tsv right_axis: a signed sensor axis; a bare letter means the positive axis
+RIGHT_AXIS_SPELLINGS = (*AXIS_VECTORS, "x", "y", "z")
+#: tests.tsv first_phase: the body-frame rotation of the first movement phase (right-hand rule:
+#: -y = the segment's top tilts forward, e.g. bowing), or ``gait`` (walking: no first phase, the
+#: shanks swing forward fastest), or empty (no direction check)
+FIRST_PHASES = ("-y", "+y", "gait", "")
+#: first_phase of Kong's tests when tests.tsv has no first_phase column (Kong Sec. 2.2: bowing,
+#: sit-to-stand flex forward first; the seated shank lift and the leg swing move forward first)
+KONG_FIRST_PHASE = {"T1": "-y", "T2": "-y", "T3": "-y", "T4": "+y", "T5": "+y", "T6": "gait"}
+#: a run of at least this many equal samples at a signal's largest |value| is a clipping plateau
+PLATEAU_RUN = 3
+#: recordings shorter than this (s) get a warning
+SHORT_RECORDING_S = 1.0
+#: sampling interval in t may differ from 1/sampling_rate_hz by this fraction
+FS_TOLERANCE = 0.02
+
+
+class DatasetError(ValueError):
+    """The dataset does not satisfy the contract; the message is the validation report."""
+
+
+@dataclass
+class Finding:
+    """One problem found by the validation: level, where (sheet or file, line) and cause."""
+
+    level: str  # "error" | "warning"
+    where: str  # sheet or file, with line
+    cause: str
+
+    def __str__(self) -> str:
+        return f"{self.level.upper():7s} {self.where}: {self.cause}"
+
+
+@dataclass
+class ValidationReport:
+    """Every finding of one validation; ``ok`` when there is no error."""
+
+    dataset: str
+    findings: list[Finding] = field(default_factory=list)
+
+    def error(self, where, cause):
+        """Record an error at ``where``."""
+        self.findings.append(Finding("error", where, cause))
+
+    def warning(self, where, cause):
+        """Record a warning at ``where``."""
+        self.findings.append(Finding("warning", where, cause))
+
+    @property
+    def errors(self) -> list[Finding]:
+        """The error findings."""
+        return [f for f in self.findings if f.level == "error"]
+
+    @property
+    def warnings(self) -> list[Finding]:
+        """The warning findings."""
+        return [f for f in self.findings if f.level == "warning"]
+
+    @property
+    def ok(self) -> bool:
+        """True when there is no error."""
+        return not self.errors
+
+    def format(self) -> str:
+        """The report as text: a count line, then errors, then warnings."""
+        head = (
+            f"dataset {self.dataset}: {len(self.errors)} error(s), {len(self.warnings)} warning(s)"
+        )
+        return "\n".join([head, *map(str, self.errors), *map(str, self.warnings)])
+
+
+@dataclass
+class Recording:
+    """One recording in SI units: t (s), acc (N, 3) m/s^2, gyr (N, 3) rad/s."""
+
+    t: np.ndarray
+    acc: np.ndarray
+    gyr: np.ndarray
+    path: Path
+
+
+class RecordingError(ValueError):
+    """A recording file cannot be read as the contract says. ``cause`` is the reason without the
+    file name; the message names the file.
+    """
+
+    def __init__(self, path, cause: str):
+        super().__init__(f"{path}: {cause}")
+        self.path, self.cause = path, cause
+
+
+def recording_values(path: Path) -> np.ndarray:
+    """The (N, 7) values of a recording file (``RECORDING_COLUMNS``, in the file's units; a cell
+    that is not a number becomes NaN). RecordingError when it is missing, unreadable or lacks a
+    column.
+    """
+    try:
+        table = pd.read_csv(path, sep=",", engine="c")
+    except FileNotFoundError:
+        raise RecordingError(path, "file is missing") from None
+    except Exception as exc:  # pandas raises many types for a damaged or binary file
+        raise RecordingError(
+            path, f"cannot be read as CSV: {str(exc).splitlines()[0] if str(exc) else exc!r}"
+        ) from None
+    missing = [c for c in RECORDING_COLUMNS if c not in table.columns]
+    if missing:
+        header = ",".join(map(str, table.columns))[:60]
+        hint = " (is the file comma-separated?)" if len(table.columns) == 1 else ""
+        raise RecordingError(
+            path, f"missing column(s) {', '.join(missing)}; the header is {header!r}{hint}"
+        )
+    return _numeric_values(table)
+
+
+def _numeric_values(table: pd.DataFrame) -> np.ndarray:
+    """The recording columns as floats; non-numeric cells become NaN (and are reported)."""
+    columns = table if list(table.columns) == RECORDING_COLUMNS else table[RECORDING_COLUMNS]
+    try:
+        return columns.to_numpy(dtype=float)
+    except (TypeError, ValueError):  # some cell is not a number
+        return columns.apply(pd.to_numeric, errors="coerce").to_numpy(dtype=float)
