@@ -16,9 +16,10 @@ makes them agree. So it needs more than accelerometers and gyroscopes:
 * a model: here one body per IMU on a free joint, every body frame aligned with the ground in the
   default pose (a standing model's segment frames; OpenSim's ground: X forward, Y up, Z right).
 
-It calibrates from the static pose alone, so its calibration of an IMU is the same for every test
-and subset (its test-retest is zero by construction: it uses no repetition). ``seconds``: the
-IMUPlacer run divided by the number of IMUs placed.
+It calibrates from the static pose alone (the first sample of quiet standing and the vendor's
+headings), so each IMU gets one calibration, reported under the static test it reads (e.g. T0),
+not under the motion tests it does not use; it has no repetitions, so no test-retest. ``seconds``:
+the IMUPlacer run divided by the number of IMUs placed.
 """
 
 from __future__ import annotations
@@ -116,7 +117,9 @@ def place(plan: dict, imus: list[dict], base: dict, folder: Path) -> dict:
 
 
 def calibrate(plan: dict) -> list[dict]:
-    """Every calibration of the plan from its subject's static pose (module docstring)."""
+    """One calibration per IMU of the plan, from its subject's static pose, under its static test
+    (module docstring).
+    """
     osim.Logger.setLevelString("warn")
     rows = []
     for subject in sorted({e["subject"] for e in plan["calibrations"]}):
@@ -130,13 +133,16 @@ def calibrate(plan: dict) -> list[dict]:
             with tempfile.TemporaryDirectory() as folder, Timer() as timer:
                 placed = place(plan, imus, bases[0], Path(folder))
             seconds = timer.seconds / len(imus)
-        for entry in wanted:
+        calibrated = {(e["sensor_set"], e["imu"]) for e in wanted}
+        for entry in imus:  # one calibration per IMU, under the static test it reads
+            if (entry["sensor_set"], entry["imu"]) not in calibrated:
+                continue
             R = placed.get((entry["sensor_set"], entry["imu"]))
-            for subset in entry["subsets"]:
-                if R is None:
-                    rows.append(row(entry, subset, METHOD, flag="not_applicable", note=reason))
-                else:
-                    rows.append(row(entry, subset, METHOD, R, seconds, note="static pose only"))
+            if R is None:
+                rows.append(row(entry, [1], METHOD, flag="not_applicable", note=reason))
+            else:
+                note = f"the first sample of {entry['test']} and the vendor's headings"
+                rows.append(row(entry, [1], METHOD, R, seconds, note=note))
     return rows
 
 

@@ -39,9 +39,11 @@ def calibration_plan(dataset: Dataset, summaries: pd.DataFrame, retest_k: int | 
         key: [paths[(*key[:2], t, r, key[2])] for t, r in zip(g["test"], g["rep"])]
         for key, g in static.groupby(KEY)
     }
+    static_tests = {key: "+".join(sorted(set(g["test"]))) for key, g in static.groupby(KEY)}
     plan["static"] = [  # every IMU's quiet standing, whether a motion test calibrates it or not
         {
             **imu_identity(dataset, *key),
+            "test": static_tests[key],
             "right_axis": axis_vector(dataset.right_axis(*key[1:])).tolist(),
             "paths": files,
         }

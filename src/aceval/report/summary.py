@@ -49,7 +49,8 @@ PEER_DESIGN = {
     "opensense_imuplacer": (
         None,
         "OpenSense's IMUPlacer reads the static pose (the first sample of quiet standing) and the "
-        "vendor's headings only: it is listed under each motion test but uses none of it",
+        "vendor's magnetometer-aided headings only: it is reported under the static test, and "
+        "its cells are not the motion tests' (more information than the others get: a heading)",
     ),
 }
 
@@ -78,8 +79,9 @@ def _shared_cells_line(methods: pd.DataFrame, compared: list[str]) -> str:
         return "No cell has an unflagged value of every method: no comparison on shared cells."
     medians = shared.median().sort_values()
     return (
-        f"On the {len(shared)} cell(s) where every method has an unflagged value (the fair "
-        "comparison): " + ", ".join(f"{m} {v:.2f} deg" for m, v in medians.items()) + "."
+        f"On the {len(shared)} cell(s) where every method calibrating from motion has an unflagged "
+        "value (the fair comparison; a static-pose method has its own cells, under the static "
+        "test): " + ", ".join(f"{m} {v:.2f} deg" for m, v in medians.items()) + "."
     )
 
 
@@ -97,7 +99,8 @@ def methods_section(tables: dict) -> list[str]:
         + ", ".join(f"{m} {v:.2f} deg ({cells[m]} cells)" for m, v in overall.items())
         + "."
     )
-    lines += ["", _shared_cells_line(methods, list(overall.index)), *_design_notes(methods)]
+    moving = [m for m in overall.index if m not in STATIC_METHODS]  # a static pose: its own cells
+    lines += ["", _shared_cells_line(methods, moving), *_design_notes(methods)]
     if "note" in methods:
         never = methods[~methods["method"].isin(overall.index)].groupby("method")["note"].first()
         lines += [
@@ -337,6 +340,9 @@ def loose_reference_section(tables: dict) -> list[str]:
     ]
     for method, group in table.groupby("method", sort=False):
         kept = group[group["flag"].fillna("") == ""]
+        if not group["right_axis_angle_deg"].notna().any():
+            lines.append(f"- {method}: not applicable here ({len(group)} rows, no calibration)")
+            continue
         lines.append(
             f"- {method}: median {group['right_axis_angle_deg'].median():.1f} deg over "
             f"{len(group)} calibrations (range {group['right_axis_angle_deg'].min():.1f}-"
