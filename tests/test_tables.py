@@ -270,3 +270,16 @@ def test_every_committed_subject_test_is_recomputed_from_its_committed_units():
                 assert p == pytest.approx(committed["p"], rel=0.01, abs=2e-4), (number, row)
                 checked += 1
     assert checked >= 10
+
+
+def test_the_obj1_claim_shows_the_sensitivity_curve_beside_it():
+    """Issue 27: 'mostly > 0.95' holds even when a 30 deg heading error keeps the correlation
+    above 0.95; the claim's numbers say so, from table obj1_sensitivity."""
+    from aceval.report.kong_claims import _insensitivity
+
+    curve = pd.DataFrame(
+        {"mode": "concatenated", "heading_error_deg": [0.0, 30.0], "mean": [0.998, 0.971]}
+    )
+    assert "still above 0.95" in _insensitivity(curve) and "0.998 -> 0.971" in _insensitivity(curve)
+    assert "still above" not in _insensitivity(curve.assign(mean=[0.9, 0.8]))
+    assert _insensitivity(None) == ""

@@ -24,9 +24,32 @@ from aceval.report.claims import (
 )
 
 
-def obj1_claims(t3, t4, t5, factors=None) -> list[Claim]:
+def _insensitivity(sensitivity) -> str:
+    """What Obj 1's correlation does with a large heading error (table ``obj1_sensitivity``,
+    concatenated mode): the sensitivity curve beside the claims it would decide.
+    """
+    if sensitivity is None or sensitivity.empty:
+        return ""
+    curve = sensitivity[sensitivity["mode"] == "concatenated"].sort_values("heading_error_deg")
+    if curve.empty:
+        return ""
+    start, end = curve.iloc[0], curve.iloc[-1]
+    blind = (
+        f": still above 0.95, so the claim cannot tell a right calibration from one "
+        f"{end['heading_error_deg']:.0f} deg off"
+        if end["mean"] > 0.95
+        else ""
+    )
+    return (
+        f"; with the lateral calibration turned {end['heading_error_deg']:.0f} deg the mean moves "
+        f"{start['mean']:.3f} -> {end['mean']:.3f} (table obj1_sensitivity){blind}"
+    )
+
+
+def obj1_claims(t3, t4, t5, factors=None, sensitivity=None) -> list[Claim]:
     """Kong Obj 1: frontal vs lateral correlations (Table 3), what they depend on (table
-    ``correlation_factors``) and the rigid box (Tables 4-5).
+    ``correlation_factors``) and the rigid box (Tables 4-5); ``sensitivity``: table
+    ``obj1_sensitivity``, its curve shown beside the claim.
     """
     out = []
     cells = _cells(t3)
@@ -48,7 +71,8 @@ def obj1_claims(t3, t4, t5, factors=None) -> list[Claim]:
                 rule,
                 _verdict(share > 0.5),
                 f"{share:.0%} of {len(cells)} cells > 0.95; lowest {low['mean']:.3f} "
-                f"({_where(low, 'segment', 't_ap')}); paper: 29 of 36 cells, lowest 0.803 (foot T6)",
+                f"({_where(low, 'segment', 't_ap')}); paper: 29 of 36 cells, lowest 0.803 (foot T6)"
+                + _insensitivity(sensitivity),
             )
         )
         rule = "the lowest Table 3 cell is the feet in T6, at most 0.85"
@@ -487,7 +511,7 @@ def kong_claims(
     """Every Kong et al. 2016 claim from the Kong tables, the angles and the calibrations."""
     get = tables.get
     return (
-        obj1_claims(get(3), get(4), get(5), get("correlation_factors"))
+        obj1_claims(get(3), get(4), get(5), get("correlation_factors"), get("obj1_sensitivity"))
         + obj2_claims(get(6), get(7))
         + obj3_claims(angles, get(8))
         + obj4_claims(get(9), get(10))
