@@ -373,6 +373,13 @@ def test_truth_errors_measure_against_both_truths_and_carry_the_truths_flag():
     assert (
         "13.0 deg (truth +- 7.0)" in text and "truth flagged methods_differ;truth_unstable" in text
     )
+    # issue 28: a marker-frame truth whose own vertical check fails is not used
+    failing = methods_comparison.truth_errors(
+        calibrations, sheet.assign(marker_frame_vertical_check_deg=12.0)
+    ).iloc[0]
+    assert np.isnan(failing["error_marker_frame_deg"]) and failing["error_deg"] == 13.0
+    text = "\n".join(summary.truth_section({"truth_errors": pd.DataFrame([failing])}))
+    assert "the marker-frame truth not used (its vertical check 12.0 deg > 5)" in text
 
 
 def test_loose_reference_angles_between_right_axes_and_verticals():

@@ -336,18 +336,29 @@ def truth_warning(calibrations: pd.DataFrame) -> str:
     )
 
 
+#: the marker-frame truth is used only where its own check passes: the tilt between the
+#: accelerometer's vertical and the one its angular-velocity fit alone gives
+#: (``marker_frame_vertical_check_deg``). A choice between what it reads on the committed data
+#: (2026-11-24): NeuRA's pelvis and thighs 1.7-2.7 deg, gaitmap's left foot 2.3, against NeuRA's
+#: shanks 8.7-18.5 and right foot 13.0, where the marker frame twists about the segment (issue 28);
+#: NeuRA's left foot (5.0) and gaitmap's right foot (5.8) sit between and are left out
+MAX_MARKER_FRAME_VERTICAL_DEG = 5.0
+
+
 def truth_errors(calibrations: pd.DataFrame, method_sheet: pd.DataFrame | None) -> pd.DataFrame:
     """Real recordings with a marker-based ground truth (``ground_truth_method.tsv``): per sensor,
     test and method (each from all repetitions), the error against the truth beside the truth's
-    own uncertainty (the split-half of its fit) and flag, the error against the second, marker-frame truth
-    and the two truths' difference, the marker frame's twist, where the sensor sits (lever arm
-    from the segment's point) and the method's conditioning (Kong: the smallest/middle eigenvalue
-    ratio and the planarity; ``heading`` says 'undetermined' when the ratio is above Kong's 0.5).
+    own uncertainty (the split-half of its fit) and flag, the error against the second, marker-frame
+    truth where that truth's own vertical check passes (:data:`MAX_MARKER_FRAME_VERTICAL_DEG`; else
+    NaN, column ``marker_frame_vertical_check_deg`` says why) and the two truths' difference, the
+    marker frame's twist, where the sensor sits (lever arm from the segment's point) and the
+    method's conditioning (Kong: the smallest/middle eigenvalue ratio and the planarity;
+    ``heading`` says 'undetermined' when the ratio is above Kong's 0.5).
     """
     columns = [
         "subject", "sensor_set", "imu", "segment", "side", "test", "method", "flag", "error_deg",
         "truth_split_half_deg", "truth_flag", "error_marker_frame_deg",
-        "marker_frame_split_half_deg", "methods_differ_deg",
+        "marker_frame_vertical_check_deg", "marker_frame_split_half_deg", "methods_differ_deg",
         "twist_mean_deg", "lever_arm_m", "pair_consistency_deg", "normal_ratio", "planarity", "heading",
     ]  # fmt: skip
     if method_sheet is None or calibrations.empty or "error_deg" not in calibrations:
@@ -361,7 +372,10 @@ def truth_errors(calibrations: pd.DataFrame, method_sheet: pd.DataFrame | None) 
     data = full.merge(sheet, on=key, how="inner", suffixes=("", "_truth"))
     marker = data[[f"marker_frame_{c}" for c in R_COLUMNS]].to_numpy(float).reshape(-1, 3, 3)
     R = data[R_COLUMNS].to_numpy(float).reshape(-1, 3, 3)
-    valid = np.isfinite(R).all(axis=(1, 2))
+    if "marker_frame_vertical_check_deg" not in data:  # a truth sheet without the check
+        data["marker_frame_vertical_check_deg"] = np.nan
+    checked = data["marker_frame_vertical_check_deg"].to_numpy(float)
+    valid = np.isfinite(R).all(axis=(1, 2)) & ~(checked > MAX_MARKER_FRAME_VERTICAL_DEG)
     data["error_marker_frame_deg"] = np.nan
     data.loc[valid, "error_marker_frame_deg"] = error_angle_deg(R[valid], marker[valid])
     data["truth_split_half_deg"] = data["split_half_deg"]

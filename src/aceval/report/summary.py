@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 
 from aceval.calibrate.table import unflagged
+from aceval.evaluation.methods_comparison import MAX_MARKER_FRAME_VERTICAL_DEG
 from aceval.methods.kong import KongLimits
 from aceval.report.claims import (
     CODE,
@@ -352,6 +353,16 @@ def loose_reference_section(tables: dict) -> list[str]:
     return lines + [""]
 
 
+def _marker_frame(r) -> str:
+    """The error against the marker-frame truth, or why that truth is not used for this sensor."""
+    if np.isfinite(r["error_marker_frame_deg"]):
+        return f"against the marker-frame truth {r['error_marker_frame_deg']:.1f} deg"
+    return (
+        f"the marker-frame truth not used (its vertical check {r['marker_frame_vertical_check_deg']:.1f}"
+        f" deg > {MAX_MARKER_FRAME_VERTICAL_DEG:g})"
+    )
+
+
 def truth_section(tables: dict) -> list[str]:
     """Real recordings with a marker-based truth (table ``truth_errors``): Kong's error per sensor
     beside the truth's own uncertainty, the second truth, and the conditioning.
@@ -366,10 +377,11 @@ def truth_section(tables: dict) -> list[str]:
         "Each IMU's calibration from all repetitions, error to the truth (optical point acceleration: "
         "quiet standing's vertical plus the heading that matches the sensor's acceleration to a joint "
         "centre's) with that truth's own split-half uncertainty, then the error to the second, "
-        "marker-frame truth, the two truths' difference and the marker frame's mean twist about the "
-        "segment's long axis while walking, where the sensor sits (from the segment's point), and the "
-        "conditioning of Kong's plane (smallest/middle eigenvalue ratio; above 0.5 the heading is "
-        "undetermined). Table `truth_errors` has every method.",
+        "marker-frame truth (only where its own vertical check passes: within "
+        f"{MAX_MARKER_FRAME_VERTICAL_DEG:g} deg), the two truths' difference and the marker frame's "
+        "mean twist about the segment's long axis while walking, where the sensor sits (from the "
+        "segment's point), and the conditioning of Kong's plane (smallest/middle eigenvalue ratio; "
+        "above 0.5 the heading is undetermined). Table `truth_errors` has every method.",
         "",
     ]
     for _, r in kong.iterrows():
@@ -378,8 +390,8 @@ def truth_section(tables: dict) -> list[str]:
             flag += f", truth flagged {r['truth_flag']}"
         lines.append(
             f"- {r['imu']} ({r['sensor_set']}, {r['test']}): {r['error_deg']:.1f} deg "
-            f"(truth +- {r['truth_split_half_deg']:.1f}); against the marker-frame truth "
-            f"{r['error_marker_frame_deg']:.1f} deg; truths {r['methods_differ_deg']:.1f} deg apart, "
+            f"(truth +- {r['truth_split_half_deg']:.1f}); {_marker_frame(r)}; "
+            f"truths {r['methods_differ_deg']:.1f} deg apart, "
             f"twist {r['twist_mean_deg']:+.1f} deg; sensor {100 * r['lever_arm_m']:.0f} cm from the "
             f"segment's point; eigenvalue ratio {r['normal_ratio']:.2f} ({r['heading']}){flag}"
         )
