@@ -79,3 +79,14 @@ def test_flags_are_combined_never_overwritten():
     assert combine_flags("", "") == ""
     flags = pd.Series(["backward;low_rho", "low_rho", "", np.nan])
     assert has_flag(flags, "backward").tolist() == [True, False, False, False]
+
+
+def test_direction_checks_give_both_flags_when_both_hold():
+    """A calibration that is backward and whose declared right axis is 90 deg off carries both."""
+    from aceval.signals.checks import direction_checks
+
+    found = direction_checks(
+        "-y", "chest", np.array([[0.0, 1.0, 0.0]]), None, np.ones((1, 1)), np.eye(3)[None],
+        np.array([1.0, 0.0, 0.0]),
+    )  # fmt: skip
+    assert found["flag"][0] == "backward;right_axis_mismatch"

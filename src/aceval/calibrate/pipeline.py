@@ -285,7 +285,10 @@ def calibrate_sagittal(
         # the declared right axis is judged on each subset's own y0, whatever its own direction
         # vote was (a subset voting 'backward' never got its mismatch flag before)
         own_mismatch = np.where(direction["mismatch"], "right_axis_mismatch", "")
-        direction["flag"] = np.where(full["flag"][0] == "backward", "backward", own_mismatch)
+        backward = "backward" if "backward" in full["flag"][0].split(";") else ""
+        direction["flag"] = np.array(
+            [combine_flags(backward, m) for m in own_mismatch], dtype=object
+        )
         for k, subset in enumerate(chosen):
             out.append(
                 {

@@ -210,7 +210,8 @@ def direction_checks(
     ``third`` (n_rep, 10) (:func:`swing_skew`). ``right`` (3,): the declared right axis.
 
     Returns ``flag`` ('backward' when most votes disagree or the shank swings backward,
-    'right_axis_mismatch' when the declared right axis is more than 60 deg from y0, else ''),
+    'right_axis_mismatch' when the declared right axis is more than 60 deg from y0, both joined by
+    ';' when both hold, else ''),
     ``mismatch`` (that angle test alone, whatever the vote),
     ``first_phase_agreement`` (share of agreeing votes; NaN without votes) and
     ``right_axis_angle_deg``.
@@ -234,7 +235,7 @@ def direction_checks(
         flag[skew < 0] = "backward"
     angle = np.degrees(np.arccos(np.clip(body_y @ np.asarray(right, float), -1.0, 1.0)))
     mismatch = angle > MAX_RIGHT_AXIS_ANGLE_DEG
-    flag[(flag == "") & mismatch] = "right_axis_mismatch"
+    flag[mismatch] = [";".join(filter(None, (f, "right_axis_mismatch"))) for f in flag[mismatch]]
     return {
         "flag": flag,
         "mismatch": mismatch,
