@@ -214,7 +214,7 @@ def gate_peers(peers: pd.DataFrame, right_axis_of) -> pd.DataFrame:
     """
     from aceval.calibrate.table import combine_flags
     from aceval.data.rotations import axis_vector
-    from aceval.signals.checks import MAX_RIGHT_AXIS_ANGLE_DEG
+    from aceval.signals.checks import MAX_RIGHT_AXIS_ANGLE_DEG, right_axis_angle_deg
 
     if peers.empty:
         return peers
@@ -222,8 +222,7 @@ def gate_peers(peers: pd.DataFrame, right_axis_of) -> pd.DataFrame:
     right = np.array(
         [axis_vector(right_axis_of(s, i)) for s, i in zip(peers["sensor_set"], peers["imu"])]
     )
-    with np.errstate(invalid="ignore"):
-        angle = np.degrees(np.arccos(np.clip(np.sum(body_y * right, axis=1), -1.0, 1.0)))
+    angle = right_axis_angle_deg(body_y, right)
     mismatch = angle > MAX_RIGHT_AXIS_ANGLE_DEG
     flags = [
         combine_flags(f, "right_axis_mismatch" if m else "")

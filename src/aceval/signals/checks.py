@@ -191,6 +191,15 @@ def swing_skew(moments: np.ndarray, axes: np.ndarray) -> np.ndarray:
     return np.einsum("...ijk,...i,...j,...k->...", tensor, axes, axes, axes)
 
 
+def right_axis_angle_deg(body_y: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """The angle (deg) between each calibration's body y in the sensor frame (``R[:, 1]``, (n, 3))
+    and the declared right axis ``right`` ((3,) or (n, 3)); NaN where R is undetermined.
+    """
+    with np.errstate(invalid="ignore"):
+        cosine = np.sum(np.asarray(body_y, float) * np.asarray(right, float), axis=-1)
+        return np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
+
+
 def direction_checks(
     expected: str,
     segment: str,
@@ -233,7 +242,7 @@ def direction_checks(
         skew = swing_skew(membership @ np.asarray(third, float), body_y)
         agreement = (skew > 0).astype(float)
         flag[skew < 0] = "backward"
-    angle = np.degrees(np.arccos(np.clip(body_y @ np.asarray(right, float), -1.0, 1.0)))
+    angle = right_axis_angle_deg(body_y, right)
     mismatch = angle > MAX_RIGHT_AXIS_ANGLE_DEG
     flag[mismatch] = [";".join(filter(None, (f, "right_axis_mismatch"))) for f in flag[mismatch]]
     return {

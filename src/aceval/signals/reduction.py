@@ -150,8 +150,16 @@ def _extra_row(rec: dict, data: Recording) -> dict:
     """A motion recording of a test that does not calibrate its IMU (kind ``extra``): read for
     the Obj 1-2 pairs, it gives the IMU's typical speed there to :mod:`aceval.signals.signatures`.
     """
-    speed = np.degrees(np.percentile(np.linalg.norm(data.gyr, axis=1), 90))
-    return _row(rec, False) | {"kind": "extra", "calibrates": False, "gyro_p90_deg_s": speed}
+    return _row(rec, False) | {
+        "kind": "extra",
+        "calibrates": False,
+        "gyro_p90_deg_s": typical_speed_deg_s(data.gyr),
+    }
+
+
+def typical_speed_deg_s(gyr: np.ndarray) -> float:
+    """A recording's typical angular speed (deg/s): the 90th percentile of |gyr| (rad/s)."""
+    return float(np.degrees(np.percentile(np.linalg.norm(gyr, axis=1), 90)))
 
 
 def _add_signatures(dataset: Dataset, test: str, loaded: dict, summaries: dict):
@@ -210,9 +218,7 @@ def summarise(
             return row
         row.update(agreement_moments(data.acc, data.gyr, dataset.fs_hz))
         row["calibrates"] = True
-        row["gyro_p90_deg_s"] = float(
-            np.degrees(np.percentile(np.linalg.norm(data.gyr, axis=1), 90))
-        )
+        row["gyro_p90_deg_s"] = typical_speed_deg_s(data.gyr)
         mask = moving if moving is not None else movement_mask(data.gyr, dataset.fs_hz, trim)
         still = ~mask  # standing before, between and after the movements: the vertical again
         row.update(
