@@ -1,25 +1,32 @@
-"""Workflow speed, measured in one run on this machine (issue 16's goals; benchmarks/README.md).
+"""Workflow speed, measured in one run on this machine (issues 16 and 29; benchmarks/README.md).
 
     python benchmarks/bench_workflow.py                       # everything (about half an hour)
     python benchmarks/bench_workflow.py --subjects 5 20       # a shorter scaling run
+    python benchmarks/bench_workflow.py --repo ../before      # another checkout (e.g. "before")
 
 1. The default workflow (`snakemake --cores 2`, config/config.yaml: simulate kong, box and ricci,
    then everything) from clean, and three up-to-date re-runs; the same from clean without the peer
    tools (`--config peers=[]`), to show what they cost; the Snakemake executor plugins installed
    (the environment measured: Snakemake imports each at every start).
-2. The floor: one Python process reading every recording of the simulated Kong dataset (5
-   subjects) once with aceval's reader and forming the scatter of each; against it, the workflow
-   of that dataset from clean (the dataset already on disk, as a lab's would be).
-3. Scaling: the Kong protocol with 5, 20, 50 and 200 simulated subjects, simulation (2
+2. The floor of the whole default: one Python process reading every recording of its three
+   generated datasets once (pandas' CSV reader, as aceval reads them) and forming the scatter of
+   each; against it, the default workflow without the peers.
+3. The floor of one lab dataset: the same for the simulated Kong dataset (5 subjects) alone;
+   against it, the workflow of that dataset from clean (the dataset already on disk, as a lab's
+   would be).
+4. Scaling: the Kong protocol with 5, 20, 50 and 200 simulated subjects, simulation (2
    processes) and workflow timed apart, peak RSS of the largest process, files and disk; the
    marginal cost per subject, where each workflow's time and memory went; a plot
    (benchmarks/scaling.png).
 
-For 1 and 2, where the time went: Snakemake's benchmark file of every job
+For 1 and 3, where the time went: Snakemake's benchmark file of every job
 (logs/<dataset>/benchmarks/), summed per dataset and step.
 
-Everything runs in temporary folders; the repository's results/ are not touched. Peak RSS is
-GNU time's maximum resident set of the command and the processes it waited for.
+``--repo`` measures another checkout of aceval (its Snakefile, and its src/ first on PYTHONPATH
+for every command, jobs included), so that a "before" and an "after" are measured by the same
+script; ``--peers-root`` names the peers' environments (default: the measured checkout's
+.venv-peers). Everything runs in temporary folders; the repository's results/ are not touched.
+Peak RSS is GNU time's maximum resident set of the command and the processes it waited for.
 """
 
 from __future__ import annotations
@@ -35,7 +42,9 @@ from pathlib import Path
 
 import yaml
 
-REPO = Path(__file__).resolve().parents[1]
+HERE = Path(__file__).resolve().parents[1]
+#: the checkout measured (--repo)
+REPO = HERE
 TIME = "/usr/bin/time"
 
 
@@ -44,6 +53,9 @@ def run(command: list[str], cwd: Path | None = None) -> tuple[float, float]:
     env = {
         **os.environ,
         "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}",
+        "PYTHONPATH": os.pathsep.join(
+            filter(None, [str(REPO / "src"), os.environ.get("PYTHONPATH", "")])
+        ),
     }
     with tempfile.NamedTemporaryFile("r") as report:
         start = time.perf_counter()
@@ -60,12 +72,21 @@ def run(command: list[str], cwd: Path | None = None) -> tuple[float, float]:
         return wall, int(report.read().split()[-1]) / 1024
 
 
+#: --config items every run gets (--peers-root)
+CONFIG: list[str] = []
+
+
 def snakemake(workdir: Path, config: Path | None = None, *options: str) -> list[str]:
     command = [sys.executable, "-m", "snakemake", "-s", str(REPO / "Snakefile")]
     command += ["--directory", str(workdir), "--cores", "2", "--quiet"]
     if config is not None:
         command += ["--configfile", str(config), "--replace-workflow-config"]
-    return command + list(options)
+    extra = [*CONFIG]
+    if "--config" in options:  # one --config with every item
+        at = options.index("--config")
+        extra += list(options[at + 1 :])
+        options = options[:at]
+    return command + list(options) + (["--config", *extra] if extra else [])
 
 
 def executor_plugins() -> str:
@@ -120,13 +141,18 @@ def simulate(out: Path, subjects: int) -> tuple[float, float]:
 
 FLOOR = """
 import sys
-from aceval.methods.kong import scatter
-from aceval.data.dataset import load_dataset, recording_values
-dataset = load_dataset(sys.argv[1])
-for path in dataset.recordings["path"]:
-    values = recording_values(dataset.root / path)
-    scatter(values[:, 1:4])
+import pandas as pd
+for root in sys.argv[1:]:
+    recordings = pd.read_csv(f"{root}/recordings.tsv", sep="\\t")
+    for path in recordings["path"].unique():
+        acc = pd.read_csv(f"{root}/{path}").to_numpy(float)[:, 1:4]
+        acc.T @ acc
 """
+
+
+def floor(*datasets: Path) -> float:
+    """Wall seconds of one process reading every recording of ``datasets`` once (:data:`FLOOR`)."""
+    return run([sys.executable, "-c", FLOOR, *map(str, datasets)])[0]
 
 
 def per_step(workdir: Path) -> str:
@@ -160,6 +186,12 @@ def per_step(workdir: Path) -> str:
     return summed.round(1).to_string()
 
 
+def git_head(repo: Path) -> str:
+    done = subprocess.run(["git", "-C", str(repo), "log", "-1", "--format=%h %ad", "--date=short"],
+                          capture_output=True, text=True)  # fmt: skip
+    return done.stdout.strip() or "not a git checkout"
+
+
 def disk(folder: Path) -> tuple[int, float]:
     files = [p for p in folder.rglob("*") if p.is_file()]
     return len(files), sum(p.stat().st_size for p in files) / 1e9
@@ -169,6 +201,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--subjects", type=int, nargs="*", default=[5, 20, 50, 200])
     parser.add_argument("--skip-default", action="store_true")
+    parser.add_argument("--repo", type=Path, default=HERE, help="the checkout measured")
+    parser.add_argument("--peers-root", type=Path, help="the peers' environments")
     parser.add_argument(
         "--log",
         type=Path,
@@ -176,7 +210,11 @@ def main() -> None:
         help="where the printed lines go (default: benchmarks/last_run.txt)",
     )
     args = parser.parse_args()
-    lines = []
+    global REPO
+    REPO = args.repo.resolve()
+    if args.peers_root:
+        CONFIG.append(f"peers_root={args.peers_root.resolve()}")
+    lines = [f"checkout measured: {REPO} ({git_head(REPO)})"]
 
     def say(text: str) -> None:
         print(text, flush=True)
@@ -195,14 +233,21 @@ def main() -> None:
             say(per_step(tmp / "default"))
             bare, _ = run(snakemake(tmp / "default_no_peers", None, "--config", "peers=[]"))
             say(f"the same without the peer tools (--config peers=[]): {bare:.1f} s from clean")
+            say(per_step(tmp / "default_no_peers"))
+            generated = sorted((tmp / "default_no_peers" / "resources").iterdir())
+            whole = floor(*generated)
+            say(f"floor of the whole default (one process reading every recording of "
+                f"{', '.join(p.name for p in generated)} once and forming its scatter) "
+                f"{whole:.1f} s; the default without the peers {bare:.1f} s; ratio "
+                f"{bare / whole:.1f}")  # fmt: skip
 
         kong = tmp / "kong5"
         simulate(kong, 5)
-        floor, _ = run([sys.executable, "-c", FLOOR, str(kong)])
+        alone = floor(kong)
         analysis, _ = run(snakemake(tmp / "kong5_work", lab_config(tmp, kong, 1)))
         say(f"Kong simulation, 5 subjects: floor (one process reading every recording once and "
-            f"forming its scatter) {floor:.1f} s; workflow from clean {analysis:.1f} s; ratio "
-            f"{analysis / floor:.1f}")  # fmt: skip
+            f"forming its scatter) {alone:.1f} s; workflow from clean {analysis:.1f} s; ratio "
+            f"{analysis / alone:.1f}")  # fmt: skip
         say(per_step(tmp / "kong5_work"))
 
         rows = []
