@@ -202,12 +202,15 @@ def main() -> None:
     parser.add_argument("--subjects", type=int, nargs="*", default=[5, 20, 50, 200])
     parser.add_argument("--skip-default", action="store_true")
     parser.add_argument("--repo", type=Path, default=HERE, help="the checkout measured")
+    parser.add_argument(
+        "--plot", type=Path, default=HERE / "benchmarks" / "scaling.png", help="the scaling plot"
+    )
     parser.add_argument("--peers-root", type=Path, help="the peers' environments")
     parser.add_argument(
         "--log",
         type=Path,
-        default=REPO / "benchmarks" / "last_run.txt",
-        help="where the printed lines go (default: benchmarks/last_run.txt)",
+        default=HERE / "benchmarks" / "last_run.txt",
+        help="where the printed lines go (default: benchmarks/last_run.txt of this checkout)",
     )
     args = parser.parse_args()
     global REPO
@@ -270,7 +273,7 @@ def main() -> None:
             (n0, s0, w0, *_), (n1, s1, w1, *_) = rows[-2], rows[-1]
             say(f"marginal cost per subject ({n0} -> {n1}): simulate {(s1 - s0) / (n1 - n0):.2f} "
                 f"s, workflow {(w1 - w0) / (n1 - n0):.2f} s")  # fmt: skip
-            plot(rows, REPO / "benchmarks" / "scaling.png")
+            plot(rows, args.plot)
     args.log.write_text("\n".join(lines) + "\n")
 
 
