@@ -109,7 +109,7 @@ def main() -> None:
     if missing:
         raise SystemExit(f"the peers' environments are missing ({', '.join(missing)}): "
                          "build them with `snakemake --cores 2 peer_envs`")  # fmt: skip
-    from aceval.calibrate.plan import calibration_plan
+    from aceval.calibrate.peer_plan import calibration_plan
     from aceval.data.dataset import load_dataset
     from aceval.signals.reduction import reduce_recordings
 

@@ -37,7 +37,8 @@ import numpy as np
 import pandas as pd
 from scipy.spatial.transform import Rotation
 
-from aceval.calibrate.pipeline import calibrate, imu_checks
+from aceval.calibrate.pipeline import calibrate
+from aceval.calibrate.plan import imu_checks
 from aceval.data.dataset import load_dataset
 from aceval.data.rotations import AXIS_VECTORS
 from aceval.signals.reduction import reduce_recordings

@@ -5,9 +5,10 @@ import sys
 
 import pandas as pd
 
-from aceval.calibrate.pipeline import calibrate, summarise_recordings
+from aceval.calibrate.pipeline import calibrate
 from aceval.data.dataset import load_dataset
 from aceval.evaluation.methods_comparison import with_truth
+from aceval.signals.reduction import summarise_recordings
 
 
 def main(root: str) -> None:

@@ -18,11 +18,12 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from aceval.calibrate.pipeline import calibrate, summarise_recordings  # noqa: E402
+from aceval.calibrate.pipeline import calibrate  # noqa: E402
 from aceval.calibrate.table import unflagged
 from aceval.data.dataset import load_dataset  # noqa: E402
 from aceval.evaluation.methods_comparison import with_truth  # noqa: E402
 from aceval.evaluation.objectives import cross_test_angles
+from aceval.signals.reduction import summarise_recordings  # noqa: E402
 from aceval.simulate import SimOptions, simulate_kong  # noqa: E402
 
 out = Path(sys.argv[2] if len(sys.argv) > 2 else "example_output")

@@ -1,10 +1,11 @@
 import numpy as np
 import pytest
 
-from aceval.calibrate.pipeline import calibrate, summarise_recordings
+from aceval.calibrate.pipeline import calibrate
 from aceval.cli import main
 from aceval.data.contract import DatasetError
 from aceval.data.dataset import load_dataset, read_as_missing, validate
+from aceval.signals.reduction import summarise_recordings
 
 from .minidataset import make_dataset, write_csv
 

@@ -6,7 +6,7 @@ import pandas as pd
 import pytest
 from scipy.spatial.transform import Rotation
 
-from aceval.calibrate.pipeline import calibrate, summarise_recordings
+from aceval.calibrate.pipeline import calibrate
 from aceval.data.dataset import load_dataset, validate
 from aceval.data.rotations import error_angle_deg
 from aceval.evaluation.methods_comparison import with_truth
@@ -17,10 +17,11 @@ from aceval.methods.functional import (
     pool,
     recording_moments,
     sagittal_fits,
-    subset_axes,
     triad_pair,
 )
 from aceval.methods.ricci import first_phase_sign, functional_axis
+from aceval.methods.statistics import gyroscope_axis
+from aceval.signals.reduction import summarise_recordings
 from aceval.simulate import SimOptions
 from aceval.simulate.ricci import simulate_ricci
 
@@ -35,9 +36,10 @@ def test_pooled_moments_equal_the_axis_of_the_joined_samples():
     joined = functional_axis(np.vstack([first, second]))
     assert pooled.rho == pytest.approx(joined.rho, abs=1e-12)
     np.testing.assert_allclose(pooled.axis, joined.axis, atol=1e-12)
-    scatters = rows[MOMENT_COLUMNS[3:12]].to_numpy().reshape(-1, 3, 3)
-    rho, _ = subset_axes(scatters, np.array([[1, 0], [0, 1], [1, 1]]))
+    summed = np.array([[1, 0], [0, 1], [1, 1]]) @ np.nan_to_num(rows[MOMENT_COLUMNS].to_numpy())
+    axes, rho = gyroscope_axis(summed, np.tile(joined.axis, (3, 1)))
     assert rho[2] == pytest.approx(joined.rho, abs=1e-12)
+    np.testing.assert_allclose(axes[2], joined.axis, atol=1e-12)
     assert rho[0] == pytest.approx(functional_axis(first).rho, abs=1e-12)
 
 
@@ -151,33 +153,56 @@ def test_functional_axes_sheet_is_validated(ricci_child, tmp_path):
     assert "given twice" in text
 
 
-def test_batched_sagittal_fits_equal_the_single_calls():
-    """The Obj 4 subsets' axis methods at once: the same rotations, diagnostics and flags as
-    sagittal_fits one at a time, including the axes it must hand to the single call (within
-    TRIAD's 5 deg of z0) and the flagged ones (low rho, near vertical, disagreeing repetitions)."""
-    from aceval.methods.functional import sagittal_fits_batch
+def test_the_axis_methods_fit_many_rows_as_the_single_problem_fits():
+    """The registry's axis methods fit every calibration of a job at once: the same rotations and
+    steps as lm_fit, wahba_fit and TRIAD one problem at a time, the axes within TRIAD's 5 deg of
+    z0 fitted alone (TRIAD refuses: aligned_axes), and the flags beyond AxisLimits (low rho, near
+    vertical, disagreeing repetitions), in that order of precedence."""
+    from aceval.methods.align_vectors import wahba_fit
+    from aceval.methods.registry import method
+    from aceval.methods.ricci import lm_fit
+    from aceval.methods.sagittal import SAGITTAL_REFERENCE, AxisLimits
+    from aceval.methods.statistics import Pooled
+    from aceval.methods.triad import triad
 
     rng = np.random.default_rng(11)
     z0 = np.array([0.1, -0.05, 1.0])
     z0 /= np.linalg.norm(z0)
     axes = rng.standard_normal((40, 3)) * [0.2, 1.0, 0.2]
-    axes[3] = z0 + [0.0, 0.02, 0.0]  # 1 deg from z0: TRIAD refuses, the single call says why
+    axes[3] = z0 + [0.0, 0.02, 0.0]  # 1 deg from z0: TRIAD refuses
     axes[4] = z0 + [0.0, 0.5, 0.0]  # near vertical: flagged
     axes /= np.linalg.norm(axes, axis=1, keepdims=True)
     rho = rng.uniform(0.3, 0.9, 40)  # some below min_rho: flagged low_rho
     spread = rng.uniform(0.0, 50.0, 40)  # some above max_spread_deg: flagged axes_disagree
-    batch = sagittal_fits_batch(z0, 0.95, axes, rho, spread)
+    rows = [Pooled.of_axes(z0, 0.95, axes[k], rho[k], spread[k]) for k in range(40)]
+    pooled = Pooled(
+        **{f: np.concatenate([getattr(r, f) for r in rows]) for f in Pooled.__dataclass_fields__}
+    )
+    fits = {name: method(name).fit(pooled, {}) for name in AXIS_METHODS}
+    limits = AxisLimits()
     flags = set()
     for k in range(40):
-        single = sagittal_fits(z0, 0.95, axes[k], rho[k], spread[k], diagnostics=False)
-        assert batch[k].keys() == single.keys()
-        for method, fit in single.items():
-            assert batch[k][method].get("flag", "") == fit.get("flag", "")
-            flags.add(fit.get("flag", ""))
-            if fit["R"] is None:
-                assert batch[k][method]["R"] is None
-                continue
-            np.testing.assert_allclose(batch[k][method]["R"], fit["R"], atol=1e-12)
-            for key in ("n_iterations", "n_rejected", "converged"):
-                assert batch[k][method].get(key) == fit.get(key)
-    assert {"", "low_rho", "axis_near_vertical", "axes_disagree", "aligned_axes"} <= flags
+        v_est, w = np.array([z0, axes[k]]), np.array([0.95, rho[k]])
+        vertical = np.degrees(np.arccos(min(1.0, abs(z0 @ axes[k]))))
+        expected = (
+            "low_rho" if rho[k] < limits.min_rho
+            else "axis_near_vertical" if vertical < limits.min_vertical_angle_deg
+            else "axes_disagree" if spread[k] > limits.max_spread_deg else ""
+        )  # fmt: skip
+        single = lm_fit(SAGITTAL_REFERENCE, v_est, w)
+        np.testing.assert_allclose(fits["ricci_lm"].R[k], single.R, atol=1e-9)
+        assert fits["ricci_lm"].columns["n_iterations"][k] == single.n_iterations
+        assert fits["ricci_lm"].columns["converged"][k] == single.converged
+        optimum = wahba_fit(SAGITTAL_REFERENCE, v_est, w).as_matrix()
+        np.testing.assert_allclose(fits["align_vectors"].R[k], optimum, atol=1e-9)
+        for name in ("ricci_lm", "align_vectors"):
+            assert fits[name].flag[k] == expected
+        if vertical < 5.0:
+            assert fits["triad"].flag[k] == "aligned_axes" and np.isnan(fits["triad"].R[k]).all()
+        else:
+            np.testing.assert_allclose(
+                fits["triad"].R[k], triad(SAGITTAL_REFERENCE, v_est), atol=1e-9
+            )
+            assert fits["triad"].flag[k] == expected
+        flags.add(expected)
+    assert {"", "low_rho", "axis_near_vertical", "axes_disagree"} <= flags

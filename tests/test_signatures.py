@@ -86,7 +86,7 @@ def test_direction_checks_give_both_flags_when_both_hold():
     from aceval.signals.checks import direction_checks
 
     found = direction_checks(
-        "-y", "chest", np.array([[0.0, 1.0, 0.0]]), None, np.ones((1, 1)), np.eye(3)[None],
-        np.array([1.0, 0.0, 0.0]),
+        np.array(["-y"]), np.array(["chest"]), np.array([[[0.0, 1.0, 0.0]]]), None,
+        np.ones((1, 1)), np.eye(3)[None], np.array([[1.0, 0.0, 0.0]]),
     )  # fmt: skip
     assert found["flag"][0] == "backward;right_axis_mismatch"

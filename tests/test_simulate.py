@@ -4,10 +4,11 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from aceval.calibrate.pipeline import calibrate, summarise_recordings
+from aceval.calibrate.pipeline import calibrate
 from aceval.cli import main
 from aceval.data.dataset import load_dataset, validate
 from aceval.evaluation.methods_comparison import with_truth
+from aceval.signals.reduction import summarise_recordings
 from aceval.simulate import SimOptions, simulate_box, simulate_kong, simulate_ricci
 from aceval.simulate.body import Anthropometry, kong_placements
 from aceval.simulate.engine import GRAVITY, OVERSAMPLE, PAD, euler_pitch_roll_yaw, measure

@@ -14,7 +14,9 @@ from aceval.methods.combined import (
     kong_weight,
 )
 from aceval.methods.kong import kong_from_scatters
-from aceval.methods.uncertainty import bootstrap_cone, cone, resample_weights
+from aceval.methods.registry import METHODS
+from aceval.methods.statistics import Units
+from aceval.methods.uncertainty import bootstrap_cones, cones, resample_weights
 from aceval.report import summary
 
 R_TRUE = Rotation.from_euler("zyx", [40, -25, 70], degrees=True).as_matrix()  # sensor -> body
@@ -94,29 +96,38 @@ def test_weights_instead_of_subsets_give_the_same_calibrations():
     assert np.allclose(by_subsets.R, by_weights.R)
 
 
+def _cones(scatters, counts, unit_scatters, R_full, seed, rho_static=1.0):
+    """bootstrap_cones of one unit (its right axis and z0 the true ones)."""
+    z0, right = _in_sensor([0, 0, 1]), _in_sensor([0, 1, 0])
+    units = Units.of_repetitions(z0, right, scatters, counts, unit_scatters, rho_static)
+    found = bootstrap_cones(
+        units, np.array([seed]), {m: R[None] for m, R in R_full.items()}, METHODS
+    )
+    return {method: (float(c[0]), float(s[0])) for method, (c, s) in found.items()}
+
+
 def test_the_cone_grows_with_the_repetitions_spread_and_is_about_the_vertical():
     z0, right = _in_sensor([0, 0, 1]), _in_sensor([0, 1, 0])
     unit = np.repeat((np.outer(right, right) * 100.0)[None], 5, axis=0)  # a pure hinge about y
 
-    def cones(headings):
+    def cones_of(headings):
         scatters, counts = _scatters(headings)
-        full = kong_from_scatters(scatters, counts, z0, right)
-        R = full.R[0]
-        return bootstrap_cone(scatters, counts, unit, z0, right, R, R, 0.4, seed=3), R
+        R = kong_from_scatters(scatters, counts, z0, right).R[0]
+        return _cones(scatters, counts, unit, {"kong": R, "combined": R}, seed=3), R
 
-    tight, _ = cones([0, 0, 0, 0, 0])
-    wide, R = cones([0, 6, -6, 3, -3])
+    tight, _ = cones_of([0, 0, 0, 0, 0])
+    wide, R = cones_of([0, 6, -6, 3, -3])
     assert tight["kong"][0] < 0.5
     assert wide["kong"][0] > 2.0 * tight["kong"][0] + 1.0
     assert wide["kong"][1] == pytest.approx(1.0, abs=1e-6)  # z0 is held: all about the vertical
     # reproducible: the same seed gives the same cone
-    assert bootstrap_cone(*_scatters([0, 6, -6, 3, -3]), unit, z0, right, R, R, 0.4, seed=3) == wide
+    assert cones_of([0, 6, -6, 3, -3])[0] == wide
 
 
 def test_resample_weights_draw_n_repetitions_each_time():
     weights = resample_weights(5, 200, seed=1)
     assert weights.shape == (200, 5) and (weights.sum(axis=1) == 5).all()
-    assert np.isnan(cone(np.full((10, 3, 3), np.nan), np.eye(3))[0])
+    assert np.isnan(cones(np.full((1, 10, 3, 3), np.nan), np.eye(3)[None])[0]).all()
 
 
 def _calibrations(errors, cones, shares, flags=None):
@@ -216,7 +227,8 @@ def test_an_undetermined_calibration_has_no_error_to_the_truth_rather_than_a_cra
 
 
 def test_the_axis_methods_cones_follow_the_spread_of_the_repetitions_gyroscope_axes():
-    from aceval.methods.functional import sagittal_fits, subset_axes
+    from aceval.methods.functional import sagittal_fits
+    from aceval.methods.statistics import gyroscope_axis
 
     z0, right = _in_sensor([0, 0, 1]), _in_sensor([0, 1, 0])
     scatters, counts = _scatters([0, 0, 0, 0, 0])
@@ -226,13 +238,13 @@ def test_the_axis_methods_cones_follow_the_spread_of_the_repetitions_gyroscope_a
 
     def axis_cones(headings_deg):
         units = unit(headings_deg)
-        rho, axes = subset_axes(units, np.ones((1, 5)))
-        axis = axes[0] * np.sign(axes[0] @ right)
-        fits = sagittal_fits(z0, 1.0, axis, float(rho[0]))
-        R_axis = {m: fits[m]["R"] for m in ("ricci_lm", "align_vectors", "triad")}
-        R = kong_from_scatters(scatters, counts, z0, right).R[0]
-        return bootstrap_cone(scatters, counts, units, z0, right, R, R, 0.4, seed=5,
-                              rho_static=1.0, R_axis=R_axis)  # fmt: skip
+        moments = np.zeros((1, 16))
+        moments[0, 3:12], moments[0, 12] = units.sum(axis=0).ravel(), 500.0
+        axis, rho = gyroscope_axis(moments, right[None])
+        fits = sagittal_fits(z0, 1.0, axis[0], float(rho[0]))
+        R_full = {m: fits[m]["R"] for m in ("ricci_lm", "align_vectors", "triad")}
+        R_full["kong"] = kong_from_scatters(scatters, counts, z0, right).R[0]
+        return _cones(scatters, counts, units, R_full, seed=5)
 
     still, spread = axis_cones([0, 0, 0, 0, 0]), axis_cones([0, 8, -8, 4, -4])
     for method in ("ricci_lm", "align_vectors", "triad"):
@@ -243,8 +255,8 @@ def test_the_axis_methods_cones_follow_the_spread_of_the_repetitions_gyroscope_a
 
 
 def test_the_batched_wahba_and_triad_equal_the_single_calls():
+    from aceval.methods.align_vectors import wahba_batch, wahba_fit
     from aceval.methods.functional import triad_pair
-    from aceval.methods.ricci import wahba_batch, wahba_fit
     from aceval.methods.triad import triad, triad_batch
 
     rng = np.random.default_rng(7)

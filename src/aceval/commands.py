@@ -180,8 +180,8 @@ def _calibrate_into(args, dataset, files) -> int:
     import pandas as pd
 
     from aceval.calibrate.pipeline import calibrate
-    from aceval.calibrate.rows import AXES_COLUMNS
-    from aceval.calibrate.table import CALIBRATION_COLUMNS
+    from aceval.calibrate.plan import imu_checks
+    from aceval.calibrate.table import AXES_COLUMNS, CALIBRATION_COLUMNS
     from aceval.data.contract import ValidationReport
     from aceval.evaluation.correlations import correlations
     from aceval.report.summary import calibration_screen
@@ -211,8 +211,9 @@ def _calibrate_into(args, dataset, files) -> int:
     unusable = summaries[summaries["flag"] != ""] if len(summaries) else summaries
     for message in unusable.get("message", []):
         print(f"aceval calibrate: left out {message}", file=sys.stderr)
+    sensors = imu_checks(dataset, summaries) if len(summaries) else {}
     calibrations, axes = (
-        calibrate(dataset, summaries, args.subsets, retest_k=args.retest_k)
+        calibrate(dataset, summaries, args.subsets, retest_k=args.retest_k, sensors=sensors)
         if len(summaries)
         else (pd.DataFrame(columns=CALIBRATION_COLUMNS), pd.DataFrame(columns=AXES_COLUMNS))
     )
@@ -250,24 +251,21 @@ def _calibrate_into(args, dataset, files) -> int:
             dataset, calibrations, pairs, args.mode, segment_pairs
         )
     _write_calibrate_outputs(args, files, tables, report, dataset)
-    _say_findings(report, dataset, summaries)
+    _say_findings(report, sensors)
     print(calibration_screen(calibrations, len(unusable), args.out), file=sys.stderr)
     return 0
 
 
-def _say_findings(report, dataset, summaries) -> None:
-    """The files' warnings and what the checks found about each sensor (its calibrations are
-    flagged), on stderr.
+def _say_findings(report, sensors: dict) -> None:
+    """The files' warnings and what the checks found about each sensor (``sensors``:
+    :func:`aceval.calibrate.plan.imu_checks`; its calibrations are flagged), on stderr.
     """
     if report.warnings:
         print(f"aceval calibrate: {len(report.warnings)} file warning(s):", file=sys.stderr)
         print("\n".join(map(str, report.warnings)), file=sys.stderr)
-    if len(summaries):
-        from aceval.calibrate.pipeline import imu_checks
-
-        for verdict in imu_checks(dataset, summaries).values():
-            if verdict["message"]:
-                print(f"aceval calibrate: flagged {verdict['message']}", file=sys.stderr)
+    for verdict in sensors.values():
+        if verdict["message"]:
+            print(f"aceval calibrate: flagged {verdict['message']}", file=sys.stderr)
 
 
 def _write_calibrate_outputs(args, files, tables: dict, report, dataset) -> None:
@@ -286,7 +284,7 @@ def _write_calibrate_outputs(args, files, tables: dict, report, dataset) -> None
     if args.angles_out or args.retest_out:
         _write_angles(args, files)
     if args.plan_out:
-        from aceval.calibrate.plan import calibration_plan
+        from aceval.calibrate.peer_plan import calibration_plan
 
         plan = json.dumps(
             calibration_plan(dataset, tables["recordings_out"], args.retest_k), indent=1

@@ -6,10 +6,13 @@ from __future__ import annotations
 
 import pandas as pd
 
-from aceval.calibrate.rows import AXES_COLUMNS, axis_row, imu_identity, method_rows
+from aceval.calibrate.rows import method_rows
 from aceval.calibrate.table import (
+    AXES_COLUMNS,
     CALIBRATION_COLUMNS,
     KEY,
+    axis_row,
+    imu_identity,
 )
 from aceval.data.dataset import Dataset
 from aceval.methods.functional import (

@@ -1,70 +1,262 @@
-"""What a peer tool calibrates: the file interface of workflow/peers/peer_io.py."""
+"""What each IMU is calibrated from, resolved once per job: the calibration plan of Kong's protocol
+(DESIGN.md: recordings -> statistics -> per-IMU plan -> calibrations).
+
+From the one pass's summaries (:mod:`aceval.signals.reduction`): each IMU's z0 and static axis
+(Kong Eq. 2, several static recordings averaged), what the checks say about the sensor itself
+(:func:`imu_checks`), and for each calibration unit (one IMU in one motion test that calibrates
+it) the statistics of its usable repetitions (:class:`aceval.methods.statistics.Units`), its
+place, its declared right axis, and the subsets of repetitions each method is fitted on: Kong's
+method on every subset (Obj 3-5), the others on all repetitions and on every subset of ``k``
+(Obj 4's test-retest for every method).
+"""
 
 from __future__ import annotations
 
 import itertools
+from dataclasses import dataclass
 
+import numpy as np
 import pandas as pd
 
-from aceval.calibrate.rows import imu_identity
 from aceval.calibrate.table import (
+    AXES_COLUMNS,
     KEY,
+    all_subsets,
+    axis_row,
+    combine_flags,
+    imu_identity,
+    subset_label,
 )
 from aceval.data.dataset import Dataset
 from aceval.data.rotations import axis_vector
+from aceval.methods.functional import MOMENT_COLUMNS, pool, stable_seed
+from aceval.methods.statistics import PHASE, Units
+from aceval.methods.step_harmonic import SCATTER_COLUMNS as STEP_COLUMNS
+from aceval.signals.checks import (
+    AGREEMENT_COLUMNS,
+    MAX_STATIC_ANGLE_DEG,
+    STILL_COLUMNS,
+    THIRD_MOMENT_COLUMNS,
+    best_test_agreement,
+    sensor_problem,
+    static_posture,
+)
+from aceval.signals.reduction import SCATTER_COLUMNS
+from aceval.signals.signatures import SIGNATURE_COLUMNS, signature_verdicts
+
+#: what the checks measured about each sensor, beside every calibration of it
+SENSOR_COLUMNS = ["gyro_acc_agreement", "gyro_acc_evidence_deg", "static_vertical_angle_deg"]
 
 
-def calibration_plan(dataset: Dataset, summaries: pd.DataFrame, retest_k: int | None = 3) -> dict:
-    """What a peer tool calibrates, in the file interface of workflow/peers/peer_io.py: per (subject,
-    set, IMU, motion test) that Kong's method calibrates, the static and motion recording files
-    this pass found usable, the declared right axis as a vector, and the subsets of repetitions
-    (all of them, then every subset of ``retest_k``); and (``static``) every IMU's quiet-standing
-    files. Ricci's functional design has no calibration here (the peers calibrate from a vertical
-    and one movement axis).
+@dataclass(frozen=True)
+class Subsets:
+    """Calibrations to make: one row each, the unit (index into the plan's units), the weight of
+    each of its repetitions (0/1), the label ('R1+R3+R4') and how many repetitions.
     """
-    plan = {
-        "dataset": str(dataset.root.resolve()),
-        "fs_hz": dataset.fs_hz,
-        "acc_scale": dataset.acc_scale,
-        "gyr_scale": dataset.gyr_scale,
-        "calibrations": [],
-        "static": [],
+
+    unit: np.ndarray
+    weights: np.ndarray
+    label: np.ndarray
+    n_reps: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.unit)
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A job's calibration plan: ``units`` (their statistics), ``identity`` (one row per unit:
+    subject, set, IMU, segment, side, test, ``z0_tests``, the sensor's ``sensor_flag`` for this
+    test, :data:`SENSOR_COLUMNS` and the unit's bootstrap ``seed``), ``every_subset`` (Kong's
+    calibrations: every subset of each unit's repetitions, or all of them together), ``methods``
+    (the other methods' calibrations: all repetitions, then every subset of ``k``), and
+    ``static_axes`` (the axes table's rows of the static tests).
+    """
+
+    units: Units
+    identity: pd.DataFrame
+    every_subset: Subsets
+    methods: Subsets
+    static_axes: pd.DataFrame
+
+
+def static_axes(summaries: pd.DataFrame) -> tuple[pd.DataFrame, dict]:
+    """z0 (Kong Eq. 2; several static recordings averaged) and the pooled static axis, its
+    tests and number of recordings, of each IMU.
+    """
+    static = summaries[(summaries["kind"] == "static") & (summaries["flag"] == "")]
+    z0 = static.groupby(KEY)[["z0_x", "z0_y", "z0_z"]].mean()
+    z0 = z0.div(np.linalg.norm(z0.to_numpy(), axis=1), axis=0)
+    axes = {
+        key: (pool(group), ",".join(sorted(group["test"].unique())), len(group))
+        for key, group in static.groupby(KEY)
     }
-    if dataset.functional_axes is not None or summaries.empty:
-        return plan
-    usable = summaries[summaries["flag"] == ""]
-    paths = dataset.recordings.set_index(["subject", "sensor_set", "test", "rep", "imu"])["path"]
-    static = usable[usable["kind"] == "static"]
-    static_paths = {
-        key: [paths[(*key[:2], t, r, key[2])] for t, r in zip(g["test"], g["rep"])]
-        for key, g in static.groupby(KEY)
-    }
-    static_tests = {key: "+".join(sorted(set(g["test"]))) for key, g in static.groupby(KEY)}
-    plan["static"] = [  # every IMU's quiet standing, whether a motion test calibrates it or not
-        {
-            **imu_identity(dataset, *key),
-            "test": static_tests[key],
-            "right_axis": axis_vector(dataset.right_axis(*key[1:])).tolist(),
-            "paths": files,
-        }
-        for key, files in sorted(static_paths.items())
+    return z0, axes
+
+
+def imu_checks(dataset: Dataset, summaries: pd.DataFrame) -> dict[tuple, dict]:
+    """Per (subject, set, IMU), what its motion recordings say about the sensor itself
+    (:func:`aceval.signals.checks.sensor_problem`; walking recordings are left out of the
+    agreement), about its static trial (:func:`aceval.signals.checks.static_posture`) and about
+    its place (:func:`aceval.signals.signatures.signature_verdicts`): ``flag`` (every flag of the
+    IMU's calibrations, ';'-joined), ``message``, ``test_flags`` (test -> the flag of that test's
+    calibrations only) and the checks' evidence columns.
+    """
+    motion = summaries[summaries["kind"] == "motion"]
+    if motion.empty or AGREEMENT_COLUMNS[0] not in motion:
+        return {}
+    gait = motion["test"].map(dataset.first_phase) == "gait"
+    z0, _ = static_axes(summaries)
+    places = summaries[summaries["kind"].isin(["motion", "extra"])]
+    signatures = signature_verdicts(places) if SIGNATURE_COLUMNS[0] in places else {}
+    out = {}
+    for key, group in motion.groupby(KEY, sort=False):
+        per_test = group.loc[~gait[group.index]].groupby("test")[AGREEMENT_COLUMNS].sum()
+        summed = best_test_agreement(per_test.to_numpy(float))
+        verdict = sensor_problem(
+            summed, float(group["gyro_p90_deg_s"].max()), dataset.meta["units"]["gyr"]
+        )
+        messages = [verdict["message"]]
+        if key in z0.index and STILL_COLUMNS[0] in group:
+            still = {t: g[STILL_COLUMNS].to_numpy(float) for t, g in group.groupby("test")}
+            posture = static_posture(z0.loc[key].to_numpy(float), still)
+            verdict["static_vertical_angle_deg"] = posture["static_vertical_angle_deg"]
+            verdict["static_check_tests"] = posture["static_check_tests"]
+            verdict["flag"] = combine_flags(verdict["flag"], posture["flag"])
+            if posture["flag"]:
+                messages.append(
+                    f"the static trial's vertical is {posture['static_vertical_angle_deg']:.0f} deg "
+                    f"from that of the still portions of every one of its "
+                    f"{posture['static_check_tests']} motion tests with still portions (more than "
+                    f"{MAX_STATIC_ANGLE_DEG:.0f}): taken seated or leaning, not standing?"
+                )
+        place = signatures.get(key, {"flag": "", "message": "", "test_flags": {}})
+        verdict["flag"] = combine_flags(verdict["flag"], place["flag"])
+        verdict["test_flags"] = place["test_flags"]
+        messages.append(place["message"])
+        message = "; ".join(m for m in messages if m)
+        verdict["message"] = f"{' '.join(key)}: {message}" if message else ""
+        out[key] = verdict
+    return out
+
+
+def build_plan(
+    dataset: Dataset,
+    summaries: pd.DataFrame,
+    subsets: str = "all",
+    retest_k: int | None = 3,
+    sensors: dict | None = None,
+) -> Plan:
+    """The plan of every unit in ``summaries`` (module docstring): Kong on every subset of its
+    usable repetitions (``subsets='all'``) or all of them together (``'full'``); the other
+    methods on all of them and, with ``subsets='all'`` and ``retest_k``, every subset of that
+    many. A unit whose IMU has no static test is left out (the validation reports it).
+    ``sensors``: :func:`imu_checks` when the caller has it already.
+    """
+    z0, statics = static_axes(summaries)
+    sensors = imu_checks(dataset, summaries) if sensors is None else sensors
+    motion = summaries[(summaries["kind"] == "motion") & (summaries["flag"] == "")]
+    motion = motion[pd.MultiIndex.from_frame(motion[KEY]).isin(z0.index)]
+    motion = motion.sort_values([*KEY, "test", "rep"], kind="stable")
+    units, identity = _units(dataset, motion, z0, statics, sensors)
+    n_present = units.present.sum(axis=1)
+    every = [all_subsets(list(range(n))) if subsets == "all" else [tuple(range(n))]
+             for n in n_present]  # fmt: skip
+    k = retest_k if subsets == "all" and retest_k else 0
+    methods = [
+        [tuple(range(n)), *(itertools.combinations(range(n), k) if 0 < k < n else [])]
+        for n in n_present
     ]
-    motion = usable[usable["kind"] == "motion"]
-    for (subject, sensor_set, imu, test), group in motion.groupby(KEY + ["test"], sort=True):
-        if (subject, sensor_set, imu) not in static_paths:
-            continue
-        reps = sorted(int(r) for r in group["rep"])
-        chosen = [reps]
-        if retest_k and len(reps) > retest_k:
-            chosen += [list(c) for c in itertools.combinations(reps, retest_k)]
-        plan["calibrations"].append(
+    static_rows = [
+        axis_row(imu_identity(dataset, *key), tests, "static", estimate, "-z", n_recordings)
+        for key, (estimate, tests, n_recordings) in statics.items()
+    ]
+    return Plan(
+        units=units,
+        identity=identity,
+        every_subset=_subsets(units, every),
+        methods=_subsets(units, methods),
+        static_axes=pd.DataFrame(static_rows, columns=AXES_COLUMNS),
+    )
+
+
+def _units(dataset, motion, z0, statics, sensors) -> tuple[Units, pd.DataFrame]:
+    """The :class:`Units` of the usable motion recordings (sorted by unit and repetition) and
+    their identity table.
+    """
+    unit_key = [*KEY, "test"]
+    code = motion.groupby(unit_key, sort=False).ngroup().to_numpy()
+    position = motion.groupby(unit_key, sort=False).cumcount().to_numpy()
+    first = motion.drop_duplicates(unit_key)
+    n_units, width = len(first), int(position.max()) + 1 if len(position) else 0
+
+    def padded(columns, fill, shape=()):
+        out = np.full((n_units, width, *shape), fill, dtype=float)
+        if columns[0] in motion:
+            out[code, position] = motion[columns].to_numpy(float).reshape(-1, *shape)
+        return out
+
+    present = np.zeros((n_units, width), dtype=bool)
+    present[code, position] = True
+    moments = padded(MOMENT_COLUMNS, 0.0, (len(MOMENT_COLUMNS),))
+    moments[..., PHASE][~present] = np.nan  # an absent repetition has no axis of its own
+    rep = np.zeros((n_units, width), dtype=int)
+    rep[code, position] = motion["rep"].to_numpy(int)
+    steps = padded(STEP_COLUMNS, np.nan, (3, 3))
+    steps[~present] = 0.0
+    keys = list(first[KEY].itertuples(index=False, name=None))
+    tests = first["test"].tolist()
+    identity = _identity(dataset, keys, tests, statics, sensors)
+    units = Units(
+        z0=z0.loc[keys].to_numpy(float) if keys else np.zeros((0, 3)),
+        right=np.array([axis_vector(dataset.right_axis(s, i)) for _, s, i in keys]).reshape(-1, 3),
+        rho_static=np.array([statics[key][0].rho for key in keys]),
+        first_phase=np.array([dataset.first_phase(t) for t in tests], dtype=object),
+        segment=identity["segment"].to_numpy(object),
+        rep=rep,
+        present=present,
+        scatters=padded(SCATTER_COLUMNS, 0.0, (3, 3)),
+        n_samples=padded(["n_samples"], 0.0),
+        moments=moments,
+        third=padded(THIRD_MOMENT_COLUMNS, 0.0, (len(THIRD_MOMENT_COLUMNS),))
+        if THIRD_MOMENT_COLUMNS[0] in motion
+        else None,
+        steps=steps,
+        step_hz=padded(["step_hz"], np.nan),
+    )
+    return units, identity
+
+
+def _identity(dataset, keys, tests, statics, sensors) -> pd.DataFrame:
+    """One row per unit: its key, place, static tests, sensor flag and evidence, bootstrap seed."""
+    rows = []
+    for key, test in zip(keys, tests):
+        sensor = sensors.get(key, {"flag": ""})
+        test_flag = sensor.get("test_flags", {}).get(test, "")
+        rows.append(
             {
-                **imu_identity(dataset, subject, sensor_set, imu),
+                **imu_identity(dataset, *key),
                 "test": test,
-                "right_axis": axis_vector(dataset.right_axis(sensor_set, imu)).tolist(),
-                "static": static_paths[(subject, sensor_set, imu)],
-                "reps": {str(r): paths[(subject, sensor_set, test, r, imu)] for r in reps},
-                "subsets": chosen,
+                "z0_tests": statics[key][1],
+                "sensor_flag": combine_flags(sensor["flag"], test_flag),
+                **{k: sensor.get(k, np.nan) for k in SENSOR_COLUMNS},
+                "seed": stable_seed(*key, test),
             }
         )
-    return plan
+    columns = [*KEY, "segment", "side", "test", "z0_tests", "sensor_flag", *SENSOR_COLUMNS, "seed"]
+    return pd.DataFrame(rows, columns=columns)
+
+
+def _subsets(units: Units, chosen: list[list[tuple[int, ...]]]) -> Subsets:
+    """:class:`Subsets` of each unit's ``chosen`` subsets of repetition positions."""
+    unit, weights, label = [], [], []
+    for u, subsets in enumerate(chosen):
+        for subset in subsets:
+            row = np.zeros(units.present.shape[1])
+            row[list(subset)] = 1.0
+            unit.append(u)
+            weights.append(row)
+            label.append(subset_label(units.rep[u, list(subset)]))
+    weights = np.array(weights) if weights else np.zeros((0, units.present.shape[1]))
+    return Subsets(np.array(unit, dtype=int), weights, np.array(label, dtype=object),
+                   weights.sum(axis=1).astype(int))  # fmt: skip

@@ -1,26 +1,17 @@
-"""The rows of the calibrations and axes tables: an IMU's identity, one row per method's fit
-(R, diagnostics, flag; the errors to the truth left empty for evaluation to fill), one row per
-functional axis.
+"""The rows of the calibrations and axes tables: one row per method's fit (R, diagnostics, flag;
+the errors to the truth left empty for evaluation to fill), from the fits of the sagittal design
+(:func:`calibration_rows`, :func:`motion_axes`) or one design's dicts (:func:`method_rows`).
 """
 
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 
+from aceval.calibrate.plan import Plan, Subsets
 from aceval.data.contract import R_COLUMNS
-from aceval.data.dataset import Dataset
-
-
-def imu_identity(dataset: Dataset, subject: str, sensor_set: str, imu: str) -> dict:
-    """The key and place columns of an IMU's rows: subject, set, IMU, segment and side."""
-    segment, side = dataset.imus.loc[(sensor_set, imu), ["segment", "side"]]
-    return {
-        "subject": subject,
-        "sensor_set": sensor_set,
-        "imu": imu,
-        "segment": segment,
-        "side": side,
-    }
+from aceval.methods.interface import Fit
+from aceval.methods.statistics import Pooled
 
 
 def error_placeholders(R) -> dict:
@@ -76,43 +67,94 @@ FIT_COLUMNS = [
 ]
 
 
-AXES_COLUMNS = [
-    "subject",
-    "sensor_set",
-    "imu",
-    "segment",
-    "side",
-    "test",
-    "kind",
-    "signal",
-    "n_recordings",
-    "n_samples",
-    "axis_x",
-    "axis_y",
-    "axis_z",
-    "rho",
-    "reference",
-    "residual_before_deg",
-    "residual_after_deg",
-]
+#: the calibrations table's columns, in order (those a dataset's methods never fill are left out)
+TABLE_COLUMNS = [
+    "subject", "sensor_set", "imu", "segment", "side", "test", "repetitions", "n_reps", "method",
+    *R_COLUMNS, "n_samples", "eig1", "eig2", "eig3", "planarity", "normal_ratio",
+    "normal_vertical_angle_deg", "rho_static", "rho_motion", "z0_tests", "normal_gyro_angle_deg",
+    "first_phase_agreement", "right_axis_angle_deg", "gyro_acc_agreement",
+    "gyro_acc_evidence_deg", "static_vertical_angle_deg", "flag", "error_deg",
+    "error_vertical_share", "cone95_deg", "cone_vertical_share", "axis_spread_deg",
+    *[c for c in FIT_COLUMNS if c not in ("first_phase_agreement", "right_axis_angle_deg",
+                                           "cone95_deg", "cone_vertical_share")],
+]  # fmt: skip
 
 
-def axis_row(
-    identity: dict, test: str, kind: str, estimate, reference: str, n_recordings: int | None = None
-) -> dict:
-    """One row of the axes table (:data:`AXES_COLUMNS`) from a functional axis ``estimate``."""
-    return {
-        **identity,
-        "test": test,
-        "kind": kind,
-        "signal": "acc" if kind == "static" else "gyr",
-        "n_recordings": n_recordings,
-        "n_samples": estimate.n_samples,
-        "axis_x": estimate.axis[0],
-        "axis_y": estimate.axis[1],
-        "axis_z": estimate.axis[2],
-        "rho": estimate.rho,
-        "reference": reference,
-        "residual_before_deg": np.nan,
-        "residual_after_deg": np.nan,
-    }
+def calibration_rows(
+    plan: Plan,
+    subsets: Subsets,
+    pooled: Pooled,
+    method: str,
+    fit: Fit,
+    order: int,
+    cones: dict,
+    full: np.ndarray,
+    chosen: np.ndarray | None = None,
+) -> pd.DataFrame:
+    """The calibrations table's rows of one method's ``fit`` of ``subsets`` (pooled as ``pooled``),
+    those ``chosen`` (default all): identity, R, flag, the method's diagnostics, the statistics
+    they came from and, on the rows from all repetitions (``full``: each unit's row), the
+    method's cone (``cones``: method -> (cone95_deg, cone_vertical_share), one per unit). The
+    columns ``_unit``, ``_block`` (0: every subset, 1: all repetitions, 2: a test-retest subset),
+    ``_subset`` and ``_method`` (``order``) sort the table.
+    """
+    unit = subsets.unit
+    identity = plan.identity.iloc[unit].reset_index(drop=True)
+    columns = {
+        **{k: identity[k].to_numpy() for k in ["subject", "sensor_set", "imu", "segment", "side"]},
+        "test": identity["test"].to_numpy(),
+        "repetitions": subsets.label,
+        "n_reps": subsets.n_reps,
+        "method": np.full(len(unit), method, dtype=object),
+        **dict(zip(R_COLUMNS, fit.R.reshape(-1, 9).T)),
+        "n_samples": pooled.n_samples.astype(int),
+        "rho_static": plan.units.rho_static[unit],
+        "rho_motion": pooled.gyro_rho,
+        "z0_tests": identity["z0_tests"].to_numpy(),
+        **{k: identity[k].to_numpy() for k in ("gyro_acc_agreement", "gyro_acc_evidence_deg",
+                                               "static_vertical_angle_deg")},
+        "flag": fit.flag,
+        "error_deg": np.full(len(unit), np.nan),
+        "error_vertical_share": np.full(len(unit), np.nan),
+    }  # fmt: skip
+    if method != "kong":
+        columns["axis_spread_deg"] = pooled.spread_deg
+    columns |= fit.columns
+    if method in cones:
+        at = full[unit] == np.arange(len(unit))
+        for name, values in zip(("cone95_deg", "cone_vertical_share"), cones[method]):
+            columns[name] = np.where(at, values[unit], np.nan)
+    first = np.searchsorted(unit, unit)  # the units' rows are contiguous, in unit order
+    block = 0 if method == "kong" else np.where(pooled.all_repetitions, 1, 2)
+    columns |= {"_unit": unit, "_block": block, "_subset": np.arange(len(unit)) - first,
+                "_method": order}  # fmt: skip
+    table = pd.DataFrame(columns)
+    table = table if chosen is None else table[chosen]
+    ordered = [c for c in TABLE_COLUMNS if c in table] + [
+        c for c in table if c not in TABLE_COLUMNS
+    ]
+    return table[ordered]
+
+
+def motion_axes(plan: Plan, pooled: Pooled, full: np.ndarray) -> pd.DataFrame:
+    """The axes table's row of each unit's gyroscope axis from all its repetitions (the pooled
+    ``full`` rows of ``pooled``).
+    """
+    identity = plan.identity
+    return pd.DataFrame(
+        {
+            **{k: identity[k].to_numpy() for k in ["subject", "sensor_set", "imu", "segment",
+                                                   "side", "test"]},
+            "kind": "motion",
+            "signal": "gyr",
+            "n_recordings": plan.units.present.sum(axis=1),
+            "n_samples": pooled.n_unit[full].astype(int),
+            "axis_x": pooled.gyro_axis[full, 0],
+            "axis_y": pooled.gyro_axis[full, 1],
+            "axis_z": pooled.gyro_axis[full, 2],
+            "rho": pooled.gyro_rho[full],
+            "reference": "+y",
+            "residual_before_deg": np.nan,
+            "residual_after_deg": np.nan,
+        }
+    )  # fmt: skip

@@ -1,6 +1,7 @@
 """The calibrations table: its columns, its flags and the selections every later stage makes of it
 (one row per calibration: subject, set, IMU, test, the repetitions it used, the method, R and
-``flag``).
+``flag``); an IMU's identity columns; and the axes table's columns and rows (one per functional
+axis).
 """
 
 from __future__ import annotations
@@ -11,6 +12,8 @@ import numpy as np
 import pandas as pd
 
 from aceval.data.contract import R_COLUMNS
+from aceval.data.dataset import Dataset
+from aceval.methods.interface import combine_flags as combine_flags  # the table's flags
 
 CALIBRATION_KEY = ["subject", "sensor_set", "imu", "test"]
 KEY = ["subject", "sensor_set", "imu"]
@@ -38,14 +41,6 @@ def all_subsets(repetitions: list[int]) -> list[tuple[int, ...]]:
 def subset_label(subset) -> str:
     """``(1, 3)`` -> ``'R1+R3'`` (the inverse of :func:`aceval.calibrate.table.parse_subset`)."""
     return "+".join(f"R{r}" for r in subset)
-
-
-def combine_flags(*flags: str) -> str:
-    """Every flag of a row, each once, in the order given, joined by ';' ('' when none): a check
-    adds its flag beside the others' and never replaces them.
-    """
-    names = [name for f in flags if isinstance(f, str) for name in f.split(";") if name]
-    return ";".join(dict.fromkeys(names))
 
 
 def has_flag(flags: pd.Series, name: str) -> pd.Series:
@@ -107,3 +102,57 @@ def full_sets(calibrations: pd.DataFrame) -> pd.DataFrame:
     that calibration itself is flagged.
     """
     return usable(full_set_rows(kong_rows(calibrations)))
+
+
+def imu_identity(dataset: Dataset, subject: str, sensor_set: str, imu: str) -> dict:
+    """The key and place columns of an IMU's rows: subject, set, IMU, segment and side."""
+    segment, side = dataset.places[(sensor_set, imu)]
+    return {
+        "subject": subject,
+        "sensor_set": sensor_set,
+        "imu": imu,
+        "segment": segment,
+        "side": side,
+    }
+
+
+AXES_COLUMNS = [
+    "subject",
+    "sensor_set",
+    "imu",
+    "segment",
+    "side",
+    "test",
+    "kind",
+    "signal",
+    "n_recordings",
+    "n_samples",
+    "axis_x",
+    "axis_y",
+    "axis_z",
+    "rho",
+    "reference",
+    "residual_before_deg",
+    "residual_after_deg",
+]
+
+
+def axis_row(
+    identity: dict, test: str, kind: str, estimate, reference: str, n_recordings: int | None = None
+) -> dict:
+    """One row of the axes table (:data:`AXES_COLUMNS`) from a functional axis ``estimate``."""
+    return {
+        **identity,
+        "test": test,
+        "kind": kind,
+        "signal": "acc" if kind == "static" else "gyr",
+        "n_recordings": n_recordings,
+        "n_samples": estimate.n_samples,
+        "axis_x": estimate.axis[0],
+        "axis_y": estimate.axis[1],
+        "axis_z": estimate.axis[2],
+        "rho": estimate.rho,
+        "reference": reference,
+        "residual_before_deg": np.nan,
+        "residual_after_deg": np.nan,
+    }

@@ -83,7 +83,20 @@ class Dataset:
 
     def right_axis(self, sensor_set: str, imu: str) -> str:
         """The declared right axis ('+y', ...) of an IMU."""
-        return str(self.imus.loc[(sensor_set, imu), "right_axis"])
+        return self.right_axes[(sensor_set, imu)]
+
+    @cached_property
+    def right_axes(self) -> dict[tuple[str, str], str]:
+        """``{(sensor_set, imu): right_axis}`` (imus.tsv, read once: the pass asks per recording)."""
+        return {key: str(axis) for key, axis in self.imus["right_axis"].items()}
+
+    @cached_property
+    def places(self) -> dict[tuple[str, str], tuple[str, str]]:
+        """``{(sensor_set, imu): (segment, side)}`` (imus.tsv, read once)."""
+        return {
+            key: (str(segment), side)
+            for key, segment, side in zip(self.imus.index, self.imus["segment"], self.imus["side"])
+        }
 
     def reference_axes(self, sensor_set: str, imu: str) -> pd.DataFrame:
         """Rows of functional_axes.tsv for this IMU's segment: ``test`` and the signed segment-frame
@@ -99,16 +112,23 @@ class Dataset:
 
     def first_phase(self, test: str) -> str:
         """tests.tsv ``first_phase`` of ``test`` ('-y', '+y', 'gait' or '': no direction check)."""
-        return str(self.tests["first_phase"].get(test, "")) if "first_phase" in self.tests else ""
+        return self.first_phases.get(test, "")
+
+    @cached_property
+    def first_phases(self) -> dict[str, str]:
+        """``{test: first_phase}`` (tests.tsv, read once; '' without the column)."""
+        if "first_phase" not in self.tests:
+            return {}
+        return {test: str(phase) for test, phase in self.tests["first_phase"].items()}
 
     @cached_property
     def test_kinds(self) -> dict[str, str]:
-        """tests.tsv ``kind`` of each test ('static' or 'motion')."""
+        """``{test: 'static' | 'motion'}`` (tests.tsv ``kind``)."""
         return self.tests["kind"].to_dict()
 
     @cached_property
     def imu_regions(self) -> dict[tuple[str, str], str]:
-        """``{test: 'static' | 'motion'}``."""
+        """``{(sensor_set, imu): region}`` (imus.tsv)."""
         return self.imus["region"].to_dict()
 
     def acc_limit(self, sensor_set: str, imu: str) -> float | None:
@@ -119,7 +139,7 @@ class Dataset:
         return SATURATION_FRACTION * float(acc_range) * GRAVITY if acc_range else None
 
     def static_tests(self) -> list[str]:
-        """``{(sensor_set, imu): region}``."""
+        """The tests of kind ``static`` (tests.tsv)."""
         return list(self.tests.index[self.tests["kind"] == "static"])
 
     def read_recording(self, path: str | Path) -> Recording:

@@ -83,3 +83,32 @@ def check_samples(samples, *, name: str, min_samples: int, ndim_last: int = 3):
             f"{name}: {int(bad.sum())} samples contain NaN or inf (first at sample {first})"
         )
     return array
+
+
+def check_axes(v_ref, v_est, weights):
+    """Axis pairs ``v_ref ~ R v_est`` ((N, 3) each, N >= 2) and their weights (N,), checked and
+    unit-normalised: ValueError for NaN, zero-length axes or bad weights, TooFewAxesError for
+    fewer than 2 pairs.
+    """
+    import numpy as np
+
+    v_ref = np.atleast_2d(np.asarray(v_ref, dtype=float))
+    v_est = np.atleast_2d(np.asarray(v_est, dtype=float))
+    if v_ref.shape != v_est.shape or v_ref.shape[-1] != 3:
+        raise ValueError(f"v_ref {v_ref.shape} and v_est {v_est.shape} must both be (N, 3)")
+    if len(v_ref) < 2:
+        raise TooFewAxesError(
+            f"{len(v_ref)} axis pair(s) given: at least 2 non-aligned axes define a rotation"
+        )
+    for name, vectors in (("v_ref", v_ref), ("v_est", v_est)):
+        if not np.isfinite(vectors).all():
+            raise ValueError(f"{name} contains NaN or inf")
+        norms = np.linalg.norm(vectors, axis=1)
+        if np.any(norms < 1e-9):
+            raise ValueError(f"{name} contains a zero-length axis")
+    weights = np.ones(len(v_ref)) if weights is None else np.asarray(weights, dtype=float)
+    if weights.shape != (len(v_ref),) or np.any(weights < 0) or not np.isfinite(weights).all():
+        raise ValueError(f"weights must be {len(v_ref)} finite non-negative numbers, got {weights}")
+    v_ref = v_ref / np.linalg.norm(v_ref, axis=1, keepdims=True)
+    v_est = v_est / np.linalg.norm(v_est, axis=1, keepdims=True)
+    return v_ref, v_est, weights

@@ -1,5 +1,11 @@
-"""Calibration methods: Kong PCA plane (kong), Ricci SVD axis + weighted LM (ricci), TRIAD (triad)."""
+"""Calibration methods of Kong's protocol, each a module with the interface of
+:mod:`aceval.methods.interface`, listed in :mod:`aceval.methods.registry`: Kong's PCA plane
+(kong), Ricci's SVD axis and weighted LM (ricci), the closed-form optimum (align_vectors), TRIAD
+(triad), the combined heading (combined) and the step-harmonic heading (step_harmonic). The
+names below are the papers' equations as functions of samples and axes.
+"""
 
+from aceval.methods.align_vectors import wahba_fit
 from aceval.methods.kong import (
     KongLimits,
     KongResult,
@@ -8,7 +14,7 @@ from aceval.methods.kong import (
     scatter,
     vertical_axis,
 )
-from aceval.methods.ricci import AxisEstimate, LMResult, functional_axis, lm_fit, wahba_fit
+from aceval.methods.ricci import AxisEstimate, LMResult, functional_axis, lm_fit
 from aceval.methods.triad import triad
 
 __all__ = [

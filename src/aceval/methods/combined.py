@@ -11,14 +11,21 @@ weighted sum of the two horizontal unit vectors.
 The weights are conditioning indices, each 0 at its own method's flag limit and 1 when perfectly
 conditioned: Kong ``1 - normal_ratio / max_normal_ratio`` (smallest/middle eigenvalue: 0 for a
 plane, :class:`KongLimits`), the gyroscope ``(rho - min_rho) / (1 - min_rho)`` (Ricci's reliability
-index, 1 for a rotation about one axis, :class:`aceval.methods.functional.AxisLimits`). A heuristic that
+index, 1 for a rotation about one axis, :class:`aceval.methods.sagittal.AxisLimits`). A heuristic that
 lets the better-determined estimate lead, not a variance model; a flagged estimate weighs 0, and
 when both weigh 0 the heading is undetermined (NaN).
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
+
+from aceval.methods.interface import Fit, Method, combine_flags
+from aceval.methods.kong import KongLimits
+from aceval.methods.sagittal import AxisLimits
+from aceval.methods.statistics import Pooled
 
 
 def kong_weight(normal_ratio, planarity, max_normal_ratio: float, max_planarity: float):
@@ -66,3 +73,65 @@ def combined_rotation(z0, y_kong, y_gyro, w_kong, w_gyro) -> np.ndarray:
     z = np.where(np.isfinite(y), z0, np.nan)  # an undetermined heading leaves no rotation
     x = np.cross(y, z)
     return np.stack([x, y, z], axis=-2)
+
+
+# --- the method's interface in Kong's protocol (aceval.methods.interface) -----------------------
+
+
+def _weights(pooled: Pooled, kong: Fit, gyro_usable: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Kong's and the gyroscope's weights of each row: 0 where Kong's calibration is flagged or the
+    gyroscope axis is not ``gyro_usable``.
+    """
+    limits = KongLimits()
+    w_kong = np.where(
+        kong.flag == "",
+        kong_weight(kong.columns["normal_ratio"], kong.columns["planarity"],
+                    limits.max_normal_ratio, limits.max_planarity),
+        0.0,
+    )  # fmt: skip
+    w_gyro = np.where(gyro_usable, gyro_weight(pooled.gyro_rho, AxisLimits().min_rho), 0.0)
+    return w_kong, w_gyro
+
+
+def fit(pooled: Pooled, fitted: Mapping[str, Fit]) -> Fit:
+    """The combined heading of each row from Kong's calibration of the same repetitions
+    (``fitted['kong']``) and their gyroscope axis, unless the axis methods flag it (TRIAD's flag,
+    ``fitted['triad']``); both weights 0: no calibration, flagged with both estimates' flags
+    (``not_planar`` when neither has one).
+    """
+    kong, axis_flag = fitted["kong"], fitted["triad"].flag
+    w_kong, w_gyro = _weights(pooled, kong, axis_flag == "")
+    R = combined_rotation(pooled.z0, kong.R[:, 1],
+                          horizontal_right(pooled.gyro_axis, pooled.z0, pooled.right), w_kong,
+                          w_gyro)  # fmt: skip
+    undetermined = w_kong + w_gyro <= 0
+    flag = np.array(
+        [
+            combine_flags(k, a) or "not_planar" if none else ""
+            for k, a, none in zip(kong.flag, axis_flag, undetermined)
+        ],
+        dtype=object,
+    )
+    return Fit(R, flag, {"weight_kong": w_kong, "weight_gyro": w_gyro})
+
+
+def resample(pooled: Pooled, fitted: Mapping[str, Fit]) -> Fit:
+    """The combined heading of bootstrap resamples, from Kong's resampled calibrations
+    (``fitted['kong']``, weight 0 where flagged) and the resampled gyroscope axis (weighted by
+    its rho whatever the axis methods' limits).
+    """
+    kong = fitted["kong"]
+    w_kong, w_gyro = _weights(pooled, kong, np.ones(len(pooled), dtype=bool))
+    R = combined_rotation(pooled.z0, kong.R[:, 1],
+                          horizontal_right(pooled.gyro_axis, pooled.z0, pooled.right), w_kong,
+                          w_gyro)  # fmt: skip
+    return Fit(R, np.where(np.isfinite(R).all(axis=(1, 2)), "", "not_planar"))
+
+
+METHOD = Method(
+    name="combined",
+    fit=fit,
+    resample=resample,
+    summary="Kong's plane normal and the gyroscope's principal axis, weighted by their "
+    "conditioning (beyond the papers)",
+)

@@ -22,7 +22,6 @@ Two designs say which axes go into one calibration:
 from __future__ import annotations
 
 import zlib
-from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -30,23 +29,23 @@ from scipy.spatial.transform import Rotation
 
 from aceval.data.errors import CalibrationError
 from aceval.data.rotations import axis_vector, error_angle_deg
+from aceval.methods.align_vectors import wahba_fit
 from aceval.methods.ricci import (
     AxisEstimate,
     axis_from_moments,
     first_phase_sign,
     lm_fit,
-    lm_fit_batch,
     unit_moments,
-    wahba_batch,
-    wahba_fit,
 )
-from aceval.methods.triad import MIN_ANGLE_DEG as TRIAD_MIN_ANGLE_DEG
-from aceval.methods.triad import triad, triad_batch
+from aceval.methods.sagittal import AxisLimits
+from aceval.methods.statistics import Pooled
+from aceval.methods.triad import triad
 
 SUM_COLUMNS = ["m_x", "m_y", "m_z"]
 SCATTER_COLUMNS = [f"u{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
 PHASE_COLUMNS = ["phase_x", "phase_y", "phase_z"]
 MOMENT_COLUMNS = SUM_COLUMNS + SCATTER_COLUMNS + ["n_unit"] + PHASE_COLUMNS
+#: the axis methods (Ricci's LM, the closed-form optimum, TRIAD): Ricci's functional design fits them
 AXIS_METHODS = ["ricci_lm", "align_vectors", "triad"]
 #: random starting quaternions per LM fit (Ricci Sec. 3: "converges from random initial values")
 RANDOM_STARTS = 5
@@ -180,40 +179,6 @@ def fit_axes(
     return out
 
 
-@dataclass(frozen=True)
-class AxisLimits:
-    """Limits beyond which a calibration of the axis methods is flagged (like :class:`KongLimits`):
-
-    * ``min_rho``: a movement axis with a lower rho has no preferred direction (0.40; samples spread
-      evenly in 3-D give 1/3, simulated random hand-held rotation 0.37-0.49 per recording, Kong's
-      simulated sagittal tests 0.43-0.77 over 5 repetitions);
-    * ``min_vertical_angle_deg``: the sagittal design's movement axis (body y) must be at least this
-      far from z0 (45 deg, as Kong's plane normal);
-    * ``max_spread_deg``: the repetitions' own axes must agree: median angle between each
-      repetition's axis and the pooled one at most 40 deg (axes drawn at random give 60 deg; the
-      simulated Kong protocol up to 31 deg, in the leg swing T5);
-    * ``max_residual_deg``: Ricci's functional design, the largest residual angle between a
-      reference axis and its fitted estimate (30 deg): beyond it the axes do not form one frame.
-    """
-
-    min_rho: float = 0.40
-    min_vertical_angle_deg: float = 45.0
-    max_spread_deg: float = 40.0
-    max_residual_deg: float = 30.0
-
-
-def axis_spread_deg(repetition_axes: np.ndarray, pooled: np.ndarray) -> float:
-    """Median angle (deg, sign ignored) between each repetition's own axis (rows; NaN rows skipped)
-    and the pooled axis; NaN with no repetition axis.
-    """
-    axes = np.asarray(repetition_axes, float)
-    axes = axes[np.isfinite(axes).all(axis=1)]
-    if not len(axes):
-        return float("nan")
-    cos = np.abs(axes @ np.asarray(pooled, float)) / np.linalg.norm(axes, axis=1)
-    return float(np.degrees(np.median(np.arccos(np.clip(cos, 0.0, 1.0)))))
-
-
 def _flag_all(fits: dict[str, dict], code: str, message: str) -> dict[str, dict]:
     for fit in fits.values():
         if not fit.get("flag"):
@@ -227,105 +192,30 @@ def sagittal_fits(
     motion_axis: np.ndarray,
     rho_motion: float,
     spread_deg: float = float("nan"),
-    limits: AxisLimits = AxisLimits(),
     diagnostics: bool = True,
 ) -> dict[str, dict]:
-    """Kong's protocol, axis methods: body z (down) <- z0 from quiet stance, body y (right) <- the
-    gyroscope axis of the motion test (already oriented to the right), weighted by their rho.
-    Flagged (every method) beyond :class:`AxisLimits`: ``low_rho``, ``axis_near_vertical``,
-    ``axes_disagree`` (``spread_deg``: :func:`axis_spread_deg` of the repetitions).
+    """Kong's protocol, the axis methods of one IMU and test (:data:`AXIS_METHODS`, by their
+    modules in :mod:`aceval.methods.registry`): body z (down) <- z0 from quiet stance, body y
+    (right) <- the gyroscope axis of the motion test (already oriented to the right), weighted by
+    their rho. Flagged beyond :class:`aceval.methods.sagittal.AxisLimits`: ``low_rho``,
+    ``axis_near_vertical``, ``axes_disagree`` (``spread_deg``: the median angle of the
+    repetitions' own axes to the pooled one). ``diagnostics``: the LM with lambda fixed too (a
+    calibration from all repetitions). Each method's entry: ``R`` (None where it failed),
+    ``flag`` and its diagnostics.
     """
-    v_est = np.array([z0, motion_axis])
-    fits = fit_axes(
-        SAGITTAL_REFERENCE,
-        v_est,
-        np.array([rho_static, rho_motion]),
-        (0, 1),
-        diagnostics=diagnostics,
-    )
-    problem = _sagittal_problem(z0, motion_axis, rho_motion, spread_deg, limits)
-    return _flag_all(fits, *problem) if problem else fits
+    from aceval.methods.registry import method
 
-
-#: body z (down) and y (right): the references of Kong's protocol for the axis methods
-SAGITTAL_REFERENCE = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
-
-
-def _sagittal_problem(z0, motion_axis, rho_motion, spread_deg, limits) -> tuple[str, str] | None:
-    """The flag and message of :func:`sagittal_fits` beyond :class:`AxisLimits`, or None."""
-    vertical_angle = float(np.degrees(np.arccos(min(1.0, abs(float(np.dot(z0, motion_axis)))))))
-    if rho_motion < limits.min_rho:
-        return (
-            "low_rho",
-            f"rho of the movement axis {rho_motion:.2f} < {limits.min_rho}: "
-            f"no preferred rotation axis",
-        )
-    if vertical_angle < limits.min_vertical_angle_deg:
-        return (
-            "axis_near_vertical",
-            f"movement axis {vertical_angle:.0f} deg from z0 "
-            f"(< {limits.min_vertical_angle_deg:g}): not a sagittal motion",
-        )
-    if spread_deg > limits.max_spread_deg:
-        return (
-            "axes_disagree",
-            f"the repetitions' axes are {spread_deg:.0f} deg (median) from "
-            f"the pooled one (> {limits.max_spread_deg:g})",
-        )
-    return None
-
-
-def sagittal_fits_batch(
-    z0: np.ndarray,
-    rho_static: float,
-    motion_axes: np.ndarray,
-    rho_motion: np.ndarray,
-    spread_deg: np.ndarray,
-    limits: AxisLimits = AxisLimits(),
-) -> list[dict[str, dict]]:
-    """:func:`sagittal_fits` (``diagnostics=False``) of a stack of unit gyroscope axes (B, 3), with
-    their rho and spread (B,), against one unit ``z0`` at once: the LM (:func:`lm_fit_batch`),
-    the weighted Wahba optimum (:func:`wahba_batch`) and TRIAD (:func:`triad_batch`) of all of
-    them, flagged as
-    :func:`sagittal_fits` flags; an axis that is not finite or within TRIAD's 5 deg of z0 is
-    fitted alone by :func:`sagittal_fits` (its errors as there). Equal to the single calls to
-    rounding (tested).
-    """
-    motion_axes = np.asarray(motion_axes, float)
-    rho_motion = np.asarray(rho_motion, float)
-    finite = np.isfinite(motion_axes).all(axis=1) & np.isfinite(rho_motion)
-    cos = np.abs(np.where(finite[:, None], motion_axes, 0.0) @ z0)
-    regular = np.flatnonzero(finite & (cos < np.cos(np.radians(TRIAD_MIN_ANGLE_DEG))))
-    out: list[dict[str, dict] | None] = [None] * len(motion_axes)
-    if len(regular):
-        axes = motion_axes[regular]
-        v_est = np.stack([np.broadcast_to(z0, axes.shape), axes], axis=1)
-        weights = np.column_stack([np.full(len(regular), rho_static), rho_motion[regular]])
-        optimum = wahba_batch(SAGITTAL_REFERENCE, v_est, weights)
-        lm = lm_fit_batch(SAGITTAL_REFERENCE, v_est, weights)
-        triads = triad_batch(z0, axes, rho_static, rho_motion[regular])
-        distance = error_angle_deg(lm.R, optimum)
-        for k, row in enumerate(regular):
-            fits = {
-                "align_vectors": {"R": optimum[k]},
-                "ricci_lm": {
-                    "R": lm.R[k],
-                    "n_iterations": int(lm.n_iterations[k]),
-                    "n_rejected": int(lm.n_rejected[k]),
-                    "converged": bool(lm.converged[k]),
-                    "cost": float(lm.cost[k]),
-                    "optimum_distance_deg": float(distance[k]),
-                },
-                "triad": {"R": triads[k]},
-            }
-            problem = _sagittal_problem(
-                z0, motion_axes[row], rho_motion[row], spread_deg[row], limits
-            )
-            out[row] = _flag_all(fits, *problem) if problem else fits
-    for row in [r for r, fits in enumerate(out) if fits is None]:
-        out[row] = sagittal_fits(
-            z0, rho_static, motion_axes[row], rho_motion[row], spread_deg[row], limits, False
-        )
+    pooled = Pooled.of_axes(z0, rho_static, motion_axis, rho_motion, spread_deg, diagnostics)
+    out = {}
+    for name in AXIS_METHODS:
+        fit = method(name).fit(pooled, {})
+        R = fit.R[0] if np.isfinite(fit.R[0]).all() else None
+        values = {k: v[0] for k, v in fit.columns.items()}
+        out[name] = {"R": R, "flag": fit.flag[0]} | {
+            k: v
+            for k, v in values.items()
+            if v is not None and not (isinstance(v, float) and np.isnan(v))
+        }
     return out
 
 
@@ -377,14 +267,3 @@ def functional_fits(
             f"not form one frame",
         )
     return fits
-
-
-def subset_axes(scatters: np.ndarray, membership: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rho (Ricci Eq. 2) and axis (unit, sign arbitrary) of every subset of repetitions at once:
-    ``scatters`` (n_rep, 3, 3) unit scatters, ``membership`` (n_subsets, n_rep) 0/1.
-    """
-    total = np.einsum("sr,rij->sij", membership, scatters)
-    eigenvalues, vectors = np.linalg.eigh(total)
-    singular = np.sqrt(np.clip(eigenvalues, 0.0, None))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return singular[:, -1] / singular.sum(axis=1), vectors[:, :, -1]

@@ -17,7 +17,7 @@ between n and z0 before orthogonalisation (90 for a perfectly sagittal motion).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -30,6 +30,8 @@ from aceval.data.errors import (
     check_samples,
 )
 from aceval.data.rotations import axis_vector
+from aceval.methods.interface import Fit, Method
+from aceval.methods.statistics import Pooled
 
 
 @dataclass(frozen=True)
@@ -269,3 +271,51 @@ def kong_calibrate(
         flag=result.flag[0],
         messages=result.messages,
     )
+
+
+# --- the method's interface (aceval.methods.interface) ------------------------------------------
+
+#: the calibrations table's diagnostics of Kong's method
+DIAGNOSTICS = ["eig1", "eig2", "eig3", "planarity", "normal_ratio", "normal_vertical_angle_deg"]
+
+
+def fit(pooled: Pooled, fitted: Mapping[str, Fit] | None = None) -> Fit:
+    """Kong's calibration of each pooled row (Eq. 1-6) with :class:`KongLimits`' flags, and its
+    diagnostics: samples, the eigenvalues of the second moment (descending), planarity, normal
+    ratio and the normal's angle to z0; ``rho_motion`` and ``normal_gyro_angle_deg``: the
+    gyroscope axis of the same repetitions (Ricci Eq. 2) and its angle to Kong's body y.
+    """
+    result = kong_from_scatters(
+        pooled.scatter[:, None], pooled.n_samples[:, None], pooled.z0, pooled.right, strict=False
+    )
+    R = result.R[:, 0]
+    gyro_angle = np.degrees(
+        np.arccos(np.clip(np.abs(np.einsum("bi,bi->b", R[:, 1], pooled.gyro_axis)), 0.0, 1.0))
+    )
+    eigenvalues = result.eigenvalues[:, 0]
+    columns = {
+        "n_samples": result.n_samples[:, 0],
+        **{f"eig{k + 1}": eigenvalues[:, k] for k in range(3)},
+        "planarity": result.planarity[:, 0],
+        "normal_ratio": result.normal_ratio[:, 0],
+        "normal_vertical_angle_deg": result.normal_vertical_angle_deg[:, 0],
+        "rho_motion": pooled.gyro_rho,
+        "normal_gyro_angle_deg": gyro_angle,
+    }
+    return Fit(R, result.flag[:, 0], columns)
+
+
+def resample(pooled: Pooled, fitted: Mapping[str, Fit] | None = None) -> Fit:
+    """:func:`fit` of bootstrap resamples, R NaN where a resample is flagged."""
+    kong = fit(pooled)
+    return Fit(np.where((kong.flag == "")[:, None, None], kong.R, np.nan), kong.flag, kong.columns)
+
+
+METHOD = Method(
+    name="kong",
+    fit=fit,
+    resample=resample,
+    every_subset=True,
+    summary="Kong et al. 2016: z0 from quiet standing, body y from the normal of the plane of the "
+    "motion test's accelerations (every subset of repetitions)",
+)

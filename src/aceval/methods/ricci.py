@@ -7,18 +7,25 @@
   a quaternion (Eq. 8-11): Marquardt's diagonal damping, q0 = identity, lambda = 1e-3 as the start
   of Hartley & Zisserman's adaptive rule (App. A6, which Ricci cites; lambda fixed as an option),
   stop when the relative cost change is below 1e-4, renormalise q after each step.
-* :func:`wahba_fit`: the closed-form optimum of the same cost (``Rotation.align_vectors``), the
-  cross-check of the LM and a method of its own in the comparisons.
+* The closed-form optimum of the same cost (``Rotation.align_vectors``,
+  :mod:`aceval.methods.align_vectors`) is the LM's cross-check: ``optimum_distance_deg``.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from aceval.data.errors import TooFewAxesError, TooFewSamplesError, check_samples
+from aceval.data.errors import TooFewSamplesError, check_axes, check_samples
+from aceval.data.rotations import error_angle_deg
+from aceval.methods.align_vectors import resample as optimum_resample
+from aceval.methods.align_vectors import wahba_batch, wahba_fit
+from aceval.methods.interface import Fit, Method
+from aceval.methods.sagittal import SAGITTAL_REFERENCE, axis_method_fit, sagittal_axes
+from aceval.methods.statistics import Pooled
 
 
 @dataclass(frozen=True)
@@ -195,29 +202,6 @@ def _sphere_gradient_norm(q: np.ndarray, v_est: np.ndarray, W: np.ndarray, e: np
     return np.linalg.norm(np.einsum("...ij,...i->...j", J, W * e), axis=-1)
 
 
-def _check_axes(v_ref, v_est, weights):
-    v_ref = np.atleast_2d(np.asarray(v_ref, dtype=float))
-    v_est = np.atleast_2d(np.asarray(v_est, dtype=float))
-    if v_ref.shape != v_est.shape or v_ref.shape[-1] != 3:
-        raise ValueError(f"v_ref {v_ref.shape} and v_est {v_est.shape} must both be (N, 3)")
-    if len(v_ref) < 2:
-        raise TooFewAxesError(
-            f"{len(v_ref)} axis pair(s) given: at least 2 non-aligned axes define a rotation"
-        )
-    for name, vectors in (("v_ref", v_ref), ("v_est", v_est)):
-        if not np.isfinite(vectors).all():
-            raise ValueError(f"{name} contains NaN or inf")
-        norms = np.linalg.norm(vectors, axis=1)
-        if np.any(norms < 1e-9):
-            raise ValueError(f"{name} contains a zero-length axis")
-    weights = np.ones(len(v_ref)) if weights is None else np.asarray(weights, dtype=float)
-    if weights.shape != (len(v_ref),) or np.any(weights < 0) or not np.isfinite(weights).all():
-        raise ValueError(f"weights must be {len(v_ref)} finite non-negative numbers, got {weights}")
-    v_ref = v_ref / np.linalg.norm(v_ref, axis=1, keepdims=True)
-    v_est = v_est / np.linalg.norm(v_est, axis=1, keepdims=True)
-    return v_ref, v_est, weights
-
-
 def _residual_angles_deg(v_ref, v_est, R) -> np.ndarray:
     cos = np.clip(np.sum(v_ref * (v_est @ R.T), axis=1), -1.0, 1.0)
     return np.degrees(np.arccos(cos))
@@ -277,7 +261,7 @@ def lm_fit(
     rejection case of tests/test_ricci.py ended 5.9 deg from the optimum, reported converged).
     Steps in the tangent space keep Eq. 9-10's damping and acceptance rule without that defect.
     """
-    v_ref, v_est, weights = _check_axes(v_ref, v_est, weights)
+    v_ref, v_est, weights = check_axes(v_ref, v_est, weights)
     W = np.repeat(weights, 3)
     q = np.asarray(q0_wxyz, dtype=float)
     q = q / np.linalg.norm(q)
@@ -350,25 +334,6 @@ def lm_fit(
     )
 
 
-def wahba_fit(v_ref, v_est, weights=None) -> Rotation:
-    """Closed-form weighted optimum of the LM cost: ``Rotation.align_vectors(v_ref, v_est, w)``."""
-    v_ref, v_est, weights = _check_axes(v_ref, v_est, weights)
-    rotation, _ = Rotation.align_vectors(v_ref, v_est, weights=weights)
-    return rotation
-
-
-def wahba_batch(v_ref: np.ndarray, v_est: np.ndarray, weights: np.ndarray) -> np.ndarray:
-    """The weighted Wahba optimum (R with ``R v_est ~ v_ref``, as ``Rotation.align_vectors``) of
-    each row: ``v_ref`` (n, 3), ``v_est`` (B, n, 3), ``weights`` (B, n); by the SVD of
-    ``sum w v_ref v_est^T`` with the determinant made +1 (Kabsch), all rows at once.
-    """
-    profile = np.einsum("bi,ij,bik->bjk", weights, v_ref, v_est)
-    U, _, Vt = np.linalg.svd(profile)
-    scale = np.ones((len(profile), 3))
-    scale[:, 2] = np.sign(np.linalg.det(U @ Vt))
-    return U @ (scale[:, :, None] * Vt)
-
-
 @dataclass
 class LMBatch:
     """:func:`lm_fit_batch`'s outcome, one entry per problem: R (B, 3, 3), accepted steps,
@@ -397,11 +362,12 @@ def lm_fit_batch(
     abs_tol: float = 1e-15,
     max_rejections: int = 20,
     grad_tol: float = GRAD_TOL,
+    adaptive: bool = True,
 ) -> LMBatch:
-    """:func:`lm_fit` (adaptive damping, q0 = identity) of B problems at once: ``v_ref`` (n, 3)
-    shared, ``v_est`` (B, n, 3) and ``weights`` (B, n) one row per problem (the Obj 4 subsets of
-    one IMU). The same steps as :func:`lm_fit`, each problem stopping on its own rule; equal to
-    B single calls to rounding (tested).
+    """:func:`lm_fit` (q0 = identity) of B problems at once: ``v_ref`` (n, 3) shared, ``v_est``
+    (B, n, 3) and ``weights`` (B, n) one row per problem (every calibration of a job). The same
+    steps as :func:`lm_fit`, each problem stopping on its own rule; equal to B single calls to
+    rounding (tested). ``adaptive``: as in :func:`lm_fit` (False: lambda fixed, every step taken).
     """
     v_ref = np.asarray(v_ref, float)
     v_ref = v_ref / np.linalg.norm(v_ref, axis=-1, keepdims=True)
@@ -453,7 +419,7 @@ def lm_fit_batch(
         trial = trial / np.linalg.norm(trial, axis=1, keepdims=True)
         trial_e = residual(trial, at)
         trial_cost = np.einsum("bi,bi->b", trial_e, W[at] * trial_e)
-        worse = trial_cost > cost[at]
+        worse = (trial_cost > cost[at]) & adaptive
         rejected, accepted = at[worse], at[~worse]
         n_rejected[rejected] += 1
         in_a_row[rejected] += 1
@@ -470,7 +436,8 @@ def lm_fit_batch(
             trial_cost[better],
         )
         stale[accepted] = True
-        lam[accepted] = np.maximum(lam[accepted] / 10.0, MIN_DAMPING)
+        if adaptive:
+            lam[accepted] = np.maximum(lam[accepted] / 10.0, MIN_DAMPING)
         active &= ~converged & (n_iter < max_iter)
         active[given_up] = False
     converged |= _sphere_gradient_norm(q, v_est, W, e) <= grad_tol
@@ -482,3 +449,87 @@ def lm_fit_batch(
         converged=converged,
         cost=cost,
     )
+
+
+# --- the method's interface in Kong's protocol (aceval.methods.interface) -----------------------
+
+
+def _optimum_distance_deg(R: np.ndarray, optimum: np.ndarray) -> np.ndarray:
+    """Angle (deg) between fitted rotations and the closed-form optima (B, 3, 3 each)."""
+    return np.asarray(error_angle_deg(R, optimum), float)
+
+
+def _lm_batch(pooled: Pooled, rows: np.ndarray) -> tuple[np.ndarray, dict]:
+    """The LM of the regular rows at once (:func:`lm_fit_batch`), its convergence and distance to
+    the closed-form optimum; for the calibrations from all repetitions also the LM with lambda
+    fixed (Eq. 9-10 read literally: ``fixed_*``), which table ``ricci_lm`` sets beside it.
+    """
+    v_est, weights = sagittal_axes(pooled)
+    v_est, weights = v_est[rows], weights[rows]
+    optimum = wahba_batch(SAGITTAL_REFERENCE, v_est, weights)
+    lm = lm_fit_batch(SAGITTAL_REFERENCE, v_est, weights)
+    columns = {
+        "n_iterations": lm.n_iterations.astype(float),
+        "n_rejected": lm.n_rejected.astype(float),
+        "converged": lm.converged.astype(object),
+        "cost": lm.cost,
+        "optimum_distance_deg": _optimum_distance_deg(lm.R, optimum),
+    }
+    full = np.flatnonzero(pooled.all_repetitions[rows])
+    fixed_columns = {
+        "fixed_n_iterations": np.full(len(rows), np.nan),
+        "fixed_cost": np.full(len(rows), np.nan),
+        "fixed_converged": np.full(len(rows), None, dtype=object),
+        "fixed_optimum_distance_deg": np.full(len(rows), np.nan),
+    }
+    if len(full):
+        fixed = lm_fit_batch(SAGITTAL_REFERENCE, v_est[full], weights[full], adaptive=False)
+        fixed_columns["fixed_n_iterations"][full] = fixed.n_iterations
+        fixed_columns["fixed_cost"][full] = fixed.cost
+        fixed_columns["fixed_converged"][full] = fixed.converged
+        fixed_columns["fixed_optimum_distance_deg"][full] = _optimum_distance_deg(
+            fixed.R, optimum[full]
+        )
+    return lm.R, columns | fixed_columns
+
+
+def _lm_single(pooled: Pooled, row: int) -> tuple[np.ndarray, dict]:
+    """:func:`_lm_batch` of one irregular row by :func:`lm_fit` (raises on axes it cannot fit)."""
+    v_est, weights = sagittal_axes(pooled)
+    fit = lm_fit(SAGITTAL_REFERENCE, v_est[row], weights[row])
+    optimum = wahba_fit(SAGITTAL_REFERENCE, v_est[row], weights[row]).as_matrix()
+    columns = {
+        "n_iterations": float(fit.n_iterations),
+        "n_rejected": float(fit.n_rejected),
+        "converged": fit.converged,
+        "cost": fit.cost,
+        "optimum_distance_deg": float(error_angle_deg(fit.R, optimum)),
+    }
+    if pooled.all_repetitions[row]:
+        fixed = lm_fit(SAGITTAL_REFERENCE, v_est[row], weights[row], adaptive=False)
+        columns |= {
+            "fixed_n_iterations": float(fixed.n_iterations),
+            "fixed_cost": fixed.cost,
+            "fixed_converged": fixed.converged,
+            "fixed_optimum_distance_deg": float(error_angle_deg(fixed.R, optimum)),
+        }
+    return fit.R, columns
+
+
+def fit(pooled: Pooled, fitted: Mapping[str, Fit] | None = None) -> Fit:
+    """Ricci's rho-weighted LM (Eq. 3-11) in Kong's protocol: z0 and the motion test's gyroscope
+    axis mapped onto body z and y (:mod:`aceval.methods.sagittal`), with its steps, convergence
+    and distance to the closed-form optimum.
+    """
+    return Fit(*axis_method_fit(pooled, _lm_batch, _lm_single))
+
+
+METHOD = Method(
+    name="ricci_lm",
+    fit=fit,
+    # the LM minimises the closed-form optimum's cost and reaches it (optimum_distance_deg): a
+    # bootstrap resample's calibration is that optimum, not 200 LM runs
+    resample=optimum_resample,
+    summary="Ricci et al. 2014: the rho-weighted Levenberg-Marquardt fit of z0 and the gyroscope's "
+    "principal axis onto body z and y",
+)

@@ -16,7 +16,12 @@ the heading is undetermined (flag ``no_step_heading`` above :data:`MAX_STEP_RATI
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
+
+from aceval.methods.interface import Fit, Method
+from aceval.methods.statistics import Pooled
 
 #: walking step frequencies searched (Hz): 36-210 steps/min, beyond slow and fast walking
 STEP_BAND_HZ = (0.6, 3.5)
@@ -69,14 +74,15 @@ def step_scatter(acc: np.ndarray, fs_hz: float, mask: np.ndarray) -> tuple[np.nd
 
 
 def step_harmonic_rotation(H, z0, right) -> tuple[np.ndarray, np.ndarray]:
-    """``(R, ratio)`` of each scatter in ``H`` (..., 3, 3): R (..., 3, 3, sensor -> body) with z =
-    z0 exactly, x the horizontal principal axis of the band-passed scatter (the anterior-posterior
-    direction), its sign chosen so that y = z x x points along ``right``; ``ratio`` = middle /
-    largest eigenvalue of the scatter projected on the horizontal plane (0: one direction, 1:
-    none). NaN where a scatter is not finite or has no horizontal power.
+    """``(R, ratio)`` of each scatter in ``H`` (..., 3, 3) and z0 (3,) or (..., 3): R (..., 3, 3,
+    sensor -> body) with z = z0 exactly, x the horizontal principal axis of the band-passed
+    scatter (the anterior-posterior direction), its sign chosen so that y = z x x points along
+    ``right``; ``ratio`` = middle / largest eigenvalue of the scatter projected on the horizontal
+    plane (0: one direction, 1: none). NaN where a scatter is not finite or has no horizontal
+    power.
     """
     H, z0 = np.asarray(H, float), np.asarray(z0, float)
-    P = np.eye(3) - np.outer(z0, z0)
+    P = np.eye(3) - z0[..., :, None] * z0[..., None, :]
     finite = np.isfinite(H).all(axis=(-2, -1))
     projected = P @ np.where(finite[..., None, None], H, 0.0) @ P
     eigenvalues, vectors = np.linalg.eigh(projected)  # ascending; the smallest is along z0
@@ -90,3 +96,49 @@ def step_harmonic_rotation(H, z0, right) -> tuple[np.ndarray, np.ndarray]:
     R = np.stack([x * sign, y * sign, np.broadcast_to(z0, x.shape)], axis=-2)
     valid = finite & (eigenvalues[..., 2] > 0)
     return np.where(valid[..., None, None], R, np.nan), np.where(valid, ratio, np.nan)
+
+
+# --- the method's interface in Kong's protocol (aceval.methods.interface) -----------------------
+
+#: why a walking test has no step-harmonic calibration
+TOO_SHORT = (
+    "needs walking recordings of at least two cycles of the slowest step (3.3 s) to find the "
+    "step frequency; this dataset's repetitions are shorter"
+)
+
+
+def applies(pooled: Pooled) -> np.ndarray:
+    """Walking rows: those with a step-band scatter, and (flagged ``not_applicable``) the
+    calibration from all repetitions of a walking test whose repetitions are too short.
+    """
+    return pooled.walking | ((pooled.first_phase == "gait") & pooled.all_repetitions)
+
+
+def fit(pooled: Pooled, fitted: Mapping[str, Fit] | None = None) -> Fit:
+    """The step-harmonic calibration of each row from its summed step-band scatter, flagged
+    ``no_step_heading`` when no horizontal direction dominates (:data:`MAX_STEP_RATIO`) and
+    ``not_applicable`` (with a ``note``) when the unit's repetitions are too short.
+    """
+    R, ratio = step_harmonic_rotation(pooled.steps, pooled.z0, pooled.right)
+    flag = np.where(ratio <= MAX_STEP_RATIO, "", "no_step_heading").astype(object)
+    flag[~pooled.walking] = "not_applicable"
+    note = np.where(pooled.walking, None, TOO_SHORT).astype(object)
+    step_hz = np.where(pooled.walking, pooled.step_hz, np.nan)
+    return Fit(R, flag, {"step_ratio": ratio, "step_hz": step_hz, "note": note})
+
+
+def resample(pooled: Pooled, fitted: Mapping[str, Fit] | None = None) -> Fit:
+    """The step-harmonic calibration of bootstrap resamples, NaN where flagged."""
+    R, ratio = step_harmonic_rotation(pooled.steps, pooled.z0, pooled.right)
+    ok = ratio <= MAX_STEP_RATIO
+    return Fit(np.where(ok[:, None, None], R, np.nan), np.where(ok, "", "no_step_heading"))
+
+
+METHOD = Method(
+    name="step_harmonic",
+    fit=fit,
+    resample=resample,
+    applies=applies,
+    summary="walking: body x from the horizontal acceleration at the step frequency (beyond the "
+    "papers)",
+)

@@ -2,9 +2,20 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 
 from aceval.data.errors import AlignedAxesError, TooFewAxesError
+from aceval.methods.interface import Fit, Method
+from aceval.methods.sagittal import (
+    SAGITTAL_REFERENCE,
+    TRIAD_MIN_ANGLE_DEG,
+    axis_method_fit,
+    sagittal_axes,
+    usable_axes,
+)
+from aceval.methods.statistics import Pooled
 
 
 def _frame(primary: np.ndarray, secondary: np.ndarray, min_sin: float, name: str) -> np.ndarray:
@@ -21,7 +32,7 @@ def _frame(primary: np.ndarray, secondary: np.ndarray, min_sin: float, name: str
 
 
 #: TRIAD's smallest angle (deg) between its two axes: closer, there is no second direction
-MIN_ANGLE_DEG = 5.0
+MIN_ANGLE_DEG = TRIAD_MIN_ANGLE_DEG
 
 
 def triad(v_ref, v_est, min_angle_deg: float = MIN_ANGLE_DEG) -> np.ndarray:
@@ -66,3 +77,38 @@ def triad_batch(z0: np.ndarray, axes: np.ndarray, rho_static: float, rho: np.nda
     reference = _frames(np.where(z_first, ez, ey), np.where(z_first, ey, ez))
     measured = _frames(np.where(z_first, z0s, axes), np.where(z_first, axes, z0s))
     return reference @ np.swapaxes(measured, -1, -2)
+
+
+# --- the method's interface in Kong's protocol (aceval.methods.interface) -----------------------
+
+
+def _batch(pooled: Pooled, rows: np.ndarray) -> tuple[np.ndarray, dict]:
+    return triad_batch(pooled.z0[rows], pooled.gyro_axis[rows], pooled.rho_static[rows],
+                       pooled.gyro_rho[rows]), {}  # fmt: skip
+
+
+def _single(pooled: Pooled, row: int) -> tuple[np.ndarray, dict]:
+    v_est, _ = sagittal_axes(pooled)
+    return triad(SAGITTAL_REFERENCE, v_est[row]), {}
+
+
+def fit(pooled: Pooled, fitted: Mapping[str, Fit] | None = None) -> Fit:
+    """TRIAD of z0 and the gyroscope axis onto body z and y, the more reliable (rho) kept exactly
+    (z0, whose static rho is near 1, in practice), flagged as the axis methods are.
+    """
+    return Fit(*axis_method_fit(pooled, _batch, _single))
+
+
+def resample(pooled: Pooled, fitted: Mapping[str, Fit] | None = None) -> Fit:
+    """TRIAD of each bootstrap resample, NaN where its axis would be flagged."""
+    usable = usable_axes(pooled)
+    R = triad_batch(pooled.z0, pooled.gyro_axis, pooled.rho_static, pooled.gyro_rho)
+    return Fit(np.where(usable[:, None, None], R, np.nan), np.where(usable, "", "low_rho"))
+
+
+METHOD = Method(
+    name="triad",
+    fit=fit,
+    resample=resample,
+    summary="TRIAD: z0 kept exactly, body y from the gyroscope's principal axis",
+)

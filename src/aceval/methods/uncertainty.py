@@ -1,15 +1,15 @@
 """An uncertainty with a calibration: a bootstrap over its repetitions (beyond the papers), for
-every calibration aceval makes from a motion test's repetitions: Kong's, the axis methods', the
-combined and the step-harmonic (not the peers', which run in their own environments, nor Ricci's
-functional design, whose axes pool all trials of several tests).
+every calibration aceval makes from a motion test's repetitions, by every method of the registry
+with a ``resample`` (:mod:`aceval.methods.registry`; not the peers', which run in their own
+environments, nor Ricci's functional design, whose axes pool all trials of several tests).
 
-Every repetition of a motion test is reduced to a 3x3 acceleration scatter and a 3x3 unit
-gyroscope scatter (:mod:`aceval.signals.reduction`), so a calibration from any resample of repetitions
-costs one weighted 3x3 sum and one ``eigh``. :func:`bootstrap_cone` draws ``n_boot`` resamples
-of the repetitions with replacement (Efron's bootstrap, the repetition as the unit), calibrates
-each, and reports the 95th percentile of the angle between a resample's calibration and the
-calibration from all repetitions (Kong Eq. 11) as the half-angle of a 95 % cone, and the median
-share of those deviations about the body vertical.
+Every repetition of a motion test is reduced to a few sums (:mod:`aceval.methods.statistics`), so a
+calibration from any resample of repetitions costs a few weighted 3x3 sums and one ``eigh``.
+:func:`bootstrap_cones` draws ``n_boot`` resamples of each unit's repetitions with replacement
+(Efron's bootstrap, the repetition as the unit), calibrates each by every method's ``resample``
+(NaN where the method would flag it), and reports the 95th percentile of the angle between a
+resample's calibration and the calibration from all repetitions (Kong Eq. 11) as the half-angle of
+a 95 % cone, and the median share of those deviations about the body vertical.
 
 What it does not see: z0 from quiet standing is held (one static recording gives no resample),
 so the cone is the heading's spread only; a bias shared by all repetitions (a sensor that does
@@ -23,13 +23,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from aceval.data.rotations import error_angle_deg, vertical_share
-from aceval.methods.combined import combined_rotation, gyro_weight, horizontal_right, kong_weight
-from aceval.methods.functional import SAGITTAL_REFERENCE, AxisLimits, subset_axes
-from aceval.methods.kong import KongLimits, kong_from_scatters
-from aceval.methods.ricci import wahba_batch
-from aceval.methods.step_harmonic import MAX_STEP_RATIO, step_harmonic_rotation
-from aceval.methods.triad import triad_batch
+from aceval.data.rotations import relative_rotvec
+from aceval.methods.interface import Fit, Method
+from aceval.methods.statistics import Units, pool
 
 #: resamples per calibration (the 95th percentile of 200 angles: its 10th largest)
 N_BOOT = 200
@@ -43,103 +39,54 @@ def resample_weights(n_rep: int, n_boot: int = N_BOOT, seed: int = 0) -> np.ndar
     return rng.multinomial(n_rep, np.full(n_rep, 1.0 / n_rep), size=n_boot).astype(float)
 
 
-def cone(resampled: np.ndarray, R: np.ndarray) -> tuple[float, float]:
-    """``(cone95_deg, cone_vertical_share)`` of resampled calibrations (B, 3, 3) about ``R``;
-    NaN when ``R`` or fewer than half of the resamples are finite.
+def cones(resampled: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(cone95_deg, cone_vertical_share)`` (U,) of each unit's resampled calibrations (U, n_boot,
+    3, 3) about its calibration ``R`` (U, 3, 3); NaN where ``R`` or fewer than half of the
+    resamples are finite.
     """
-    ok = np.isfinite(resampled).all(axis=(1, 2))
-    if not np.isfinite(R).all() or ok.sum() < len(resampled) / 2:
-        return float("nan"), float("nan")
-    angles = error_angle_deg(resampled[ok], R)
-    share = vertical_share(resampled[ok], R)
-    share = share[np.isfinite(share)]
-    return (
-        float(np.percentile(angles, 100 * LEVEL)),
-        float(np.median(share)) if len(share) else float("nan"),
-    )
+    n_units, n_boot = resampled.shape[:2]
+    ok = np.isfinite(resampled).all(axis=(2, 3)) & np.isfinite(R).all(axis=(1, 2))[:, None]
+    rotvec = np.full((n_units, n_boot, 3), np.nan)
+    rows, draws = np.nonzero(ok)
+    rotvec[rows, draws] = relative_rotvec(resampled[rows, draws], R[rows])
+    norm = np.linalg.norm(rotvec, axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        share = np.where(norm > 0, np.abs(rotvec[..., 2]) / norm, np.nan)
+    judged = ok.sum(axis=1) >= n_boot / 2
+    cone95, median_share = np.full(n_units, np.nan), np.full(n_units, np.nan)
+    if judged.any():
+        cone95[judged] = np.nanpercentile(np.degrees(norm[judged]), 100 * LEVEL, axis=1)
+        some = judged & np.isfinite(share).any(axis=1)
+        median_share[some] = np.nanmedian(share[some], axis=1)
+    return cone95, median_share
 
 
-def _axis_method_cones(rho, axes, z0, right, rho_static, R_axis, rho_min) -> dict:
-    """The cones of the axis methods from the resampled gyroscope axes (``rho``, ``axes``: one per
-    resample): TRIAD (the more reliable axis exact, Ricci's choice) and the weighted Wahba
-    optimum (``align_vectors``). Ricci's LM minimises the same cost and reaches that optimum
-    (``optimum_distance_deg`` in its calibration), so its cone is the optimum's resampled spread,
-    not 200 LM runs. A resample whose axis would be flagged (``low_rho``, ``axis_near_vertical``:
-    :class:`aceval.methods.functional.AxisLimits`) counts as NaN.
-    """
-    if not R_axis:
-        return {}
-    axes = axes * np.where(axes @ np.asarray(right, float) < 0, -1.0, 1.0)[:, None]
-    min_cos = np.cos(np.radians(AxisLimits().min_vertical_angle_deg))
-    usable = ((rho >= rho_min) & (np.abs(axes @ z0) <= min_cos))[:, None, None]
-    v_est = np.stack([np.broadcast_to(z0, axes.shape), axes], axis=1)
-    weights = np.column_stack([np.full(len(rho), rho_static), rho])
-    optimum = np.where(usable, wahba_batch(SAGITTAL_REFERENCE, v_est, weights), np.nan)
-    resampled = {
-        "align_vectors": optimum,
-        "ricci_lm": optimum,
-        "triad": np.where(usable, triad_batch(z0, axes, rho_static, rho), np.nan),
-    }
-    return {
-        method: cone(resampled[method], R_axis[method])
-        for method in resampled
-        if R_axis.get(method) is not None
-    }
-
-
-def bootstrap_cone(
-    scatters,
-    counts,
-    unit_scatters,
-    z0,
-    right,
-    R_kong,
-    R_combined,
-    rho_min: float,
-    limits: KongLimits = KongLimits(),
+def bootstrap_cones(
+    units: Units,
+    seeds: np.ndarray,
+    R_full: dict[str, np.ndarray],
+    methods: tuple[Method, ...],
     n_boot: int = N_BOOT,
-    seed: int = 0,
-    step_scatters=None,
-    R_step=None,
-    rho_static: float = 1.0,
-    R_axis: dict | None = None,
-) -> dict[str, tuple[float, float]]:
-    """The 95 % cones of Kong's and the combined calibration of one IMU and test from all its
-    repetitions: ``{'kong': (cone95_deg, vertical_share), 'combined': (...)}``; with
-    ``step_scatters`` (n_rep, 3, 3) and ``R_step``, also ``'step_harmonic'``; with ``R_axis``
-    (method -> R from all repetitions of the axis methods), theirs (:func:`_axis_method_cones`).
+) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """The 95 % cone of each method's calibration of each unit from all its repetitions:
+    ``{method: (cone95_deg (U,), cone_vertical_share (U,))}`` for the ``methods`` with a
+    ``resample`` and a calibration in ``R_full`` (method -> (U, 3, 3), NaN where none).
 
-    ``scatters``, ``unit_scatters``: (n_rep, 3, 3) per repetition (acceleration, m^2/s^4; unit
-    gyroscope); ``counts``: (n_rep,) samples; ``z0``, ``right``: (3,); ``R_kong``, ``R_combined``:
-    the calibrations from all repetitions; ``rho_min``: the gyroscope axis's flag limit. A resample
-    that Kong's limits flag counts as NaN for Kong (and weighs 0 in the combined heading), as the
-    calibration itself would be.
+    Each unit draws ``n_boot`` resamples of its own repetitions from its own ``seeds`` (U,) (the
+    same cones on every run and in any job); every method calibrates the same resamples.
     """
-    weights = resample_weights(len(counts), n_boot, seed)
-    kong = kong_from_scatters(
-        scatters, counts, z0, right, weights=weights, limits=limits, strict=False
-    )
-    R = np.where((kong.flag == "")[:, None, None], kong.R, np.nan)
-    rho, axes = subset_axes(unit_scatters, weights)
-    combined = combined_rotation(
-        z0,
-        kong.R[:, 1],
-        horizontal_right(axes, z0, right),
-        np.where(
-            kong.flag == "",
-            kong_weight(
-                kong.normal_ratio, kong.planarity, limits.max_normal_ratio, limits.max_planarity
-            ),
-            0.0,
-        ),
-        gyro_weight(rho, rho_min),
-    )
-    cones = {"kong": cone(R, R_kong), "combined": cone(combined, R_combined)}
-    cones.update(_axis_method_cones(rho, axes, z0, right, rho_static, R_axis or {}, rho_min))
-    if step_scatters is not None and R_step is not None:
-        step, ratio = step_harmonic_rotation(
-            np.einsum("br,rij->bij", weights, step_scatters), z0, right
-        )
-        step = np.where((ratio <= MAX_STEP_RATIO)[:, None, None], step, np.nan)
-        cones["step_harmonic"] = cone(step, R_step)
-    return cones
+    present = units.present.sum(axis=1)
+    weights = np.zeros((len(units) * n_boot, units.present.shape[1]))
+    for u, (n_rep, seed) in enumerate(zip(present, seeds)):
+        weights[u * n_boot : (u + 1) * n_boot, :n_rep] = resample_weights(int(n_rep), n_boot, seed)
+    pooled = pool(units, np.repeat(np.arange(len(units)), n_boot), weights, subsets=False)
+    fitted: dict[str, Fit] = {}
+    out = {}
+    for method in methods:
+        if method.resample is None:
+            continue
+        fitted[method.name] = method.resample(pooled, fitted)
+        if method.name in R_full:
+            resampled = fitted[method.name].R.reshape(len(units), n_boot, 3, 3)
+            out[method.name] = cones(resampled, R_full[method.name])
+    return out

@@ -16,11 +16,11 @@ def cross_correlations(a: np.ndarray, b: np.ndarray, max_lag: int) -> np.ndarray
     y = np.linalg.norm(np.asarray(b, float), axis=1)
     x, y = x - x.mean(), y - y.mean()
     scale = float(np.linalg.norm(x) * np.linalg.norm(y)) or 1.0
-    values = np.zeros(2 * max_lag + 1)
-    for k, lag in enumerate(range(-max_lag, max_lag + 1)):
-        if -len(y) < lag < len(x):
-            values[k] = np.dot(x[max(0, lag) : len(y) + lag], y[max(0, -lag) : len(x) - lag])
-    return values / scale
+    # x padded with zeros so that the window of len(y) samples starting at max_lag + L is x[t + L]
+    padded = np.zeros(2 * max_lag + max(len(x), len(y)) + len(y))
+    padded[max_lag : max_lag + len(x)] = x
+    windows = np.lib.stride_tricks.sliding_window_view(padded, len(y))[: 2 * max_lag + 1]
+    return windows @ y / scale
 
 
 def best_lag(a: np.ndarray, b: np.ndarray, max_lag: int) -> int:

@@ -201,22 +201,23 @@ def right_axis_angle_deg(body_y: np.ndarray, right: np.ndarray) -> np.ndarray:
 
 
 def direction_checks(
-    expected: str,
-    segment: str,
+    expected: np.ndarray,
+    segment: np.ndarray,
     phase_axes: np.ndarray,
     third: np.ndarray | None,
     membership: np.ndarray,
     R: np.ndarray,
     right: np.ndarray,
 ) -> dict[str, np.ndarray]:
-    """Is forward forward? For calibrations ``R`` (n, 3, 3) of one IMU, each from a subset
-    (``membership`` (n, n_rep) of 0/1) of the recordings of one test.
+    """Is forward forward? For each calibration ``R`` (B, 3, 3) of an IMU from the recordings
+    ``membership`` (B, n_rep) weighs (0/1) among those of its test.
 
-    ``expected``: the test's ``first_phase`` ('-y', '+y', 'gait' or ''). ``phase_axes`` (n_rep, 3):
-    each recording's rotation axis signed so that its first phase is positive about it; a recording
-    votes when that axis is within 45 deg of the calibration's body y (sensor frame: ``R[:, 1]``)
-    and agrees when the sign is the protocol's. ``gait``: shanks only, from the summed third moments
-    ``third`` (n_rep, 10) (:func:`swing_skew`). ``right`` (3,): the declared right axis.
+    ``expected`` (B,): the test's ``first_phase`` ('-y', '+y', 'gait' or ''); ``segment`` (B,).
+    ``phase_axes`` (B, n_rep, 3): each recording's rotation axis signed so that its first phase is
+    positive about it; a recording votes when that axis is within 45 deg of the calibration's body
+    y (sensor frame: ``R[:, 1]``) and agrees when the sign is the protocol's. ``gait``: shanks
+    only, from the summed third moments ``third`` (B, n_rep, 10) (:func:`swing_skew`). ``right``
+    (B, 3): the declared right axis.
 
     Returns ``flag`` ('backward' when most votes disagree or the shank swings backward,
     'right_axis_mismatch' when the declared right axis is more than 60 deg from y0, both joined by
@@ -225,26 +226,32 @@ def direction_checks(
     ``first_phase_agreement`` (share of agreeing votes; NaN without votes) and
     ``right_axis_angle_deg``.
     """
+    expected = np.asarray(expected, dtype=object)
     body_y = R[:, 1, :]
-    flag = np.full(len(R), "", dtype=object)
-    agreement = np.full(len(R), np.nan)
-    if expected in ("-y", "+y"):
-        dots = np.asarray(phase_axes, float) @ body_y.T  # (n_rep, n)
-        voting = (np.isfinite(dots) & (np.abs(dots) >= MIN_AXIS_ALIGNMENT)).astype(float)
-        agree = voting * (np.sign(dots) == (-1.0 if expected == "-y" else 1.0))
-        votes = np.einsum("kr,rk->k", membership, voting)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            agreement = np.where(
-                votes > 0, np.einsum("kr,rk->k", membership, agree) / votes, np.nan
-            )
-        flag[agreement < 0.5] = "backward"
-    elif expected == "gait" and segment == "shank" and third is not None:
-        skew = swing_skew(membership @ np.asarray(third, float), body_y)
-        agreement = (skew > 0).astype(float)
-        flag[skew < 0] = "backward"
+    with np.errstate(invalid="ignore"):
+        dots = np.einsum("bri,bi->br", np.asarray(phase_axes, float), body_y)
+    voting = (np.isfinite(dots) & (np.abs(dots) >= MIN_AXIS_ALIGNMENT)).astype(float)
+    protocol_sign = np.where(expected == "-y", -1.0, 1.0)[:, None]
+    agree = voting * (np.sign(dots) == protocol_sign)
+    votes = np.einsum("br,br->b", membership, voting)
+    phased = np.isin(expected, ["-y", "+y"])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        agreement = np.where(
+            phased & (votes > 0), np.einsum("br,br->b", membership, agree) / votes, np.nan
+        )
+    backward = phased & (agreement < 0.5)
+    swing = (expected == "gait") & (np.asarray(segment, dtype=object) == "shank")
+    if third is not None and swing.any():
+        skew = swing_skew(np.einsum("br,brk->bk", membership[swing], third[swing]), body_y[swing])
+        agreement[swing] = (skew > 0).astype(float)
+        backward[np.flatnonzero(swing)[skew < 0]] = True
     angle = right_axis_angle_deg(body_y, right)
     mismatch = angle > MAX_RIGHT_AXIS_ANGLE_DEG
-    flag[mismatch] = [";".join(filter(None, (f, "right_axis_mismatch"))) for f in flag[mismatch]]
+    flag = np.array(
+        [";".join(f for f, on in (("backward", b), ("right_axis_mismatch", m)) if on)
+         for b, m in zip(backward, mismatch)],
+        dtype=object,
+    )  # fmt: skip
     return {
         "flag": flag,
         "mismatch": mismatch,

@@ -107,6 +107,7 @@ def reduce_recordings(
     summaries: dict[int, dict] = {}
     pairs: list[dict] = []
     max_lag = int(round(max_lag_s * dataset.fs_hz))
+    pair_imus = segment_pair_imus(dataset, segment_pairs or {})
     for (subj, test, rep), group in recordings.groupby(["subject", "test", "rep"], sort=False):
         loaded: dict[tuple[str, str], tuple[Recording, np.ndarray]] = {}
         by_set: dict[str, dict] = {}
@@ -138,12 +139,25 @@ def reduce_recordings(
                     summaries[index] = _extra_row(rec, data)
                 by_set.setdefault(rec["sensor_set"], {})[rec["imu"]] = (index, data)
         if test not in static and loaded:
-            pairs += _pair_rows(dataset, subj, test, int(rep), loaded, segment_pairs, max_lag)
+            pairs += _pair_rows(dataset, subj, test, int(rep), loaded, pair_imus, max_lag)
             _add_signatures(dataset, test, by_set, summaries)
     report = ValidationReport(dataset.name)
     report.findings = [f for k in sorted(findings) for f in findings[k]]  # in the sheet's order
     ordered = [summaries[k] for k in sorted(summaries)]
     return Reduction(pd.DataFrame(ordered), pd.DataFrame(pairs, columns=PAIR_COLUMNS), report)
+
+
+def summarise_recordings(
+    dataset: Dataset,
+    subject: str | None = None,
+    trim: TrimParams = TrimParams(),
+    tests: list[str] | None = None,
+) -> pd.DataFrame:
+    """One summary row per recording of ``subject`` (all subjects if None) that some analysis
+    needs (:func:`summarise`); ``tests``: only these motion tests. The recording pairs and file
+    findings of the same pass are in :func:`reduce_recordings`.
+    """
+    return reduce_recordings(dataset, subject, trim, tests).summaries
 
 
 def _extra_row(rec: dict, data: Recording) -> dict:
@@ -169,9 +183,7 @@ def _add_signatures(dataset: Dataset, test: str, loaded: dict, summaries: dict):
     walking = dataset.first_phase(test) == "gait"
     fs = dataset.fs_hz
     for sensor_set, by_imu in loaded.items():
-        places = {
-            imu: tuple(dataset.imus.loc[(sensor_set, imu), ["segment", "side"]]) for imu in by_imu
-        }
+        places = {imu: dataset.places[(sensor_set, imu)] for imu in by_imu}
         rates = {
             imu: sagittal_rate(d.t, d.gyr, fs, axis_vector(dataset.right_axis(sensor_set, imu)))
             for imu, (_, d) in by_imu.items()
@@ -259,13 +271,13 @@ def _pair_rows(
     test: str,
     rep: int,
     loaded: dict,
-    segment_pairs: dict | None,
+    pair_imus: dict,
     max_lag: int,
 ) -> list[dict]:
     """The Obj 1 and Obj 2 pairs among one repetition's recordings (``loaded``: (set, IMU) ->
     (recording, moving mask)): Obj 1 the same IMU in the first two sensor sets, acceleration and
-    angular velocity; Obj 2 the IMUs of two segments named in ``segment_pairs`` on the same side of
-    one set, acceleration, on the tests the pair lists.
+    angular velocity; Obj 2 the IMU pairs ``pair_imus`` lists for the test (:func:`segment_pair_imus`:
+    two segments on the same side of one set), acceleration.
     """
     rows = []
     sets = list(dataset.meta["sensor_sets"])
@@ -288,32 +300,33 @@ def _pair_rows(
                 lag,
                 "lag_at_bound" if at_bound else "",
             )  # fmt: skip
+    return rows + _segment_pair_rows(loaded, pair_imus, base)
+
+
+def segment_pair_imus(dataset: Dataset, segment_pairs: dict) -> dict[str, list[tuple]]:
+    """``{test: [(sensor_set, imu_a, imu_b), ...]}``: the IMU pairs of each test's Obj 2 segment
+    pairs (``segment_pairs`` as in config ``objectives.segment_pairs``: the IMUs of the two
+    segments on the same side of one set), each pair once however many specs name it.
+    """
     imus = dataset.imus.reset_index()
-    return rows + _segment_pair_rows(loaded, imus, segment_pairs, base)
-
-
-def _segment_pair_rows(loaded, imus, segment_pairs, base) -> list[dict]:
-    """Obj 2 pairs of :func:`_pair_rows`: each IMU pair once, however many specs name it."""
-    rows = []
-    done = set()
-    for spec in (segment_pairs or {}).values():
-        if base["test"] not in spec["t_ap"]:
-            continue
+    out: dict[str, list[tuple]] = {}
+    for spec in segment_pairs.values():
         seg_a, seg_b = spec["segments"]
         matched = imus[imus["segment"] == seg_a].merge(
             imus[imus["segment"] == seg_b], on=["sensor_set", "side"], suffixes=("_a", "_b")
         )
-        for sensor_set, imu_a, imu_b in matched[["sensor_set", "imu_a", "imu_b"]].itertuples(
-            index=False
-        ):
-            key = (sensor_set, imu_a, imu_b)
-            if (
-                key in done
-                or (sensor_set, imu_a) not in loaded
-                or (sensor_set, imu_b) not in loaded
-            ):
-                continue
-            done.add(key)
+        pairs = list(matched[["sensor_set", "imu_a", "imu_b"]].itertuples(index=False, name=None))
+        for test in spec["t_ap"]:
+            known = out.setdefault(test, [])
+            known += [pair for pair in pairs if pair not in known]
+    return out
+
+
+def _segment_pair_rows(loaded, pair_imus: dict, base) -> list[dict]:
+    """Obj 2 pairs of :func:`_pair_rows` (``pair_imus``: :func:`segment_pair_imus`)."""
+    rows = []
+    for sensor_set, imu_a, imu_b in pair_imus.get(base["test"], []):
+        if (sensor_set, imu_a) in loaded and (sensor_set, imu_b) in loaded:
             rows += pair_moments(
                 loaded[(sensor_set, imu_a)],
                 loaded[(sensor_set, imu_b)],

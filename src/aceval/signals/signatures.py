@@ -80,20 +80,23 @@ def sagittal_rate(
     return t, uniform_filter1d(gyr @ axis, width, mode="nearest")
 
 
-def envelope_correlations(envelopes: dict[str, tuple[np.ndarray, np.ndarray]]) -> pd.DataFrame:
-    """Pearson correlations (IMU x IMU) of the (t, series) of one sensor set's recordings of one
-    repetition, on a common :data:`ENVELOPE_HZ` grid over their overlap in time; empty when they
-    overlap less than :data:`MIN_OVERLAP_S`.
+def envelope_correlations(
+    envelopes: dict[str, tuple[np.ndarray, np.ndarray]],
+) -> tuple[list[str], np.ndarray]:
+    """``(names, r)``: the Pearson correlations ``r`` (IMU x IMU, in the order of ``names``,
+    sorted) of the (t, series) of one sensor set's recordings of one repetition, on a common
+    :data:`ENVELOPE_HZ` grid over their overlap in time; no names when they overlap less than
+    :data:`MIN_OVERLAP_S`.
     """
     names = sorted(envelopes)
     start = max(envelopes[n][0][0] for n in names)
     end = min(envelopes[n][0][-1] for n in names)
     if len(names) < 2 or end - start < MIN_OVERLAP_S:
-        return pd.DataFrame()
+        return [], np.zeros((0, 0))
     grid = np.arange(start, end, 1.0 / ENVELOPE_HZ)
     series = np.array([np.interp(grid, *envelopes[n]) for n in names])
     with np.errstate(invalid="ignore", divide="ignore"):
-        return pd.DataFrame(np.corrcoef(series), index=names, columns=names)
+        return names, np.corrcoef(series)
 
 
 def motion_signatures(
@@ -108,29 +111,32 @@ def motion_signatures(
     gait): there the side votes are cast, and the timing is not judged (the legs alternate).
     """
     out = {imu: dict.fromkeys(SIGNATURE_COLUMNS, np.nan) for imu in envelopes}
-    r = envelope_correlations(envelopes)
-    if r.empty:
+    names, r = envelope_correlations(envelopes)
+    if not names:
         return out
     if rates is None:  # timing: not in walking, where the two legs alternate
-        for imu in envelopes:
-            others = r.loc[imu].drop(imu).to_numpy(float)
+        for k, imu in enumerate(names):
+            others = np.delete(r[k], k)
             others = others[np.isfinite(others)]  # a still sensor's envelope correlates with none
             out[imu]["timing_r"] = float(others.max()) if len(others) else np.nan
         return out
     signed = {imu: rate for imu, rate in rates.items() if rate is not None}
-    swing = envelope_correlations(signed) if len(signed) > 1 else pd.DataFrame()
+    names, swing = envelope_correlations(signed) if len(signed) > 1 else ([], None)
     for imu in signed:
-        if not swing.empty:
-            out[imu].update(_side_votes(imu, swing, places))
+        if names:
+            out[imu].update(_side_votes(imu, names, swing, places))
     return out
 
 
-def _side_votes(imu: str, r: pd.DataFrame, places: dict[str, tuple[str, str]]) -> dict:
+def _side_votes(
+    imu: str, names: list[str], r: np.ndarray, places: dict[str, tuple[str, str]]
+) -> dict:
     segment, side = places[imu]
     if side not in SIDES:
         return {}
     votes = evidence = 0
-    by_place = {places[o]: o for o in r.index if o != imu}
+    at = {name: k for k, name in enumerate(names)}
+    by_place = {places[o]: o for o in names if o != imu}
     other_side = SIDES[1 - SIDES.index(side)]
     for other_segment in {s for s, _ in by_place} - {segment}:
         same, opposite = (
@@ -139,7 +145,7 @@ def _side_votes(imu: str, r: pd.DataFrame, places: dict[str, tuple[str, str]]) -
         )
         if same is None or opposite is None:
             continue
-        r_same, r_opposite = r.loc[imu, same], r.loc[imu, opposite]
+        r_same, r_opposite = r[at[imu], at[same]], r[at[imu], at[opposite]]
         if np.isfinite(r_same) and np.isfinite(r_opposite):
             votes += 1 if r_same > r_opposite else -1
             evidence += 1

@@ -1,0 +1,72 @@
+"""SciPy's ``Rotation.align_vectors``: the closed-form optimum of Ricci's rho-weighted cost
+(Wahba's problem), in Kong's protocol z0 and the motion test's gyroscope axis onto body z and y
+(:mod:`aceval.methods.sagittal`). The cross-check of Ricci's LM (:mod:`aceval.methods.ricci`), and
+a method of its own in the comparisons.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from aceval.data.errors import check_axes
+from aceval.methods.interface import Fit, Method
+from aceval.methods.sagittal import (
+    SAGITTAL_REFERENCE,
+    axis_method_fit,
+    sagittal_axes,
+    usable_axes,
+)
+from aceval.methods.statistics import Pooled
+
+
+def wahba_fit(v_ref, v_est, weights=None) -> Rotation:
+    """Closed-form weighted optimum of the LM cost: ``Rotation.align_vectors(v_ref, v_est, w)``."""
+    v_ref, v_est, weights = check_axes(v_ref, v_est, weights)
+    rotation, _ = Rotation.align_vectors(v_ref, v_est, weights=weights)
+    return rotation
+
+
+def wahba_batch(v_ref: np.ndarray, v_est: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """The weighted Wahba optimum (R with ``R v_est ~ v_ref``, as ``Rotation.align_vectors``) of
+    each row: ``v_ref`` (n, 3), ``v_est`` (B, n, 3), ``weights`` (B, n); by the SVD of
+    ``sum w v_ref v_est^T`` with the determinant made +1 (Kabsch), all rows at once.
+    """
+    profile = np.einsum("bi,ij,bik->bjk", weights, v_ref, v_est)
+    U, _, Vt = np.linalg.svd(profile)
+    scale = np.ones((len(profile), 3))
+    scale[:, 2] = np.sign(np.linalg.det(U @ Vt))
+    return U @ (scale[:, :, None] * Vt)
+
+
+def _batch(pooled: Pooled, rows: np.ndarray) -> tuple[np.ndarray, dict]:
+    v_est, weights = sagittal_axes(pooled)
+    return wahba_batch(SAGITTAL_REFERENCE, v_est[rows], weights[rows]), {}
+
+
+def _single(pooled: Pooled, row: int) -> tuple[np.ndarray, dict]:
+    v_est, weights = sagittal_axes(pooled)
+    return wahba_fit(SAGITTAL_REFERENCE, v_est[row], weights[row]).as_matrix(), {}
+
+
+def fit(pooled: Pooled, fitted: Mapping[str, Fit] | None = None) -> Fit:
+    """The weighted Wahba optimum of each pooled row, flagged as the axis methods are."""
+    return Fit(*axis_method_fit(pooled, _batch, _single))
+
+
+def resample(pooled: Pooled, fitted: Mapping[str, Fit] | None = None) -> Fit:
+    """The optimum of each bootstrap resample, NaN where its axis would be flagged."""
+    v_est, weights = sagittal_axes(pooled)
+    usable = usable_axes(pooled)
+    R = np.where(usable[:, None, None], wahba_batch(SAGITTAL_REFERENCE, v_est, weights), np.nan)
+    return Fit(R, np.where(usable, "", "low_rho"))
+
+
+METHOD = Method(
+    name="align_vectors",
+    fit=fit,
+    resample=resample,
+    summary="the closed-form optimum of Ricci's weighted cost (SciPy's Rotation.align_vectors)",
+)
