@@ -9,8 +9,8 @@
    tools (`--config peers=[]`), to show what they cost; the Snakemake executor plugins installed
    (the environment measured: Snakemake imports each at every start).
 2. The floor of the whole default: one Python process reading every recording of its three
-   generated datasets once (pandas' CSV reader, as aceval reads them) and forming the scatter of
-   each; against it, the default workflow without the peers.
+   generated datasets once (pandas' CSV reader or pyarrow's Parquet reader, as aceval reads them)
+   and forming the scatter of each; against it, the default workflow without the peers.
 3. The floor of one lab dataset: the same for the simulated Kong dataset (5 subjects) alone;
    against it, the workflow of that dataset from clean (the dataset already on disk, as a lab's
    would be).
@@ -142,10 +142,16 @@ def simulate(out: Path, subjects: int) -> tuple[float, float]:
 FLOOR = """
 import sys
 import pandas as pd
+import pyarrow.parquet as pq
+COLUMNS = ["t", "acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z"]
 for root in sys.argv[1:]:
     recordings = pd.read_csv(f"{root}/recordings.tsv", sep="\\t")
     for path in recordings["path"].unique():
-        acc = pd.read_csv(f"{root}/{path}").to_numpy(float)[:, 1:4]
+        if path.endswith(".parquet"):
+            values = pq.ParquetFile(f"{root}/{path}").read(columns=COLUMNS).to_pandas()
+        else:
+            values = pd.read_csv(f"{root}/{path}")
+        acc = values.to_numpy(float)[:, 1:4]
         acc.T @ acc
 """
 

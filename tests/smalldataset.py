@@ -36,6 +36,8 @@ def simulate_small(
             str(repetitions),
             "--seed",
             "3",
+            "--format",
+            "csv",  # a lab's export: the bad-input tests edit its text
         ],
         check=True,
         capture_output=True,

@@ -3,7 +3,7 @@ import pytest
 
 from aceval.calibrate.pipeline import calibrate
 from aceval.cli import main
-from aceval.data.contract import DatasetError
+from aceval.data.contract import R_COLUMNS, DatasetError
 from aceval.data.dataset import load_dataset, read_as_missing, validate
 from aceval.signals.reduction import summarise_recordings
 
@@ -94,3 +94,59 @@ def test_static_motion_is_flagged_not_calibrated(mini):
     assert "s1_t1_r2.csv" in flagged["message"].iloc[0]
     calibrations, _ = calibrate(dataset, summaries)
     assert set(calibrations["repetitions"]) == {"R1"}  # the static 'motion' drops out
+
+
+def _as_parquet(csv_path, columns=None, types=None):
+    """The recording at ``csv_path`` rewritten as Parquet beside it (``columns``: which to keep;
+    ``types``: column -> pyarrow type); returns the new file's name."""
+    import pandas as pd
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pd.read_csv(csv_path)
+    table = table[columns] if columns else table
+    schema = pa.schema([(c, (types or {}).get(c, pa.float64())) for c in table.columns])
+    out = csv_path.with_suffix(".parquet")
+    values = {c: table[c] for c in table.columns}
+    for c, kind in (types or {}).items():  # as text, its first cell no number
+        if kind == pa.string():
+            values[c] = ["n/a", *table[c].astype(str)[1:]]
+    pq.write_table(pa.table(values, schema=schema), out)
+    csv_path.unlink()
+    return out.name
+
+
+def test_a_recording_may_be_gzipped_csv_or_parquet_and_reads_the_same(mini):
+    import gzip
+
+    before = load_dataset(mini).read_recording("s1_t1_r1.csv")
+    as_csv, _ = calibrate(load_dataset(mini), summarise_recordings(load_dataset(mini)))
+    gz = mini / "s1_t1_r1.csv.gz"
+    gz.write_bytes(gzip.compress((mini / "s1_t1_r1.csv").read_bytes()))
+    parquet = _as_parquet(mini / "s1_t1_r1.csv")
+    edit(mini / "recordings.tsv", "s1_t1_r1.csv", parquet)
+    edit(mini / "recordings.tsv", "s1_t1_r2.csv", "s1_t1_r1.csv.gz")
+    assert errors_of(mini) == ([], [])
+    dataset = load_dataset(mini)
+    for name in (parquet, "s1_t1_r1.csv.gz"):
+        recording = dataset.read_recording(name)
+        np.testing.assert_array_equal(recording.gyr, before.gyr)
+    calibrations, _ = calibrate(dataset, summarise_recordings(dataset))
+    # the same numbers (s1_t1_r2 now reads s1_t1_r1's gzipped copy: the subsets with R2 moved)
+    same = calibrations["repetitions"] == "R1"
+    np.testing.assert_array_equal(calibrations[same][R_COLUMNS], as_csv[same][R_COLUMNS])
+
+
+def test_a_parquet_recording_without_a_column_or_with_text_is_an_error_naming_it(mini):
+    import pyarrow as pa
+
+    missing = _as_parquet(mini / "s1_t1_r1.csv", columns=["t", "acc_x", "acc_y", "acc_z"])
+    text = _as_parquet(mini / "s1_t1_r2.csv", types={"gyr_y": pa.string()})
+    edit(mini / "recordings.tsv", "s1_t1_r1.csv", missing)
+    edit(mini / "recordings.tsv", "s1_t1_r2.csv", text)
+    (mini / "s1_t0.parquet").write_bytes(b"PAR1 not a parquet file")
+    edit(mini / "recordings.tsv", "s1_t0.csv", "s1_t0.parquet")
+    errors, _ = errors_of(mini)
+    assert any(missing in e and "missing column(s) gyr_x, gyr_y, gyr_z" in e for e in errors)
+    assert any(text in e and "non-numeric values (first at row 1)" in e for e in errors), errors
+    assert any("s1_t0.parquet" in e and "cannot be read as Parquet" in e for e in errors), errors

@@ -301,7 +301,7 @@ def test_the_pass_aligns_the_two_sets_by_one_offset_and_none_inside_a_set(tmp_pa
 
     lab = tmp_path / "lab"
     assert main(["simulate", "kong", "--out", str(lab), "--subjects", "1", "--repetitions", "2",
-                 "--seed", "2"]) == 0  # fmt: skip
+                 "--seed", "2", "--format", "csv"]) == 0  # fmt: skip
     pairs = reduce_recordings(load_dataset(lab), tests=["T1", "T5"]).pairs
     assert (pairs["flag"] == "").all()
     per_rep = pairs.groupby(["objective", "test", "rep"])["lag_samples"]

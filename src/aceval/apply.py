@@ -4,7 +4,8 @@ The copies go into a new folder laid out like the dataset (same sheets, same rel
 same units), with ``applied_calibrations.tsv`` naming the calibration used for each IMU. The
 input is only read. Each recording is checked as ``aceval calibrate`` checks it (an error names
 the file and stops the command before anything is in place); the time column and every column
-apply does not change are carried as the input's own text; the vendor's orientation quaternions
+apply does not change are carried as the input's own text (a CSV) or values (Parquet, the format
+of a simulated dataset: the copy is Parquet too); the vendor's orientation quaternions
 and ground_truth.tsv are rotated into the new sensor frame (the body frame the calibration
 estimates), so the copy validates and still has a truth. Calibrations are checked before use: a
 matrix that is not a rotation, or a calibration made from other recordings than the dataset's
@@ -137,28 +138,65 @@ def check_source(dataset: Dataset, chosen: pd.DataFrame, source: str) -> list[st
 def body_frame_table(
     dataset: Dataset, path: str, R: np.ndarray, report: ValidationReport, row
 ) -> pd.DataFrame | None:
-    """The recording at ``path`` with acc and gyr in the body frame (file units, 17 digits) and
-    the quaternions (sensor -> world) now new-sensor -> world; every other column as the input's
-    text. None when the recording has an error (added to ``report``).
+    """The CSV recording at ``path`` with acc and gyr in the body frame (file units, 17 digits)
+    and the quaternions (sensor -> world) now new-sensor -> world; every other column as the
+    input's text. None when the recording has an error (added to ``report``).
     """
     recording = read_checked(dataset, row, report)
     if recording is None:
         return None
     text = pd.read_csv(dataset.root / path, dtype=str, keep_default_na=False)
     text.columns = [c.strip() for c in text.columns]
+    quat = text[QUAT_COLUMNS].astype(float).to_numpy() if set(QUAT_COLUMNS) <= set(text) else None
+    for name, values in _rotated(dataset, recording, R, quat).items():
+        text[name] = [repr(v) for v in values.tolist()]
+    return text
+
+
+def _rotated(dataset: Dataset, recording, R: np.ndarray, quat) -> dict[str, np.ndarray]:
+    """The columns apply changes, by name: acc and gyr turned into the body frame (file units),
+    and the vendor's quaternions ``quat`` (N, 4) when there are any, world <- body = (world <-
+    sensor)(sensor <- body).
+    """
+    out = {}
     for name, values, scale in (
         ("acc", recording.acc, dataset.acc_scale),
         ("gyr", recording.gyr, dataset.gyr_scale),
     ):
         rotated = values @ R.T / scale
-        for k, axis in enumerate("xyz"):
-            text[f"{name}_{axis}"] = [repr(v) for v in rotated[:, k].tolist()]
-    if set(QUAT_COLUMNS) <= set(text.columns):  # world <- body = (world <- sensor)(sensor <- body)
-        quat = text[QUAT_COLUMNS].astype(float).to_numpy()
+        out |= {f"{name}_{axis}": rotated[:, k] for k, axis in enumerate("xyz")}
+    if quat is not None:
         turned = Rotation.from_quat(quat, scalar_first=True) * Rotation.from_matrix(R).inv()
-        for k, column in enumerate(QUAT_COLUMNS):
-            text[column] = [repr(v) for v in turned.as_quat(scalar_first=True)[:, k].tolist()]
-    return text
+        out |= dict(zip(QUAT_COLUMNS, turned.as_quat(scalar_first=True).T))
+    return out
+
+
+def write_body_frame(dataset: Dataset, row, R: np.ndarray, target: Path, report) -> bool:
+    """The body-frame copy of one recording (a recordings.tsv row) at ``target``, in the input's
+    format: CSV (:func:`body_frame_table`) or Parquet (the changed columns in float64, the
+    others as the input's). False when the recording has an error (added to ``report``).
+    """
+    if Path(row["path"]).suffix != ".parquet":
+        table = body_frame_table(dataset, row["path"], R, report, row)
+        if table is not None:
+            table.to_csv(target, index=False)
+        return table is not None
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    recording = read_checked(dataset, row, report)
+    if recording is None:
+        return False
+    table = pq.read_table(dataset.root / row["path"])
+    quat = (
+        np.column_stack([table.column(c).to_numpy() for c in QUAT_COLUMNS])
+        if set(QUAT_COLUMNS) <= set(table.column_names)
+        else None
+    )
+    for name, values in _rotated(dataset, recording, R, quat).items():
+        table = table.set_column(table.schema.get_field_index(name), name, pa.array(values))
+    pq.write_table(table, target, compression="none", write_statistics=False)
+    return True
 
 
 def apply_calibrations(
@@ -193,12 +231,10 @@ def apply_calibrations(
     report = ValidationReport(dataset.name)
     for done, row in enumerate(keep.to_dict("records"), start=1):
         R = rotations[(row["subject"], row["sensor_set"], row["imu"])]
-        table = body_frame_table(dataset, row["path"], R, report, row)
-        if table is None:
-            raise ApplyError("\n".join(map(str, report.errors)))
         target = contained(out, row["path"])  # never outside the output folder
         target.parent.mkdir(parents=True, exist_ok=True)
-        table.to_csv(target, index=False)
+        if not write_body_frame(dataset, row, R, target, report):
+            raise ApplyError("\n".join(map(str, report.errors)))
         if progress:
             progress(done, len(keep), "recordings written")
     warnings = check_source(dataset, chosen, source) if source is not None else []

@@ -66,6 +66,13 @@ def _add_simulate(commands) -> None:
     simulate.add_argument(
         "--jobs", type=int, default=1, help="subjects simulated side by side (same output; 1)"
     )
+    simulate.add_argument(
+        "--format",
+        choices=["parquet", "csv"],
+        default="parquet",
+        help="the recordings' files: Parquet (signals in float32: half the bytes, written and "
+        "read faster) or CSV with 6 significant digits, as a lab's export (parquet)",
+    )
     simulate.add_argument("--force", action="store_true", help="replace a non-empty output folder")
     simulate.set_defaults(run=work.simulate)
 

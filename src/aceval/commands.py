@@ -41,6 +41,7 @@ def simulate(args) -> int:
         wobble=0.0 if args.no_wobble else 1.0,
         repetitions=args.repetitions,
         jobs=args.jobs,
+        file_format=args.format,
     )
     kwargs = {"options": options}
     if args.subjects is not None:

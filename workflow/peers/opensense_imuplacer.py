@@ -24,7 +24,6 @@ the IMUPlacer run divided by the number of IMUs placed.
 
 from __future__ import annotations
 
-import csv
 import math
 import re
 import tempfile
@@ -32,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 import opensim as osim
-from peer_io import Timer, main, read_recording, row
+from peer_io import Timer, main, read_columns, read_recording, row
 
 METHOD = "opensense_imuplacer"
 QUAT = ["quat_w", "quat_x", "quat_y", "quat_z"]
@@ -47,13 +46,7 @@ NO_BASE = "needs a base IMU on the pelvis (segment waist) with a static recordin
 
 def quaternions(plan: dict, relative: str) -> np.ndarray | None:
     """The (N, 4) quat_w..quat_z of a recording, or None when it has none."""
-    path = Path(plan["dataset"]) / relative
-    with open(path, newline="") as handle:
-        header = next(csv.reader(handle))
-    if not set(QUAT) <= set(header):
-        return None
-    columns = [header.index(c) for c in QUAT]
-    return np.loadtxt(path, delimiter=",", skiprows=1, usecols=columns, ndmin=2)
+    return read_columns(plan, relative, QUAT)
 
 
 def heading_axis(entry: dict, plan: dict) -> str:

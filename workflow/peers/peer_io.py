@@ -2,7 +2,8 @@
 
 aceval cannot share an environment with its peers (gaitmap needs numpy < 2.1, OpenSim >= 2.1,
 aceval's results are made with its own lock), so each peer runs in ``.venv-peers/<peer>`` and
-this module, which needs NumPy only, is all it shares with aceval:
+this module, which needs NumPy (and pyarrow for Parquet recordings) only, is all it shares with
+aceval:
 
 * in: a calibration plan (JSON, written by ``aceval calibrate --plan-out``): the dataset folder,
   its sampling rate and unit factors, and per calibration the IMU, segment, side, test, the
@@ -38,13 +39,30 @@ def read_plan(path: str) -> dict:
     return json.loads(Path(path).read_text())
 
 
-def read_recording(plan: dict, relative: str) -> tuple[np.ndarray, np.ndarray]:
-    """(acc m/s^2, gyr rad/s), each (N, 3), of a recording of the plan's dataset."""
+def read_columns(plan: dict, relative: str, names: list[str]) -> np.ndarray | None:
+    """The (N, len(names)) values of these columns of a recording of the plan's dataset (a CSV,
+    or Parquet: the format of aceval's simulated datasets), or None when it lacks one.
+    """
     path = Path(plan["dataset"]) / relative
+    if path.suffix == ".parquet":
+        import pyarrow.parquet as pq
+
+        recording = pq.ParquetFile(path)
+        if not set(names) <= set(recording.schema_arrow.names):
+            return None
+        table = recording.read(columns=names)
+        return np.column_stack([table.column(c).to_numpy().astype(float) for c in names])
     with open(path, newline="") as handle:
         header = next(csv.reader(handle))
-    columns = [header.index(c) for c in COLUMNS[1:]]
-    values = np.loadtxt(path, delimiter=",", skiprows=1, usecols=columns, ndmin=2)
+    if not set(names) <= set(header):
+        return None
+    columns = [header.index(c) for c in names]
+    return np.loadtxt(path, delimiter=",", skiprows=1, usecols=columns, ndmin=2)
+
+
+def read_recording(plan: dict, relative: str) -> tuple[np.ndarray, np.ndarray]:
+    """(acc m/s^2, gyr rad/s), each (N, 3), of a recording of the plan's dataset."""
+    values = read_columns(plan, relative, COLUMNS[1:])
     return values[:, :3] * plan["acc_scale"], values[:, 3:] * plan["gyr_scale"]
 
 

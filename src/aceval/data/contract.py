@@ -129,11 +129,17 @@ class RecordingError(ValueError):
         self.path, self.cause = path, cause
 
 
+#: the file types a recording may have (the contract: CSV, gzipped CSV or Parquet)
+RECORDING_SUFFIXES = (".csv", ".csv.gz", ".parquet")
+
+
 def recording_values(path: Path) -> np.ndarray:
     """The (N, 7) values of a recording file (``RECORDING_COLUMNS``, in the file's units; a cell
-    that is not a number becomes NaN). RecordingError when it is missing, unreadable or lacks a
-    column.
+    that is not a number becomes NaN): CSV (gzipped when the name ends in .gz) or Parquet.
+    RecordingError when it is missing, unreadable or lacks a column.
     """
+    if Path(path).suffix == ".parquet":
+        return _parquet_values(Path(path))
     try:
         table = pd.read_csv(path, sep=",", engine="c")
     except FileNotFoundError:
@@ -150,6 +156,50 @@ def recording_values(path: Path) -> np.ndarray:
             path, f"missing column(s) {', '.join(missing)}; the header is {header!r}{hint}"
         )
     return _numeric_values(table)
+
+
+def recording_columns(path: Path) -> list[str]:
+    """The column names of a recording file, from its first line (CSV, gzipped or not) or its
+    schema (Parquet): the cheap check of the validation. OSError or ValueError when unreadable.
+    """
+    import gzip
+
+    path = Path(path)
+    if path.suffix == ".parquet":
+        import pyarrow.parquet as pq  # here: its import costs every command that never reads one
+
+        try:
+            return list(pq.read_schema(path).names)
+        except Exception as exc:  # pyarrow raises its own types for a damaged file
+            raise ValueError(f"cannot be read as Parquet: {exc}") from None
+    opener = gzip.open if path.suffix == ".gz" else open
+    with opener(path, "rt", errors="replace") as handle:
+        header = handle.readline().strip()
+    return [c.strip().strip('"') for c in header.split(",")]
+
+
+def _parquet_values(path: Path) -> np.ndarray:
+    """:func:`recording_values` of a Parquet file: each column as float, as a CSV's (a null or a
+    cell that is not a number becomes NaN, and is reported).
+    """
+    import pyarrow.parquet as pq
+
+    try:
+        table = pq.ParquetFile(path)
+        names = table.schema_arrow.names
+    except FileNotFoundError:
+        raise RecordingError(path, "file is missing") from None
+    except Exception as exc:  # pyarrow raises its own types for a damaged file
+        raise RecordingError(
+            path, f"cannot be read as Parquet: {str(exc).splitlines()[0]}"
+        ) from None
+    missing = [c for c in RECORDING_COLUMNS if c not in names]
+    if missing:
+        raise RecordingError(
+            path,
+            f"missing column(s) {', '.join(missing)}; the columns are {', '.join(names)[:60]!r}",
+        )
+    return _numeric_values(table.read(columns=RECORDING_COLUMNS).to_pandas())
 
 
 def _numeric_values(table: pd.DataFrame) -> np.ndarray:

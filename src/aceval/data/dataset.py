@@ -40,6 +40,7 @@ from aceval.data.recording_checks import (
     check_header,
     check_recording,
     known_recordings,
+    position,
 )
 from aceval.data.rotations import AXIS_VECTORS
 from aceval.data.safety import path_problem
@@ -156,7 +157,7 @@ class Dataset:
             raise RecordingError(
                 full,
                 f"{int(bad.sum())} rows with NaN, inf or non-numeric values "
-                f"(first at line {int(np.flatnonzero(bad)[0]) + 2})",
+                f"(first at {position(path, int(np.flatnonzero(bad)[0]))})",
             )
         return Recording(
             values[:, 0], values[:, 1:4] * self.acc_scale, values[:, 4:7] * self.gyr_scale, full

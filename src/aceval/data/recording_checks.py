@@ -4,8 +4,6 @@ recordings of a dataset its sheets define.
 
 from __future__ import annotations
 
-import gzip
-
 import numpy as np
 import pandas as pd
 
@@ -21,6 +19,7 @@ from aceval.data.contract import (
     Recording,
     RecordingError,
     ValidationReport,
+    recording_columns,
     recording_values,
 )
 
@@ -71,18 +70,18 @@ def check_values(dataset, row, values: np.ndarray, report: ValidationReport) -> 
         return
     bad = ~np.isfinite(values)
     if bad.any():
-        line = int(np.flatnonzero(bad.any(axis=1))[0]) + 2
+        first = position(row["path"], int(np.flatnonzero(bad.any(axis=1))[0]))
         report.error(
             where,
-            f"{int(bad.any(axis=1).sum())} rows with NaN, inf or non-numeric values (first at line {line})",
+            f"{int(bad.any(axis=1).sum())} rows with NaN, inf or non-numeric values (first at {first})",
         )
         return
     t = values[:, 0]
     dt = np.diff(t)
     if np.any(dt <= 0):
-        line = int(np.flatnonzero(dt <= 0)[0]) + 3
+        at = position(row["path"], int(np.flatnonzero(dt <= 0)[0]) + 1)
         kind = "duplicate" if np.any(dt == 0) else "decreasing"
-        report.error(where, f"t is not strictly increasing ({kind} time at line {line})")
+        report.error(where, f"t is not strictly increasing ({kind} time at {at})")
         return
     fs_in_t = 1.0 / float(np.median(dt))
     if abs(fs_in_t - dataset.fs_hz) > FS_TOLERANCE * dataset.fs_hz:
@@ -134,6 +133,13 @@ def check_values(dataset, row, values: np.ndarray, report: ValidationReport) -> 
             )
 
 
+def position(path: str, index: int) -> str:
+    """Where sample ``index`` (0-based) of a recording is: its line in a CSV (the header is line
+    1), its row (1-based) in a Parquet table.
+    """
+    return f"row {index + 1}" if str(path).endswith(".parquet") else f"line {index + 2}"
+
+
 def plateau_limit(signal: np.ndarray, run: int = PLATEAU_RUN) -> float | None:
     """The |value| (in the signal's units) at which an (N, 3) signal is clipped, found from the data
     alone: the largest |value| of an axis held for ``run`` or more consecutive samples (a smooth
@@ -175,16 +181,14 @@ def check_header(dataset, row, report: ValidationReport) -> None:
         report.error(where, "file is missing")
         return
     try:
-        opener = gzip.open if path.suffix == ".gz" else open
-        with opener(path, "rt", errors="replace") as handle:
-            header = handle.readline().strip()
-    except (OSError, EOFError) as exc:
+        columns = recording_columns(path)
+    except (OSError, EOFError, ValueError) as exc:
         report.error(where, f"cannot be read: {exc}")
         return
-    columns = [c.strip().strip('"') for c in header.split(",")]
     missing = [c for c in RECORDING_COLUMNS if c not in columns]
     if missing:
         hint = " (is the file comma-separated?)" if len(columns) == 1 else ""
+        header = ",".join(columns)
         report.error(
             where,
             f"missing column(s) {', '.join(missing)}; the header is {header[:60]!r}{hint}",

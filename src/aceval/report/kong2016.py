@@ -209,6 +209,8 @@ def correlation_sensitivity(correlations: pd.DataFrame | None) -> pd.DataFrame:
     chosen = (correlations["objective"] == "frontal_lateral_sensitivity") & unflagged(correlations)
     data = correlations.loc[chosen, [*keys, "correlation"]]  # not copies of the other columns
     units = data.groupby(keys, as_index=False)["correlation"].mean()
+    if units.empty:  # one sensor set: no sensitivity rows
+        return pd.DataFrame(columns=columns)
     table = _summary(units, ["mode", "heading_error_deg"], "correlation")
     at_zero = table[table["heading_error_deg"] == 0].set_index("mode")
     table["drop"] = table["mode"].map(at_zero["mean"]) - table["mean"]

@@ -91,7 +91,7 @@ def simulate_box(
         acc_range_g=ACC_RANGE_G,
         gyr_range_dps=GYR_RANGE_DPS,
     )
-    writer = DatasetWriter(out, meta)
+    writer = DatasetWriter(out, meta, file_format=options.file_format)
     placements = _placements()
     subjects = [f"BOX{k + 1}" for k in range(n_subjects)]
     write_sheet(

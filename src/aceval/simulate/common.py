@@ -29,6 +29,8 @@ class SimOptions:
     misalignment_sd_deg: float = 10.0
     repetitions: int = 5
     jobs: int = 1  # processes writing subjects side by side (the output does not depend on it)
+    #: the recordings' files (aceval.data.writer.FILE_FORMATS): Parquet, or CSV as a lab's export
+    file_format: str = "parquet"
 
 
 def sensor_signals(

@@ -99,7 +99,7 @@ def simulate_kong(
         acc_range_g=ACC_RANGE_G,
         gyr_range_dps=GYR_RANGE_DPS,
     )
-    writer = DatasetWriter(out, meta)
+    writer = DatasetWriter(out, meta, file_format=options.file_format)
     subject_rng = np.random.default_rng([seed, 0])
     subjects = _subjects(n_subjects, subject_rng)
     write_sheet(out / "subjects.tsv", ["subject", "age", "height_cm", "weight_kg"], subjects)

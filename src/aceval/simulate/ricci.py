@@ -230,7 +230,7 @@ def simulate_ricci(
         acc_range_g={"upper_body": ACC_RANGE_G},
         gyr_range_dps=GYR_RANGE_DPS,
     )
-    writer = DatasetWriter(out, meta)
+    writer = DatasetWriter(out, meta, file_format=options.file_format)
     rng0 = np.random.default_rng([seed, 0])
     subjects = []
     for k in range(n_subjects):  # 6-8 years (Ricci Sec. 2.1); height ~122 +- 5 cm at age 7 (WHO)
