@@ -11,9 +11,9 @@
 2. The floor of the whole default: one Python process reading every recording of its three
    generated datasets once (pandas' CSV reader or pyarrow's Parquet reader, as aceval reads them)
    and forming the scatter of each; against it, the default workflow without the peers.
-3. The floor of one lab dataset: the same for the simulated Kong dataset (5 subjects) alone;
-   against it, the workflow of that dataset from clean (the dataset already on disk, as a lab's
-   would be).
+3. The floor of one lab dataset: the same for the simulated Kong dataset (5 subjects) alone,
+   its recordings as CSV (a lab's export) and as Parquet (the simulator's default); against it,
+   the workflow of that dataset from clean (the dataset already on disk, as a lab's would be).
 4. Scaling: the Kong protocol with 5, 20, 50 and 200 simulated subjects, simulation (2
    processes) and workflow timed apart, peak RSS of the largest process, files and disk; the
    marginal cost per subject, where each workflow's time and memory went; a plot
@@ -119,39 +119,35 @@ def lab_config(workdir: Path, dataset: Path, subjects_per_job: int) -> Path:
     return path
 
 
-def simulate(out: Path, subjects: int) -> tuple[float, float]:
-    return run(
-        [
-            sys.executable,
-            "-m",
-            "aceval",
-            "simulate",
-            "kong",
-            "--out",
-            str(out),
-            "--seed",
-            "1",
-            "--subjects",
-            str(subjects),
-            "--jobs",
-            "2",
-        ]  # fmt: skip
-    )
+def simulate(out: Path, subjects: int, file_format: str | None = None) -> tuple[float, float]:
+    """`aceval simulate kong` (seed 1, 2 processes); ``file_format``: its --format, where the
+    measured checkout has one (before Parquet, it wrote CSV only)."""
+    command = [sys.executable, "-m", "aceval", "simulate", "kong", "--out", str(out), "--seed",
+               "1", "--subjects", str(subjects), "--jobs", "2"]  # fmt: skip
+    if file_format and "--format" in subprocess.run(
+        [sys.executable, "-m", "aceval", "simulate", "--help"],
+        capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(REPO / "src")},
+    ).stdout:  # fmt: skip
+        command += ["--format", file_format]
+    return run(command)
 
 
 FLOOR = """
 import sys
 import pandas as pd
 import pyarrow.parquet as pq
+import numpy as np
 COLUMNS = ["t", "acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z"]
 for root in sys.argv[1:]:
     recordings = pd.read_csv(f"{root}/recordings.tsv", sep="\\t")
     for path in recordings["path"].unique():
         if path.endswith(".parquet"):
-            values = pq.ParquetFile(f"{root}/{path}").read(columns=COLUMNS).to_pandas()
+            table = pq.ParquetFile(f"{root}/{path}", pre_buffer=False)
+            table = table.read(columns=COLUMNS, use_threads=False)
+            values = np.column_stack([c.to_numpy().astype(float) for c in table.columns])
         else:
-            values = pd.read_csv(f"{root}/{path}")
-        acc = values.to_numpy(float)[:, 1:4]
+            values = pd.read_csv(f"{root}/{path}").to_numpy(float)
+        acc = values[:, 1:4]
         acc.T @ acc
 """
 
@@ -250,14 +246,17 @@ def main() -> None:
                 f"{whole:.1f} s; the default without the peers {bare:.1f} s; ratio "
                 f"{bare / whole:.1f}")  # fmt: skip
 
-        kong = tmp / "kong5"
-        simulate(kong, 5)
-        alone = floor(kong)
-        analysis, _ = run(snakemake(tmp / "kong5_work", lab_config(tmp, kong, 1)))
-        say(f"Kong simulation, 5 subjects: floor (one process reading every recording once and "
-            f"forming its scatter) {alone:.1f} s; workflow from clean {analysis:.1f} s; ratio "
-            f"{analysis / alone:.1f}")  # fmt: skip
-        say(per_step(tmp / "kong5_work"))
+        for file_format in ("csv", "parquet"):  # a lab's export, and the simulator's default
+            kong = tmp / f"kong5_{file_format}"
+            simulate(kong, 5, file_format)
+            alone = floor(kong)
+            work = tmp / f"kong5_{file_format}_work"
+            work.mkdir()
+            analysis, _ = run(snakemake(work, lab_config(work, kong, 1)))
+            say(f"Kong simulation, 5 subjects, recordings {file_format}: floor (one process "
+                f"reading every recording once and forming its scatter) {alone:.1f} s; workflow "
+                f"from clean {analysis:.1f} s; ratio {analysis / alone:.1f}")  # fmt: skip
+            say(per_step(work))
 
         rows = []
         for n in args.subjects:

@@ -66,3 +66,20 @@ def test_nan_raises(rng):
     gyr[50, 1] = np.nan
     with pytest.raises(NonFiniteError, match="sample 50"):
         movement_ranges(gyr, FS)
+
+
+def test_closing_the_gaps_equals_scipys_binary_closing_of_the_padded_mask():
+    """close_gaps (from the runs) is the closing Kong Fig. 5 names, as scipy.ndimage computes it:
+    random masks of random run lengths, odd and even structuring elements."""
+    from scipy import ndimage
+
+    from aceval.signals.segmentation import close_gaps
+
+    rng = np.random.default_rng(0)
+    for _ in range(2000):
+        n, length = int(rng.integers(1, 400)), int(rng.integers(1, 120))
+        runs = rng.random(n // 5 + 1) < rng.uniform(0.05, 0.95)
+        mask = np.repeat(runs, rng.integers(1, 30, len(runs)))[:n]
+        padded = np.pad(mask, length, constant_values=False)
+        expected = ndimage.binary_closing(padded, structure=np.ones(length, bool))[length:-length]
+        np.testing.assert_array_equal(close_gaps(mask, length), expected)

@@ -195,7 +195,7 @@ def write_body_frame(dataset: Dataset, row, R: np.ndarray, target: Path, report)
     )
     for name, values in _rotated(dataset, recording, R, quat).items():
         table = table.set_column(table.schema.get_field_index(name), name, pa.array(values))
-    pq.write_table(table, target, compression="none", write_statistics=False)
+    pq.write_table(table, target, compression="none", write_statistics=False, use_dictionary=False)
     return True
 
 

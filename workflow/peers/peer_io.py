@@ -47,10 +47,10 @@ def read_columns(plan: dict, relative: str, names: list[str]) -> np.ndarray | No
     if path.suffix == ".parquet":
         import pyarrow.parquet as pq
 
-        recording = pq.ParquetFile(path)
+        recording = pq.ParquetFile(path, pre_buffer=False)
         if not set(names) <= set(recording.schema_arrow.names):
             return None
-        table = recording.read(columns=names)
+        table = recording.read(columns=names, use_threads=False)
         return np.column_stack([table.column(c).to_numpy().astype(float) for c in names])
     with open(path, newline="") as handle:
         header = next(csv.reader(handle))

@@ -151,9 +151,9 @@ def plateau_limit(signal: np.ndarray, run: int = PLATEAU_RUN) -> float | None:
         return None
     peak = magnitude.max(axis=0)
     at_peak = magnitude >= peak * (1 - 1e-9)
-    # a window of ``run`` samples all at the peak <=> a plateau
-    windows = np.lib.stride_tricks.sliding_window_view(at_peak, run, axis=0).all(axis=-1)
-    clipped = windows.any(axis=0) & (peak > 0)
+    # a window of ``run`` samples all at the peak <=> a plateau (window sums from a cumulative sum)
+    count = np.concatenate([np.zeros((1, magnitude.shape[1]), int), np.cumsum(at_peak, axis=0)])
+    clipped = ((count[run:] - count[:-run]) == run).any(axis=0) & (peak > 0)
     return float(peak[clipped].min()) if clipped.any() else None
 
 

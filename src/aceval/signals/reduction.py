@@ -108,10 +108,12 @@ def reduce_recordings(
     pairs: list[dict] = []
     max_lag = int(round(max_lag_s * dataset.fs_hz))
     pair_imus = segment_pair_imus(dataset, segment_pairs or {})
+    records = dict(zip(recordings.index, recordings.to_dict("records")))  # one conversion
     for (subj, test, rep), group in recordings.groupby(["subject", "test", "rep"], sort=False):
         loaded: dict[tuple[str, str], tuple[Recording, np.ndarray]] = {}
         by_set: dict[str, dict] = {}
-        for index, rec in zip(group.index, group.to_dict("records")):
+        for index in group.index:
+            rec = records[index]
             report = ValidationReport(dataset.name)
             data = read_checked(dataset, rec, report)
             findings[index] = report.findings
