@@ -6,15 +6,8 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import TYPE_CHECKING
 
 from aceval import commands as work
-from aceval.commands import METHODS
-
-if (
-    TYPE_CHECKING
-):  # imported where used: pandas costs start-up time for the commands that never need it
-    pass
 
 
 def _add_table_inputs(command) -> None:
@@ -133,19 +126,10 @@ def _add_calibrate(commands) -> None:
     calibrate.add_argument("--subject", nargs="+", help="only these subjects (default: all)")
     calibrate.add_argument("--out", required=True, help="calibrations CSV")
     calibrate.add_argument(
-        "--recordings-out", help="per-recording summary CSV (what was kept or left out, and why)"
-    )
-    calibrate.add_argument(
-        "--axes-out", help="functional axes CSV: axis and rho per subject, IMU and test"
-    )
-    calibrate.add_argument(
         "--method",
-        choices=list(METHODS),
+        choices=list(work.method_choices()),
         default="all",
-        help="kong (every subset of repetitions), ricci (rho-weighted LM), align_vectors, triad "
-        "(the axis methods: all repetitions), combined (Kong's plane and the gyroscope axis "
-        "weighted by their conditioning), step_harmonic (walking: the anterior-posterior axis "
-        "from the acceleration at the step frequency), or all (default)",
+        help="; ".join(f"{name}: {text}" for name, text in work.method_choices().items()),
     )
     calibrate.add_argument(
         "--tests", nargs="+", help="only these motion tests (default: all; static tests always)"
@@ -157,37 +141,44 @@ def _add_calibrate(commands) -> None:
         help="Kong: every subset of repetitions (all, default) or all of them together (full)",
     )
     calibrate.add_argument(
-        "--allow-empty",
-        action="store_true",
-        help="write a table with no rows (and exit 0) when nothing can be calibrated (the workflow)",
-    )
-    calibrate.add_argument(
-        "--correlations-out",
-        help="Kong Obj 1-2 correlations of the calibrated recording pairs (from the pair moments)",
-    )
-    calibrate.add_argument(
-        "--pairs-out", help="the moments of every time-aligned Obj 1-2 recording pair (CSV)"
-    )
-    calibrate.add_argument("--findings-out", help="file warnings of the pass (tab-separated)")
-    calibrate.add_argument(
-        "--angles-out", help="Kong's Obj 3-5 angles of these subjects (as `aceval angles`, CSV)"
-    )
-    calibrate.add_argument(
-        "--retest-out",
-        help="every method's Obj 4 test-retest per subject x set x IMU x test (CSV; "
-        "`aceval outputs --retest-units`)",
-    )
-    calibrate.add_argument(
-        "--plan-out",
-        help="what a peer tool calibrates (JSON for workflow/peers/: files, right axes, subsets)",
-    )
-    calibrate.add_argument(
         "--retest-k",
         type=int,
         default=3,
         help="the axis methods (and the plan) also from every subset of this many repetitions "
         "(Obj 4's test-retest for every method; 0: none) (3)",
     )
+    calibrate.add_argument(
+        "--allow-empty",
+        action="store_true",
+        help="write a table with no rows (and exit 0) when nothing can be calibrated (the workflow)",
+    )
+    _add_calibrate_outputs(calibrate)
+    _add_pair_options(calibrate)
+    _add_trim_options(calibrate)
+    calibrate.set_defaults(run=work.calibrate)
+
+
+def _add_calibrate_outputs(calibrate) -> None:
+    """The tables of the calibrate pass beside the calibrations, each on request."""
+    outputs = {
+        "--recordings-out": "per-recording summary CSV (what was kept or left out, and why)",
+        "--axes-out": "functional axes CSV: axis and rho per subject, IMU and test",
+        "--correlations-out": "Kong Obj 1-2 correlations of the calibrated recording pairs (from "
+        "the pair moments)",
+        "--pairs-out": "the moments of every time-aligned Obj 1-2 recording pair (CSV)",
+        "--findings-out": "file warnings of the pass (tab-separated)",
+        "--angles-out": "Kong's Obj 3-5 angles of these subjects (as `aceval angles`, CSV)",
+        "--retest-out": "every method's Obj 4 test-retest per subject x set x IMU x test (CSV; "
+        "`aceval outputs --retest-units`)",
+        "--plan-out": "what a peer tool calibrates (JSON for workflow/peers/: files, right axes, "
+        "subsets)",
+    }
+    for option, text in outputs.items():
+        calibrate.add_argument(option, help=text)
+
+
+def _add_pair_options(calibrate) -> None:
+    """How Kong's Obj 1-2 pairs are aligned and correlated."""
     calibrate.add_argument(
         "--mode",
         choices=["concatenated", "per_axis", "per_axis_moving"],
@@ -206,8 +197,6 @@ def _add_calibrate(commands) -> None:
         default="{}",
         help='Obj 2 segment pairs as JSON: {"name": {"segments": [a, b], "t_ap": [...]}}',
     )
-    _add_trim_options(calibrate)
-    calibrate.set_defaults(run=work.calibrate)
 
 
 def _add_apply(commands) -> None:

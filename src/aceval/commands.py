@@ -112,16 +112,23 @@ def _read_csvs(paths) -> pd.DataFrame:
     return read_tables(paths)
 
 
-#: ``--method`` choices of ``aceval calibrate`` -> the ``method`` values of the calibrations table
-METHODS = {
-    "kong": ["kong"],
-    "ricci": ["ricci_lm"],
-    "align_vectors": ["align_vectors"],
-    "triad": ["triad"],
-    "combined": ["combined"],
-    "step_harmonic": ["step_harmonic"],
-    "all": ["kong", "ricci_lm", "align_vectors", "triad", "combined", "step_harmonic"],
-}
+def method_choices() -> dict[str, str]:
+    """``--method`` of ``aceval calibrate``: each registered method (:mod:`aceval.methods.registry`)
+    with its one-line summary, ``ricci`` for ``ricci_lm``, and ``all``.
+    """
+    from aceval.methods.registry import METHODS
+
+    return {m.name: m.summary for m in METHODS} | {
+        "ricci": "ricci_lm (its name before the registry)",
+        "all": "every method (default)",
+    }
+
+
+def chosen_methods(choice: str) -> list[str]:
+    """The ``method`` values of the calibrations table that ``--method choice`` keeps."""
+    from aceval.methods.registry import NAMES
+
+    return list(NAMES) if choice == "all" else ["ricci_lm" if choice == "ricci" else choice]
 
 
 def _progress(done: int, total: int, what: str) -> None:
@@ -183,23 +190,11 @@ def _calibrate_into(args, dataset, files) -> int:
     from aceval.calibrate.pipeline import calibrate
     from aceval.calibrate.plan import imu_checks
     from aceval.calibrate.table import AXES_COLUMNS, CALIBRATION_COLUMNS
-    from aceval.data.contract import ValidationReport
     from aceval.evaluation.correlations import correlations
     from aceval.report.summary import calibration_screen
-    from aceval.signals.reduction import reduce_recordings
 
-    trim = _trim(args)
     segment_pairs = json.loads(args.pairs)
-    subjects = args.subject if args.subject is not None else list(dataset.subjects.index)
-    summaries, pairs, report = [], [], ValidationReport(dataset.name)
-    for done, subject in enumerate(subjects, start=1):
-        reduced = reduce_recordings(
-            dataset, subject, trim, args.tests, segment_pairs, args.max_lag_s
-        )
-        summaries.append(reduced.summaries)
-        pairs.append(reduced.pairs)
-        report.findings += reduced.report.findings
-        _progress(done, len(subjects), "subjects read")
+    summaries, pairs, report = _read_subjects(args, dataset, segment_pairs)
     if not report.ok:
         print(
             f"aceval calibrate: {args.dataset}: recording files that cannot be used; no file "
@@ -207,8 +202,6 @@ def _calibrate_into(args, dataset, files) -> int:
             file=sys.stderr,
         )
         return 1
-    summaries = _concat_tables(summaries)
-    pairs = _concat_tables(pairs)
     unusable = summaries[summaries["flag"] != ""] if len(summaries) else summaries
     for message in unusable.get("message", []):
         print(f"aceval calibrate: left out {message}", file=sys.stderr)
@@ -218,30 +211,11 @@ def _calibrate_into(args, dataset, files) -> int:
         if len(summaries)
         else (pd.DataFrame(columns=CALIBRATION_COLUMNS), pd.DataFrame(columns=AXES_COLUMNS))
     )
-    if len(calibrations):
-        from aceval.apply import FINGERPRINT, recordings_fingerprint
-        from aceval.evaluation.methods_comparison import with_truth
-
-        calibrations = with_truth(calibrations, dataset.ground_truth)
-
-        calibrations = calibrations[calibrations["method"].isin(METHODS[args.method])].reset_index(
-            drop=True
-        )
-        fingerprints = {
-            s: recordings_fingerprint(dataset, s) for s in calibrations["subject"].unique()
-        }
-        calibrations[FINGERPRINT] = calibrations["subject"].map(fingerprints)
+    calibrations = _for_the_user(calibrations, dataset, args.method)
     if calibrations.empty and not args.allow_empty:
-        why = (
-            f"{len(unusable)} recording(s) were left out (listed above) and none remained"
-            if len(unusable)
-            else "no subject has a static test and a motion test that calibrates one of its IMUs "
-            "(calibrates.tsv)"
-            if len(summaries)
-            else "no recording of a test that calibrates an IMU"
-        )
         print(
-            f"aceval calibrate: nothing to calibrate in {args.dataset}: {why}; no file written",
+            f"aceval calibrate: nothing to calibrate in {args.dataset}: "
+            f"{_why_nothing(unusable, summaries)}; no file written",
             file=sys.stderr,
         )
         return 1
@@ -255,6 +229,55 @@ def _calibrate_into(args, dataset, files) -> int:
     _say_findings(report, sensors)
     print(calibration_screen(calibrations, len(unusable), args.out), file=sys.stderr)
     return 0
+
+
+def _read_subjects(args, dataset, segment_pairs: dict):
+    """The one pass over the chosen subjects' recordings: ``(summaries, pairs, report)``."""
+    from aceval.data.contract import ValidationReport
+    from aceval.signals.reduction import reduce_recordings
+
+    trim = _trim(args)
+    subjects = args.subject if args.subject is not None else list(dataset.subjects.index)
+    summaries, pairs, report = [], [], ValidationReport(dataset.name)
+    for done, subject in enumerate(subjects, start=1):
+        reduced = reduce_recordings(
+            dataset, subject, trim, args.tests, segment_pairs, args.max_lag_s
+        )
+        summaries.append(reduced.summaries)
+        pairs.append(reduced.pairs)
+        report.findings += reduced.report.findings
+        _progress(done, len(subjects), "subjects read")
+    return _concat_tables(summaries), _concat_tables(pairs), report
+
+
+def _for_the_user(calibrations, dataset, method: str):
+    """The calibrations of the chosen ``--method``, each with its error to the dataset's ground
+    truth (evaluation's join: the command reports both) and the fingerprint of the recordings it
+    was made from (what ``aceval apply`` checks).
+    """
+    if not len(calibrations):
+        return calibrations
+    from aceval.apply import FINGERPRINT, recordings_fingerprint
+    from aceval.evaluation.methods_comparison import with_truth
+
+    calibrations = with_truth(calibrations, dataset.ground_truth)
+    calibrations = calibrations[calibrations["method"].isin(chosen_methods(method))]
+    calibrations = calibrations.reset_index(drop=True)
+    fingerprints = {s: recordings_fingerprint(dataset, s) for s in calibrations["subject"].unique()}
+    calibrations[FINGERPRINT] = calibrations["subject"].map(fingerprints)
+    return calibrations
+
+
+def _why_nothing(unusable, summaries) -> str:
+    """Why a dataset gave no calibration."""
+    if len(unusable):
+        return f"{len(unusable)} recording(s) were left out (listed above) and none remained"
+    if len(summaries):
+        return (
+            "no subject has a static test and a motion test that calibrates one of its IMUs "
+            "(calibrates.tsv)"
+        )
+    return "no recording of a test that calibrates an IMU"
 
 
 def _say_findings(report, sensors: dict) -> None:

@@ -356,6 +356,38 @@ def read_sheets(
     _check_names(sheets, meta["sensor_sets"], report)
 
     imus = _expand_imus(sheets["imus.tsv"], meta["sensor_sets"], report)
+    _check_regions(imus, meta, report)
+    tests = _checked_tests(sheets["tests.tsv"], report)
+    subjects = sheets["subjects.tsv"]
+    for sheet, table, column in (
+        ("tests.tsv", tests, "test"),
+        ("subjects.tsv", subjects, "subject"),
+    ):
+        for index in table.index[table.duplicated(column, keep="first")]:
+            report.error(
+                f"{sheet} {_line(index)}", f"{column} {table.loc[index, column]!r} is defined twice"
+            )
+    tests = tests.drop_duplicates("test").set_index("test")
+    subjects = subjects.drop_duplicates("subject").set_index("subject", drop=False)
+    imu_names = set(imus.index.get_level_values("imu"))
+    calibrates = sheets["calibrates.tsv"]
+    _check_calibrates(calibrates, tests, imu_names, report)
+    recordings = sheets["recordings.tsv"]
+    _check_recording_rows(recordings, subjects.index, tests.index, imu_names, meta, report)
+    recordings = _unique_recordings(recordings, report)
+    _check_static_available(recordings, tests, calibrates, report)
+    if ground_truth is not None:
+        ground_truth = _check_ground_truth(ground_truth, report)
+    if functional_axes is not None:
+        _check_functional_axes(functional_axes, tests, imus, report)
+    dataset = Dataset(
+        root, meta, imus, tests, calibrates, subjects, recordings, ground_truth, functional_axes
+    )
+    return dataset, report
+
+
+def _check_regions(imus: pd.DataFrame, meta: dict, report: ValidationReport) -> None:
+    """Every region dataset.yaml gives a range for is one an IMU has."""
     regions = set(imus["region"])
     for region in sorted(set(meta.get("acc_range_g") or {}) - regions):
         report.error(
@@ -363,8 +395,13 @@ def read_sheets(
             f"acc_range_g names region {region!r}, which no IMU of imus.tsv has "
             f"(regions: {', '.join(sorted(regions))}): the clipping check would be off",
         )
-    tests = sheets["tests.tsv"]
-    if "first_phase" not in tests.columns:  # Kong's tests by name; others unchecked
+
+
+def _checked_tests(tests: pd.DataFrame, report: ValidationReport) -> pd.DataFrame:
+    """tests.tsv with a first_phase (Kong's tests by name when the column is missing; others
+    unchecked), each test's kind and first phase checked.
+    """
+    if "first_phase" not in tests.columns:
         tests = tests.assign(first_phase=tests["test"].map(KONG_FIRST_PHASE).fillna(""))
     for index, row in tests.iterrows():
         if row["kind"] not in ("static", "motion"):
@@ -378,20 +415,11 @@ def read_sheets(
                 f"test {row['test']}: first_phase {row['first_phase']!r} must be "
                 f"one of -y, +y, gait or empty",
             )
-    subjects = sheets["subjects.tsv"]
-    for sheet, table, column in (
-        ("tests.tsv", tests, "test"),
-        ("subjects.tsv", subjects, "subject"),
-    ):
-        for index in table.index[table.duplicated(column, keep="first")]:
-            report.error(
-                f"{sheet} {_line(index)}", f"{column} {table.loc[index, column]!r} is defined twice"
-            )
-    tests = tests.drop_duplicates("test").set_index("test")
-    subjects = subjects.drop_duplicates("subject").set_index("subject", drop=False)
-    imu_names = set(imus.index.get_level_values("imu"))
+    return tests
 
-    calibrates = sheets["calibrates.tsv"]
+
+def _check_calibrates(calibrates, tests, imu_names, report: ValidationReport) -> None:
+    """Every calibrates.tsv row names a defined motion test and a defined IMU."""
     for index, row in calibrates.iterrows():
         where = f"calibrates.tsv {_line(index)}"
         if row["test"] not in tests.index:
@@ -401,18 +429,15 @@ def read_sheets(
         if row["imu"] not in imu_names:
             report.error(where, f"IMU {row['imu']!r} is not defined in imus.tsv")
 
-    recordings = sheets["recordings.tsv"]
-    _check_recording_rows(recordings, subjects.index, tests.index, imu_names, meta, report)
+
+def _unique_recordings(recordings: pd.DataFrame, report: ValidationReport) -> pd.DataFrame:
+    """recordings.tsv with ``rep`` as a number ('01' and '1' are one repetition), a repeated
+    recording an error (the first kept), a file serving two recordings a warning.
+    """
     recordings = recordings.assign(
         rep=pd.to_numeric(recordings["rep"], errors="coerce").astype("Int64")
     )
-    key = [
-        "subject",
-        "sensor_set",
-        "test",
-        "rep",
-        "imu",
-    ]  # rep as a number: '01' and '1' are one repetition
+    key = ["subject", "sensor_set", "test", "rep", "imu"]
     for index in recordings.index[recordings.duplicated(key, keep="first")]:
         row = recordings.loc[index]
         report.error(
@@ -430,17 +455,7 @@ def read_sheets(
             f"path {recordings.loc[index, 'path']!r} is also the file "
             f"of {_line(first)}: one file serves two recordings",
         )
-
-    _check_static_available(recordings, tests, calibrates, report)
-
-    if ground_truth is not None:
-        ground_truth = _check_ground_truth(ground_truth, report)
-    if functional_axes is not None:
-        _check_functional_axes(functional_axes, tests, imus, report)
-    dataset = Dataset(
-        root, meta, imus, tests, calibrates, subjects, recordings, ground_truth, functional_axes
-    )
-    return dataset, report
+    return recordings
 
 
 def _check_recording_rows(recordings, subjects, tests, imu_names, meta, report) -> None:

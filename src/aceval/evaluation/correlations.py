@@ -4,6 +4,8 @@ calibrations, from the pair moments of the one pass (nothing reads the samples a
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 import numpy as np
 import pandas as pd
 from scipy.spatial.transform import Rotation
@@ -70,44 +72,7 @@ def correlations(
         return pd.DataFrame(columns=CORRELATION_COLUMNS)
     full = full_sets(calibrations)
     motion = [t for t in dataset.tests.index if dataset.tests.loc[t, "kind"] == "motion"]
-    # the pair moments by (objective, subject, set, IMU, IMU b, test, rep, signal, window)
-    keys = ["objective", "subject", "sensor_set", "imu", "imu_b", "test", "rep", "signal", "window"]
-    lookup = pairs[keys].assign(imu_b=pairs["imu_b"].fillna(""), rep=pairs["rep"].astype(int))
-    index = {key: k for k, key in enumerate(lookup.itertuples(index=False, name=None))}
-    reps = lookup.groupby(keys[:4] + ["test"])["rep"].unique().to_dict()
-    # each pair's alignment as arrays, read by position (not a pandas row per pair)
-    lags, n_overlaps = pairs["lag_samples"].to_numpy(), pairs["n_overlap"].to_numpy()
-    pair_flags = pairs["flag"].to_numpy(dtype=object)
-    turns = {h: Rotation.from_euler("z", h, degrees=True).as_matrix() for h in headings_deg}
-    rows: list[dict] = []
-    wanted: list[tuple] = []  # (row, pair row, R_a, R_b, mode)
-
-    def window(m: str) -> str:
-        return "moving" if m == "per_axis_moving" else "all"
-
-    def correlate(base, objective, sensor_set, imu, imu_b, t_ap, R_a, R_b, signals, sensitivity):
-        unit = (objective, base["subject"], sensor_set, imu)
-        for rep in sorted(int(r) for r in reps.get((*unit, t_ap), [])):
-            for signal in signals:
-                key = (*unit, imu_b, t_ap, rep, signal)
-                k = index[(*key, window(mode))]
-                row = {**base, "t_ap": t_ap, "rep": rep, "signal": signal, "mode": mode,
-                       "heading_error_deg": 0.0, "lag_samples": int(lags[k]),
-                       "n_samples": int(n_overlaps[k]), "correlation": np.nan,
-                       "flag": pair_flags[k] if isinstance(pair_flags[k], str) else ""}  # fmt: skip
-                rows.append(row)
-                if row["flag"]:
-                    continue
-                wanted.append((len(rows) - 1, k, R_a, R_b, mode))
-                if sensitivity and signal == "acc":
-                    for heading, turn in turns.items():
-                        for m in CORRELATION_MODES:
-                            rows.append({**row, "objective": "frontal_lateral_sensitivity",
-                                         "mode": m, "heading_error_deg": heading})  # fmt: skip
-                            wanted.append(
-                                (len(rows) - 1, index[(*key, window(m))], R_a, turn @ R_b, m)
-                            )
-
+    moments = _PairMoments.of(pairs, mode, headings_deg)
     sensor_sets = list(dataset.meta["sensor_sets"])
     if len(sensor_sets) == 2 and len(full):
         for plan in frontal_lateral_plan(full, sensor_sets).to_dict("records"):
@@ -115,27 +80,95 @@ def correlations(
                     "sensor_set": "|".join(sensor_sets), "imu": plan["imu"],
                     "segment": plan["segment"], "side": plan["side"], "t_ex": plan["t_ex"]}  # fmt: skip
             for t_ap in motion:
-                correlate(base, "frontal_lateral", base["sensor_set"], plan["imu"], "", t_ap,
-                          plan["R_a"], plan["R_b"], ("acc", "gyr"), bool(headings_deg))  # fmt: skip
+                moments.correlate(base, plan["imu"], "", t_ap, plan["R_a"], plan["R_b"],
+                                  ("acc", "gyr"), bool(headings_deg))  # fmt: skip
     if segment_pairs and len(full):
         for plan in segment_pair_plan(full, segment_pairs).to_dict("records"):
             base = {"objective": "segment_pair", "subject": plan["subject"],
                     "sensor_set": plan["sensor_set"], "imu": plan["imu_a"], "imu_b": plan["imu_b"],
                     "pair": plan["pair"], "side": plan["side"], "t_ex": plan["t_ex"]}  # fmt: skip
             for t_ap in [t for t in plan["t_ap"] if t in motion]:
-                correlate(base, "segment_pair", plan["sensor_set"], plan["imu_a"], plan["imu_b"],
-                          t_ap, plan["R_a"], plan["R_b"], ("acc",), False)  # fmt: skip
-    table = pd.DataFrame(rows, columns=CORRELATION_COLUMNS)
-    for m in {w[4] for w in wanted}:
-        chosen = [w for w in wanted if w[4] == m]
-        values = correlation_from_moments(
-            pairs.iloc[[w[1] for w in chosen]],
-            np.array([w[2] for w in chosen]),
-            np.array([w[3] for w in chosen]),
-            m,
+                moments.correlate(base, plan["imu_a"], plan["imu_b"], t_ap, plan["R_a"],
+                                  plan["R_b"], ("acc",), False)  # fmt: skip
+    return _sensitivity_unit_means(moments.table(pairs))
+
+
+@dataclass
+class _PairMoments:
+    """The pair moments of one pass, looked up by key and read by position (not a pandas row per
+    pair), and the correlation rows asked of them so far (``rows``; ``wanted``: (row, pair row,
+    R_a, R_b, mode) for each correlation still to compute).
+    """
+
+    index: dict
+    reps: dict
+    lags: np.ndarray
+    n_overlaps: np.ndarray
+    flags: np.ndarray
+    mode: str
+    turns: dict
+    rows: list = field(default_factory=list)
+    wanted: list = field(default_factory=list)
+
+    @classmethod
+    def of(cls, pairs: pd.DataFrame, mode: str, headings_deg) -> _PairMoments:
+        # the pair moments by (objective, subject, set, IMU, IMU b, test, rep, signal, window)
+        keys = ["objective", "subject", "sensor_set", "imu", "imu_b", "test", "rep", "signal",
+                "window"]  # fmt: skip
+        lookup = pairs[keys].assign(imu_b=pairs["imu_b"].fillna(""), rep=pairs["rep"].astype(int))
+        return cls(
+            index={key: k for k, key in enumerate(lookup.itertuples(index=False, name=None))},
+            reps=lookup.groupby(keys[:4] + ["test"])["rep"].unique().to_dict(),
+            lags=pairs["lag_samples"].to_numpy(),
+            n_overlaps=pairs["n_overlap"].to_numpy(),
+            flags=pairs["flag"].to_numpy(dtype=object),
+            mode=mode,
+            turns={h: Rotation.from_euler("z", h, degrees=True).as_matrix() for h in headings_deg},
         )
-        table.loc[[w[0] for w in chosen], "correlation"] = values
-    return _sensitivity_unit_means(table)
+
+    def correlate(self, base, imu, imu_b, t_ap, R_a, R_b, signals, sensitivity) -> None:
+        """Ask for the correlation of every repetition of ``t_ap`` of the pair ``base`` names
+        (and, with ``sensitivity``, of the acceleration with each heading error, every mode).
+        """
+        unit = (base["objective"], base["subject"], base["sensor_set"], imu)
+        for rep in sorted(int(r) for r in self.reps.get((*unit, t_ap), [])):
+            for signal in signals:
+                key = (*unit, imu_b, t_ap, rep, signal)
+                k = self.index[(*key, _window(self.mode))]
+                flag = self.flags[k] if isinstance(self.flags[k], str) else ""
+                row = {**base, "t_ap": t_ap, "rep": rep, "signal": signal, "mode": self.mode,
+                       "heading_error_deg": 0.0, "lag_samples": int(self.lags[k]),
+                       "n_samples": int(self.n_overlaps[k]), "correlation": np.nan, "flag": flag}  # fmt: skip
+                self.rows.append(row)
+                if flag:
+                    continue
+                self.wanted.append((len(self.rows) - 1, k, R_a, R_b, self.mode))
+                if sensitivity and signal == "acc":
+                    for heading, turn in self.turns.items():
+                        for m in CORRELATION_MODES:
+                            self.rows.append({**row, "objective": "frontal_lateral_sensitivity",
+                                              "mode": m, "heading_error_deg": heading})  # fmt: skip
+                            at = self.index[(*key, _window(m))]
+                            self.wanted.append((len(self.rows) - 1, at, R_a, turn @ R_b, m))
+
+    def table(self, pairs: pd.DataFrame) -> pd.DataFrame:
+        """The rows asked for, their correlations computed from the moments, one mode at a time."""
+        table = pd.DataFrame(self.rows, columns=CORRELATION_COLUMNS)
+        for m in {w[4] for w in self.wanted}:
+            chosen = [w for w in self.wanted if w[4] == m]
+            values = correlation_from_moments(
+                pairs.iloc[[w[1] for w in chosen]],
+                np.array([w[2] for w in chosen]),
+                np.array([w[3] for w in chosen]),
+                m,
+            )
+            table.loc[[w[0] for w in chosen], "correlation"] = values
+        return table
+
+
+def _window(mode: str) -> str:
+    """The pair moments a correlation ``mode`` reads (``moving``: the trimmed movement only)."""
+    return "moving" if mode == "per_axis_moving" else "all"
 
 
 def _sensitivity_unit_means(table: pd.DataFrame) -> pd.DataFrame:

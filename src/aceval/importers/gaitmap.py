@@ -78,50 +78,15 @@ def import_gaitmap(
     """Convert the example (``src``: its folder) into a dataset at ``out``; returns the report and
     the truth table (:func:`aceval.importers.vicon.truth_rows`), which the caller writes.
     """
-    from aceval.data.truth import lowpass
-    from aceval.importers.vicon import body_axes, truth_rows
-
     src = Path(src)
-    imu = read_two_header_csv(src / "imu_sample_not_rotated.csv")
-    mocap = read_two_header_csv(src / "mocap_sample.csv")
     sheet = pd.read_csv(sensors, sep="\t", dtype=str, comment="#").apply(lambda c: c.str.strip())
     missing = [c for c in SHEET_COLUMNS if c not in sheet.columns]
     if missing:
         raise FormatError(f"{sensors}: missing column(s) {', '.join(missing)}")
-    n = len(imu)
-    signals, markers = {}, {}
-    for row in sheet.to_dict("records"):
-        if row["name"] not in imu.columns.get_level_values(0):
-            raise FormatError(f"{src / 'imu_sample_not_rotated.csv'}: no sensor {row['name']}")
-        part = imu[row["name"]]
-        acc = part[["acc_x", "acc_y", "acc_z"]].to_numpy(float)
-        gyr = np.radians(part[["gyr_x", "gyr_y", "gyr_z"]].to_numpy(float))
-        signals[row["imu"]] = (gyr, acc)
-        for marker in FRAME:
-            label = f"{row['prefix']}_{marker}"
-            if label not in mocap.columns.get_level_values(0):
-                raise FormatError(f"{src / 'mocap_sample.csv'}: no marker {label}")
-            smooth = lowpass(mocap[label][["x", "y", "z"]].to_numpy(float) / 1000.0, MOCAP_RATE_HZ)
-            markers[label] = resample(smooth, MOCAP_RATE_HZ, n, IMU_RATE_HZ)
+    signals, markers = _read(src, sheet)
     spans = _spans(signals, sheet, IMU_RATE_HZ)
-    # Kong's body frame from the walking direction: the heels' horizontal progression
-    heels = np.mean([markers[f"{p}_{POINT}"] for p in sheet["prefix"]], axis=0)
-    a, b = spans["first_straight"][0]
-    forward = heels[b - 1] - heels[a]
-    forward[2] = 0.0
-    forward /= np.linalg.norm(forward)
-    B = body_axes(np.array([forward[1], -forward[0], 0.0]))  # right = forward x up, world z up
-    sensors_ = {
-        ("main", row["imu"]): dict(
-            segment=row["segment"], side=row["side"], gyr=signals[row["imu"]][0], acc=signals[row["imu"]][1],
-            frame=tuple(f"{row['prefix']}_{m}" for m in FRAME), point=markers[f"{row['prefix']}_{POINT}"],
-            sensor_id=row["name"],
-        )
-        for row in sheet.to_dict("records")
-    }  # fmt: skip
-    truth = truth_rows(markers, sensors_, spans, IMU_RATE_HZ, B)
+    truth = _truth(sheet, signals, markers, spans)
     truth.insert(0, "subject", subject)
-
     meta = {
         "name": name,
         "description": "gaitmap example (both feet, IMU with optical markers), recorded data, imported by "
@@ -161,6 +126,54 @@ def import_gaitmap(
         ],
     )
     return report, truth
+
+
+def _read(src: Path, sheet: pd.DataFrame) -> tuple[dict, dict]:
+    """``(signals, markers)``: each sensor's (gyr rad/s, acc m/s^2) and each marker of its frame
+    (m, low-pass filtered and resampled to the IMU's samples).
+    """
+    from aceval.data.truth import lowpass
+
+    imu = read_two_header_csv(src / "imu_sample_not_rotated.csv")
+    mocap = read_two_header_csv(src / "mocap_sample.csv")
+    signals, markers = {}, {}
+    for row in sheet.to_dict("records"):
+        if row["name"] not in imu.columns.get_level_values(0):
+            raise FormatError(f"{src / 'imu_sample_not_rotated.csv'}: no sensor {row['name']}")
+        part = imu[row["name"]]
+        acc = part[["acc_x", "acc_y", "acc_z"]].to_numpy(float)
+        gyr = np.radians(part[["gyr_x", "gyr_y", "gyr_z"]].to_numpy(float))
+        signals[row["imu"]] = (gyr, acc)
+        for marker in FRAME:
+            label = f"{row['prefix']}_{marker}"
+            if label not in mocap.columns.get_level_values(0):
+                raise FormatError(f"{src / 'mocap_sample.csv'}: no marker {label}")
+            smooth = lowpass(mocap[label][["x", "y", "z"]].to_numpy(float) / 1000.0, MOCAP_RATE_HZ)
+            markers[label] = resample(smooth, MOCAP_RATE_HZ, len(imu), IMU_RATE_HZ)
+    return signals, markers
+
+
+def _truth(sheet: pd.DataFrame, signals: dict, markers: dict, spans: dict) -> pd.DataFrame:
+    """The feet's ground truth (:func:`aceval.importers.vicon.truth_rows`) in Kong's body frame of
+    the walking direction: the heels' horizontal progression in the first straight.
+    """
+    from aceval.importers.vicon import body_axes, truth_rows
+
+    heels = np.mean([markers[f"{p}_{POINT}"] for p in sheet["prefix"]], axis=0)
+    a, b = spans["first_straight"][0]
+    forward = heels[b - 1] - heels[a]
+    forward[2] = 0.0
+    forward /= np.linalg.norm(forward)
+    B = body_axes(np.array([forward[1], -forward[0], 0.0]))  # right = forward x up, world z up
+    sensors = {
+        ("main", row["imu"]): dict(
+            segment=row["segment"], side=row["side"], gyr=signals[row["imu"]][0], acc=signals[row["imu"]][1],
+            frame=tuple(f"{row['prefix']}_{m}" for m in FRAME), point=markers[f"{row['prefix']}_{POINT}"],
+            sensor_id=row["name"],
+        )
+        for row in sheet.to_dict("records")
+    }  # fmt: skip
+    return truth_rows(markers, sensors, spans, IMU_RATE_HZ, B)
 
 
 def _spans(signals: dict, sheet: pd.DataFrame, fs_hz: float) -> dict:

@@ -288,61 +288,13 @@ def import_hugadb(src: str | Path, out: Path) -> ImportReport:
         data = read_hugadb(path)
         ranges = protocol_ranges(data)
         if not any(test in ranges for test in CALIBRATES):
-            report.add(
-                path.name,
-                subject,
-                "",
-                "skipped",
-                "no standing-up/sitting-down cycle and no walking bout",
-            )
+            report.add(path.name, subject, "", "skipped",
+                       "no standing-up/sitting-down cycle and no walking bout")  # fmt: skip
             continue
-        written = 0
-        for imu in SENSORS:
-            acc_counts, gyr_counts = data.counts[imu]
-            fault = gyro_fault(gyr_counts)
-            if fault:
-                report.add(path.name, subject, imu, "excluded", fault)
-                continue
-            clipped = clipped_fraction(acc_counts)
-            if clipped > 0:
-                report.add(
-                    path.name,
-                    subject,
-                    imu,
-                    "flagged",
-                    f"{clipped:.1%} of samples clipped at +-2 g "
-                    "(left out of Kong's scatter by aceval calibrate)",
-                )
-            acc, gyr = data.acc(imu), data.gyr(imu)
-            for test, spans in ranges.items():
-                if test in CALIBRATES and imu not in CALIBRATES[test]:
-                    continue
-                for rep, (a, b) in enumerate(spans, start=1):
-                    if test == "T0w":
-                        writer.recording(
-                            subject,
-                            "legs",
-                            test,
-                            rep,
-                            imu,
-                            mean_posture(gyr[a:b]),
-                            mean_posture(acc[a:b]),
-                        )
-                    else:
-                        writer.recording(subject, "legs", test, rep, imu, gyr[a:b], acc[a:b])
-                    repetitions[test] = max(repetitions.get(test, 0), rep)
-            written += 1
+        written = _write_session(writer, report, path, subject, data, ranges, repetitions)
         if written:
-            participant = match.group(3)
-            subjects.append(
-                [
-                    subject,
-                    participant,
-                    data.date,
-                    path.name,
-                    "T0" if "T0" in ranges else "T0w (fallback)",
-                ]
-            )
+            subjects.append([subject, match.group(3), data.date, path.name,
+                             "T0" if "T0" in ranges else "T0w (fallback)"])  # fmt: skip
             report.add(
                 path.name,
                 subject,
@@ -370,3 +322,35 @@ def import_hugadb(src: str | Path, out: Path) -> ImportReport:
         ],
     )
     return report
+
+
+def _write_session(writer, report, path, subject, data, ranges, repetitions: dict) -> int:
+    """Every usable IMU's recordings of one session (each test's spans as repetitions; a walking
+    session's T0w as its mean posture), the gyroscope faults excluded and clipping flagged in
+    the report; ``repetitions`` (test -> most repetitions) updated. Returns the IMUs written.
+    """
+    written = 0
+    for imu in SENSORS:
+        acc_counts, gyr_counts = data.counts[imu]
+        fault = gyro_fault(gyr_counts)
+        if fault:
+            report.add(path.name, subject, imu, "excluded", fault)
+            continue
+        clipped = clipped_fraction(acc_counts)
+        if clipped > 0:
+            report.add(path.name, subject, imu, "flagged",
+                       f"{clipped:.1%} of samples clipped at +-2 g "
+                       "(left out of Kong's scatter by aceval calibrate)")  # fmt: skip
+        acc, gyr = data.acc(imu), data.gyr(imu)
+        for test, spans in ranges.items():
+            if test in CALIBRATES and imu not in CALIBRATES[test]:
+                continue
+            for rep, (a, b) in enumerate(spans, start=1):
+                if test == "T0w":
+                    gyr_part, acc_part = mean_posture(gyr[a:b]), mean_posture(acc[a:b])
+                else:
+                    gyr_part, acc_part = gyr[a:b], acc[a:b]
+                writer.recording(subject, "legs", test, rep, imu, gyr_part, acc_part)
+                repetitions[test] = max(repetitions.get(test, 0), rep)
+        written += 1
+    return written

@@ -244,13 +244,21 @@ def import_qmt(
             "imported",
             "; ".join(f"{t} x{len(spans[t])}" for t in tests),
         )
+    _sheets(writer, out, sheet, spans, subject)
+    _loose_reference(out, path, sheet, segments, spans, subject, report)
+    return report
+
+
+def _sheets(writer, out: Path, sheet, spans: dict, subject: str) -> None:
+    """tests.tsv (T3 without a first phase: the two transitions turn opposite ways),
+    calibrates.tsv, subjects.tsv and imus.tsv.
+    """
     calibrates = {test: [r["imu"] for r in sheet.to_dict("records") if r["segment"] in allowed]
                   for test, allowed in CALIBRATES.items()}  # fmt: skip
     writer.protocol_sheets(TESTS, {test: len(ranges) for test, ranges in spans.items()}, calibrates)
     writer.close()
-    # the two transitions turn opposite ways: no first_phase for T3 (writer uses Kong's by name)
     tests = pd.read_csv(out / "tests.tsv", sep="\t", dtype=str, keep_default_na=False)
-    tests.loc[tests["test"] == "T3", "first_phase"] = ""
+    tests.loc[tests["test"] == "T3", "first_phase"] = ""  # the writer gives Kong's by name
     tests.to_csv(out / "tests.tsv", sep="\t", index=False)
     write_sheet(out / "subjects.tsv", ["subject"], [[subject]])
     write_sheet(
@@ -261,6 +269,12 @@ def import_qmt(
             for r in sheet.to_dict("records")
         ],
     )
+
+
+def _loose_reference(out: Path, path: Path, sheet, segments, spans, subject, report) -> None:
+    """loose_reference.tsv from the publishers' hand-tuned quaternions beside the recording,
+    when they are there (said in the report either way).
+    """
     reference_path = path.parent / REFERENCE_FILE
     if reference_path.is_file():
         reference = pd.read_csv(reference_path, sep="\t").set_index("segment")
@@ -270,4 +284,3 @@ def import_qmt(
         report.add(reference_path.name, subject, "", "loose reference", "loose_reference.tsv")
     else:
         report.add(reference_path.name, subject, "", "skipped", "not found: no loose reference")
-    return report

@@ -309,8 +309,7 @@ def truth_rows(
     since standing); the lever arm from the point to the sensor; for two sensors on one segment,
     their gyroscopes' relative rotation against their truths' (``pair_consistency_deg``).
     """
-    from aceval.data.rotations import error_angle_deg
-    from aceval.data.truth import acceleration_truth, pair_consistency_deg, twist_about_axis
+    from aceval.data.truth import acceleration_truth, twist_about_axis
 
     standing = spans["T0"][0]
     walk = (spans["T6"][0][0], spans["T6"][-1][1])
@@ -331,46 +330,61 @@ def truth_rows(
         twist = twist_about_axis(frames, new["orientation"], [1.0, 0.0, 0.0], 0)[
             bout[0] - new["start"] :
         ]
-        difference = float(error_angle_deg(R, R_marker))
         kept[(sensor_set, imu)] = ((sensor["segment"], sensor["side"]), gyr[walk[0] : walk[1]], R)
         rows.append(
             {
                 "sensor_set": sensor_set,
                 "imu": imu,
-                **{f"r{i + 1}{j + 1}": R[i, j] for i in range(3) for j in range(3)},
-                "sensor_id": sensor["sensor_id"],
-                "segment": sensor["segment"],
-                "side": sensor["side"],
-                "method": "optical point acceleration, from standing to the end of the first straight walk",
-                "lag_samples": old["lag_samples"],
-                "rms_misfit_m_s2": new["rms_misfit_m_s2"],
-                "split_half_deg": new["split_half_deg"],
-                "n_samples": new["n_samples"],
-                "lever_arm_x_m": new["lever_arm_m"][0],
-                "lever_arm_y_m": new["lever_arm_m"][1],
-                "lever_arm_z_m": new["lever_arm_m"][2],
-                "lever_arm_m": float(np.linalg.norm(new["lever_arm_m"])),
-                **{f"marker_frame_{k}": v for k, v in old.items() if k != "lag_samples"},
-                **{
-                    f"marker_frame_r{i + 1}{j + 1}": R_marker[i, j]
-                    for i in range(3)
-                    for j in range(3)
-                },
-                "methods_differ_deg": difference,
-                "twist_mean_deg": float(np.mean(twist)),
-                "twist_p5_deg": float(np.percentile(twist, 5)),
-                "twist_p95_deg": float(np.percentile(twist, 95)),
-                "flag": ";".join(
-                    name
-                    for name, raised in (
-                        ("methods_differ", difference > MAX_METHOD_DIFFERENCE_DEG),
-                        ("truth_unstable", new["split_half_deg"] > MAX_METHOD_DIFFERENCE_DEG),
-                    )
-                    if raised
-                ),
+                **_truth_columns(sensor, new, old, R, R_marker, twist),
             }
         )
-    table = pd.DataFrame(rows)
+    return _with_pair_consistency(pd.DataFrame(rows), kept)
+
+
+def _truth_columns(sensor: dict, new: dict, old: dict, R, R_marker, twist) -> dict:
+    """One sensor's row of :func:`truth_rows` after its identity: the truth R, both methods'
+    diagnostics, their difference, the marker frame's twist and the flags.
+    """
+    from aceval.data.rotations import error_angle_deg
+
+    difference = float(error_angle_deg(R, R_marker))
+    return {
+        **{f"r{i + 1}{j + 1}": R[i, j] for i in range(3) for j in range(3)},
+        "sensor_id": sensor["sensor_id"],
+        "segment": sensor["segment"],
+        "side": sensor["side"],
+        "method": "optical point acceleration, from standing to the end of the first straight walk",
+        "lag_samples": old["lag_samples"],
+        "rms_misfit_m_s2": new["rms_misfit_m_s2"],
+        "split_half_deg": new["split_half_deg"],
+        "n_samples": new["n_samples"],
+        "lever_arm_x_m": new["lever_arm_m"][0],
+        "lever_arm_y_m": new["lever_arm_m"][1],
+        "lever_arm_z_m": new["lever_arm_m"][2],
+        "lever_arm_m": float(np.linalg.norm(new["lever_arm_m"])),
+        **{f"marker_frame_{k}": v for k, v in old.items() if k != "lag_samples"},
+        **{f"marker_frame_r{i + 1}{j + 1}": R_marker[i, j] for i in range(3) for j in range(3)},
+        "methods_differ_deg": difference,
+        "twist_mean_deg": float(np.mean(twist)),
+        "twist_p5_deg": float(np.percentile(twist, 5)),
+        "twist_p95_deg": float(np.percentile(twist, 95)),
+        "flag": ";".join(
+            name
+            for name, raised in (
+                ("methods_differ", difference > MAX_METHOD_DIFFERENCE_DEG),
+                ("truth_unstable", new["split_half_deg"] > MAX_METHOD_DIFFERENCE_DEG),
+            )
+            if raised
+        ),
+    }
+
+
+def _with_pair_consistency(table: pd.DataFrame, kept: dict) -> pd.DataFrame:
+    """``pair_consistency_deg`` of two sensors on one segment (their gyroscopes' relative
+    rotation against their truths'); NaN for a sensor alone on its segment.
+    """
+    from aceval.data.truth import pair_consistency_deg
+
     table["pair_consistency_deg"] = np.nan
     for key_a, (segment_a, gyr_a, R_a) in kept.items():
         for key_b, (segment_b, gyr_b, R_b) in kept.items():

@@ -198,10 +198,53 @@ def import_xsens(
     """
     src = Path(src)
     sheet = read_sensor_sheet(sensors)
+    report = ImportReport()
+    files, wanted = _exports(src, sheet, sensors, subject, report)
+    gyr, acc, quat, fs_hz = _synchronised(src, files, wanted)
+    spans = _trial_spans(src, sensors, wanted, gyr, acc, fs_hz)
+    meta = {
+        "name": name,
+        "description": description
+        or f"Xsens MT Manager exports ({src.name}), imported by aceval import xsens",
+        "simulated": False,
+        "sampling_rate_hz": fs_hz,
+        "units": {"acc": "m/s^2", "gyr": "rad/s"},
+        "sensor_sets": list(dict.fromkeys(sheet["sensor_set"])),
+        "acc_range_g": {"upper_body": ACC_RANGE_G, "lower_body": ACC_RANGE_G},
+        "gyr_range_dps": GYR_RANGE_DPS,
+    }
+    writer = DatasetWriter(out, meta)
+    for sensor_id, row in wanted.items():
+        for test, ranges in ((t, r) for t, r in spans.items() if t in ("T0", "T6")):
+            for rep, (a, b) in enumerate(ranges, start=1):
+                q = None if quat[sensor_id] is None else quat[sensor_id][a:b]
+                writer.recording(subject, row["sensor_set"], test, rep, row["imu"],
+                                 gyr[sensor_id][a:b], acc[sensor_id][a:b], q)  # fmt: skip
+        report.add(
+            files[sensor_id].name,
+            subject,
+            row["imu"],
+            "imported",
+            f"set {row['sensor_set']}; " + "; ".join(f"{t} x{len(spans[t])}" for t in ("T0", "T6")),
+        )
+    _sheets(writer, out, sheet, wanted, spans, subject)
+    signals = {(row["sensor_set"], row["imu"]): (gyr[s], acc[s]) for s, row in wanted.items()}
+    return report, {
+        "signals": signals,
+        "spans": spans,
+        "fs_hz": fs_hz,
+        "sensor_ids": {(r["sensor_set"], r["imu"]): s for s, r in wanted.items()},
+    }
+
+
+def _exports(src: Path, sheet, sensors, subject: str, report: ImportReport):
+    """``(files, wanted)``: the export of each sensor id, and the sensor sheet's row of each
+    sensor it names; an export of another sensor is reported skipped (naming its byte-identical
+    twin, if any), a named sensor without an export is an error.
+    """
     files = {m.group(1).upper(): p for p in sorted(src.glob("*.txt")) if (m := _ID.search(p.name))}
     if not files:
         raise FormatError(f"{src}: no MT Manager exports named *_<8-hex sensor id>.txt")
-    report = ImportReport()
     wanted = {row["sensor_id"].upper(): row for row in sheet.to_dict("records")}
     for sensor_id, path in files.items():
         if sensor_id in wanted:
@@ -219,6 +262,14 @@ def import_xsens(
     absent = [s for s in wanted if s not in files]
     if absent:
         raise FormatError(f"{src}: no export for sensor(s) {', '.join(absent)} of {sensors}")
+    return files, wanted
+
+
+def _synchronised(src: Path, files: dict, wanted: dict):
+    """``(gyr, acc, quat, fs_hz)`` of the wanted sensors (by id; quat None when not exported:
+    the Xsens orientation, scalar first, sensor -> its z-up world); FormatError unless the
+    exports are one synchronised trial (the same packet counters and rate).
+    """
     tables, rates = {}, set()
     for sensor_id in wanted:
         header, table = read_mt_export(files[sensor_id])
@@ -233,13 +284,19 @@ def import_xsens(
             f"{src}: the exports are not one synchronised trial (PacketCounter first, last, "
             f"count per sensor: {counters}; rates {sorted(rates)} Hz)"
         )
-    fs_hz = rates.pop()
     gyr = {s: t[["Gyr_X", "Gyr_Y", "Gyr_Z"]].to_numpy(float) for s, t in tables.items()}
     acc = {s: t[["Acc_X", "Acc_Y", "Acc_Z"]].to_numpy(float) for s, t in tables.items()}
-    quat = {  # the Xsens orientation (scalar first, sensor -> its z-up world), when exported
+    quat = {
         s: t[QUATERNION].to_numpy(float) if set(QUATERNION) <= set(t.columns) else None
         for s, t in tables.items()
     }
+    return gyr, acc, quat, rates.pop()
+
+
+def _trial_spans(src, sensors, wanted: dict, gyr, acc, fs_hz: float) -> dict:
+    """The trial's standing (T0) and walking (T6) spans from the first shank's strides (the turn
+    left out with the waist's yaw rate, when there is a waist sensor).
+    """
     shanks = [s for s, row in wanted.items() if row["segment"] == "shank"]
     if not shanks:
         raise FormatError(f"{sensors}: no shank sensor to count strides with")
@@ -253,39 +310,11 @@ def import_xsens(
         raise FormatError(
             f"{src}: expected standing then walking; found {', '.join(spans) or 'neither'}"
         )
-    sensor_sets = list(dict.fromkeys(sheet["sensor_set"]))
-    meta = {
-        "name": name,
-        "description": description
-        or f"Xsens MT Manager exports ({src.name}), imported by aceval import xsens",
-        "simulated": False,
-        "sampling_rate_hz": fs_hz,
-        "units": {"acc": "m/s^2", "gyr": "rad/s"},
-        "sensor_sets": sensor_sets,
-        "acc_range_g": {"upper_body": ACC_RANGE_G, "lower_body": ACC_RANGE_G},
-        "gyr_range_dps": GYR_RANGE_DPS,
-    }
-    writer = DatasetWriter(out, meta)
-    for sensor_id, row in wanted.items():
-        for test, ranges in ((t, r) for t, r in spans.items() if t in ("T0", "T6")):
-            for rep, (a, b) in enumerate(ranges, start=1):
-                writer.recording(
-                    subject,
-                    row["sensor_set"],
-                    test,
-                    rep,
-                    row["imu"],
-                    gyr[sensor_id][a:b],
-                    acc[sensor_id][a:b],
-                    None if quat[sensor_id] is None else quat[sensor_id][a:b],
-                )
-        report.add(
-            files[sensor_id].name,
-            subject,
-            row["imu"],
-            "imported",
-            f"set {row['sensor_set']}; " + "; ".join(f"{t} x{len(spans[t])}" for t in ("T0", "T6")),
-        )
+    return spans
+
+
+def _sheets(writer: DatasetWriter, out: Path, sheet, wanted: dict, spans: dict, subject) -> None:
+    """tests.tsv, calibrates.tsv (T6 calibrates the T6 segments), subjects.tsv and imus.tsv."""
     t6_imus = sorted({row["imu"] for row in wanted.values() if row["segment"] in T6_SEGMENTS})
     writer.protocol_sheets(
         {
@@ -302,10 +331,3 @@ def import_xsens(
         ["imu", "sensor_set", "segment", "side", "region", "right_axis"],
         sheet[["imu", "sensor_set", "segment", "side", "region", "right_axis"]].to_numpy().tolist(),
     )
-    signals = {(row["sensor_set"], row["imu"]): (gyr[s], acc[s]) for s, row in wanted.items()}
-    return report, {
-        "signals": signals,
-        "spans": spans,
-        "fs_hz": fs_hz,
-        "sensor_ids": {(r["sensor_set"], r["imu"]): s for s, r in wanted.items()},
-    }

@@ -35,6 +35,7 @@ from aceval.methods.ricci import (
     axis_from_moments,
     first_phase_sign,
     lm_fit,
+    lm_fit_batch,
     unit_moments,
 )
 from aceval.methods.sagittal import AxisLimits
@@ -160,13 +161,18 @@ def fit_axes(
             )
         if random_starts and optimum is not None:
             starts = Rotation.random(random_starts, random_state=seed).as_quat(scalar_first=True)
-            runs = [lm_fit(v_ref, v_est, rho, q0_wxyz=q) for q in starts]
-            reached = [_distance_deg(r.R, optimum) <= SAME_SOLUTION_DEG for r in runs]
+            runs = lm_fit_batch(
+                v_ref,
+                np.broadcast_to(v_est, (random_starts, *np.shape(v_est))),
+                np.broadcast_to(rho, (random_starts, len(rho))),
+                q0_wxyz=starts,
+            )
+            reached = error_angle_deg(runs.R, optimum) <= SAME_SOLUTION_DEG
             entry.update(
                 random_starts=random_starts,
                 random_starts_optimum=int(np.sum(reached)),
-                random_start_iterations_mean=float(np.mean([r.n_iterations for r in runs])),
-                random_start_iterations_max=int(max(r.n_iterations for r in runs)),
+                random_start_iterations_mean=float(np.mean(runs.n_iterations)),
+                random_start_iterations_max=int(np.max(runs.n_iterations)),
             )
         out["ricci_lm"] = entry
     except (CalibrationError, ValueError) as exc:

@@ -161,13 +161,7 @@ def kong_from_scatters(
     normal = eigenvectors[..., :, 0]
 
     z0 = np.broadcast_to(np.asarray(z0, dtype=float)[..., None, :], normal.shape)
-    if isinstance(right_axis, str):
-        right = axis_vector(right_axis)
-    else:
-        right = np.asarray(right_axis)
-        if right.dtype.kind in "UO":
-            right = np.stack([axis_vector(a) for a in right.ravel()]).reshape(*right.shape, 3)
-    right = np.broadcast_to(np.asarray(right, dtype=float)[..., None, :], normal.shape)
+    right = np.broadcast_to(_right_vectors(right_axis)[..., None, :], normal.shape)
 
     # y0 is the part of n orthogonal to z0 (Eq. 5 after Eq. 4): flip n so that y0 points right
     y_raw = normal - np.sum(normal * z0, axis=-1, keepdims=True) * z0
@@ -186,6 +180,35 @@ def kong_from_scatters(
         planarity = eig_desc[..., 2] / eig_desc[..., 0]
         normal_ratio = eig_desc[..., 2] / eig_desc[..., 1]
 
+    flag, messages = _limit_flags(n_samples, planarity, normal_ratio, angle, limits, strict, batch)
+    return KongResult(
+        R=R,
+        n_samples=n_samples.astype(int),
+        eigenvalues=eig_desc,
+        planarity=planarity,
+        normal_ratio=normal_ratio,
+        normal_vertical_angle_deg=angle,
+        flag=flag,
+        messages=messages,
+    )
+
+
+def _right_vectors(right_axis) -> np.ndarray:
+    """Unit vectors (..., 3) of declared right axes given as '+y'-style names or vectors."""
+    if isinstance(right_axis, str):
+        return axis_vector(right_axis)
+    right = np.asarray(right_axis)
+    if right.dtype.kind in "UO":
+        right = np.stack([axis_vector(a) for a in right.ravel()]).reshape(*right.shape, 3)
+    return np.asarray(right, dtype=float)
+
+
+def _limit_flags(
+    n_samples, planarity, normal_ratio, angle, limits: KongLimits, strict: bool, batch
+):
+    """Each calibration's flag beyond :class:`KongLimits` ('' when valid; the first limit it
+    fails, in the order below) and a message per kind of flag; ``strict``: raise on the first.
+    """
     flag = np.full(n_samples.shape, "", dtype=object)
     messages: list[str] = []
     checks = [
@@ -232,16 +255,7 @@ def kong_from_scatters(
             flag[bad] = error.code
             messages.append(f"{int(bad.sum())} calibrations flagged {error.code}, e.g. {message}")
 
-    return KongResult(
-        R=R,
-        n_samples=n_samples.astype(int),
-        eigenvalues=eig_desc,
-        planarity=planarity,
-        normal_ratio=normal_ratio,
-        normal_vertical_angle_deg=angle,
-        flag=flag,
-        messages=messages,
-    )
+    return flag, messages
 
 
 def kong_calibrate(

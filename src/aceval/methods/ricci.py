@@ -246,12 +246,11 @@ def lm_fit(
     adaptive : Hartley & Zisserman's rule (App. A6), which Ricci cites: lambda starts at
         ``damping``; a step that lowers the cost is accepted and lambda divided by 10 (not below
         ``MIN_DAMPING``), a step that raises it is rejected and re-solved with lambda multiplied
-        by 10. ``False``: lambda stays
-        fixed and every step is taken (the literal reading of Eq. 9-10).
+        by 10. ``False``: lambda stays fixed and every step is taken (Eq. 9-10 read literally).
     max_rejections : stop after this many rejections in a row (no step lowers the cost any more).
     grad_tol : ``converged`` means the gradient of the cost on the sphere, ``|B^T J^T W e|``, is
-        below this at the end (``GRAD_TOL``); a fit that stops
-        for any other reason (Eq. 11 alone, rejections, ``max_iter``) away from it is not.
+        below this at the end (``GRAD_TOL``); a fit that stops for any other reason (Eq. 11
+        alone, rejections, ``max_iter``) away from it is not.
 
     Each trial (Eq. 9-10, on the sphere): ``J_B = J B`` with ``B`` the tangent basis at q
     (:func:`tangent_basis`), ``F = J_B^T W J_B + lambda diag(J_B^T W J_B)``,
@@ -260,77 +259,26 @@ def lm_fit(
     every damped step points uphill along the sphere while the gradient there is not zero (the
     rejection case of tests/test_ricci.py ended 5.9 deg from the optimum, reported converged).
     Steps in the tangent space keep Eq. 9-10's damping and acceptance rule without that defect.
+    One fit is :func:`lm_fit_batch` of one problem, its history recorded.
     """
     v_ref, v_est, weights = check_axes(v_ref, v_est, weights)
-    W = np.repeat(weights, 3)
-    q = np.asarray(q0_wxyz, dtype=float)
-    q = q / np.linalg.norm(q)
-
-    def residual(q):
-        return (v_ref - v_est @ quaternion_matrix(q).T).ravel()
-
-    e = residual(q)
-    cost = float(e @ (W * e))
-    costs, quaternions, dampings, accepted = [cost], [q.copy()], [], []
-    converged = cost < abs_tol
-    n_iter = n_rejected = rejected_in_a_row = 0
-    lam = damping
-    J = None
-    last_change = np.inf
-    while not converged and n_iter < max_iter:
-        if J is None:  # the Jacobian on the sphere at the current estimate
-            J = _residual_jacobian(q, v_est) @ tangent_basis(q)
-            JtW = J.T * W
-            JtWJ = JtW @ J
-            gradient = JtW @ e
-            if last_change < rel_tol and np.linalg.norm(gradient) <= grad_tol:  # Eq. 11, and there
-                break
-        F = JtWJ + lam * np.diag(np.diag(JtWJ))
-        step = tangent_basis(q) @ np.linalg.solve(F, gradient)
-        trial = q - step
-        trial = trial / np.linalg.norm(trial)
-        trial_e = residual(trial)
-        trial_cost = float(trial_e @ (W * trial_e))
-        dampings.append(lam)
-        if adaptive and trial_cost > cost:  # rejected: more damping, solve again from the same q
-            accepted.append(False)
-            n_rejected += 1
-            rejected_in_a_row += 1
-            lam *= 10.0
-            if rejected_in_a_row >= max_rejections:  # no step lowers the cost any more
-                break
-            continue
-        accepted.append(True)
-        rejected_in_a_row = 0
-        n_iter += 1
-        last_change = abs(cost - trial_cost) / cost
-        converged = trial_cost < abs_tol
-        q, e, cost, J = trial, trial_e, trial_cost, None
-        costs.append(cost)
-        quaternions.append(q.copy())
-        if adaptive:
-            lam = max(lam / 10.0, MIN_DAMPING)
-    gradient_norm = _sphere_gradient_norm(q, v_est, W, e)
-    converged = cost < abs_tol or gradient_norm <= grad_tol
-
-    if q[0] < 0:  # same rotation, canonical sign
-        q = -q
-    rotation = Rotation.from_quat(q, scalar_first=True)
+    q0 = np.asarray(q0_wxyz, dtype=float) / np.linalg.norm(q0_wxyz)
+    rule = _Rule(damping, rel_tol, max_iter, abs_tol, adaptive, max_rejections, grad_tol)
+    fit, history = _levenberg_marquardt(v_ref, v_est[None], weights[None], q0[None], rule, True)
+    rotation = Rotation.from_matrix(fit.R[0])
     return LMResult(
         rotation=rotation,
-        quaternion_wxyz=q,
-        n_iterations=n_iter,
-        converged=converged,
-        cost_history=np.array(costs),
-        quaternion_history=np.array(quaternions),
-        residual_angle_before_deg=_residual_angles_deg(
-            v_ref, v_est, quaternion_matrix(np.asarray(q0_wxyz, float) / np.linalg.norm(q0_wxyz))
-        ),
+        quaternion_wxyz=rotation.as_quat(scalar_first=True),
+        n_iterations=int(fit.n_iterations[0]),
+        converged=bool(fit.converged[0]),
+        cost_history=np.array(history["cost"]),
+        quaternion_history=np.array(history["q"]),
+        residual_angle_before_deg=_residual_angles_deg(v_ref, v_est, quaternion_matrix(q0)),
         residual_angle_after_deg=_residual_angles_deg(v_ref, v_est, rotation.as_matrix()),
-        n_rejected=n_rejected,
-        damping_history=np.array(dampings),
-        trial_accepted=np.array(accepted, dtype=bool),
-        gradient_norm=float(gradient_norm),
+        n_rejected=int(fit.n_rejected[0]),
+        damping_history=np.array(history["damping"]),
+        trial_accepted=np.array(history["accepted"], dtype=bool),
+        gradient_norm=float(history["gradient_norm"]),
     )
 
 
@@ -345,6 +293,19 @@ class LMBatch:
     n_rejected: np.ndarray
     converged: np.ndarray
     cost: np.ndarray
+
+
+@dataclass(frozen=True)
+class _Rule:
+    """The LM's damping and stopping rule (:func:`lm_fit`'s parameters)."""
+
+    damping: float = 1e-3
+    rel_tol: float = 1e-4
+    max_iter: int = 1000
+    abs_tol: float = 1e-15
+    adaptive: bool = True
+    max_rejections: int = 20
+    grad_tol: float = GRAD_TOL
 
 
 def _quaternion_matrices(q: np.ndarray) -> np.ndarray:
@@ -363,11 +324,11 @@ def lm_fit_batch(
     max_rejections: int = 20,
     grad_tol: float = GRAD_TOL,
     adaptive: bool = True,
+    q0_wxyz: np.ndarray | None = None,
 ) -> LMBatch:
-    """:func:`lm_fit` (q0 = identity) of B problems at once: ``v_ref`` (n, 3) shared, ``v_est``
-    (B, n, 3) and ``weights`` (B, n) one row per problem (every calibration of a job). The same
-    steps as :func:`lm_fit`, each problem stopping on its own rule; equal to B single calls to
-    rounding (tested). ``adaptive``: as in :func:`lm_fit` (False: lambda fixed, every step taken).
+    """:func:`lm_fit` of B problems at once: ``v_ref`` (n, 3) shared, ``v_est`` (B, n, 3) and
+    ``weights`` (B, n) one row per problem (every calibration of a job), each stopping on its own
+    rule; ``q0_wxyz`` (B, 4): each problem's start (default: the identity, Ricci's).
     """
     v_ref = np.asarray(v_ref, float)
     v_ref = v_ref / np.linalg.norm(v_ref, axis=-1, keepdims=True)
@@ -376,79 +337,134 @@ def lm_fit_batch(
     weights = np.asarray(weights, float)
     if not (np.isfinite(v_est).all() and np.isfinite(weights).all()):
         raise ValueError("lm_fit_batch: v_est or weights contain NaN or inf")
-    n_batch, n_axes = weights.shape
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (len(weights), 1)) if q0_wxyz is None else np.array(q0_wxyz)
+    q = q / np.linalg.norm(q, axis=1, keepdims=True)
+    rule = _Rule(damping, rel_tol, max_iter, abs_tol, adaptive, max_rejections, grad_tol)
+    return _levenberg_marquardt(v_ref, v_est, weights, q, rule, False)[0]
+
+
+def _levenberg_marquardt(v_ref, v_est, weights, q, rule: _Rule, record: bool):
+    """The LM of :func:`lm_fit` on B problems from starts ``q`` (B, 4): ``(LMBatch, history)``,
+    the history (``record``, one problem) its costs and quaternions after each accepted step,
+    the damping and verdict of each trial and the final gradient norm.
+    """
     W = np.repeat(weights, 3, axis=1)  # (B, 3n)
-
-    def residual(q, rows):
-        rotated = v_est[rows] @ np.swapaxes(_quaternion_matrices(q), -1, -2)
-        return (v_ref[None] - rotated).reshape(len(q), -1)
-
-    q = np.tile([1.0, 0.0, 0.0, 0.0], (n_batch, 1))
-    e = residual(q, slice(None))
-    cost = np.einsum("bi,bi->b", e, W * e)
-    converged = cost < abs_tol
-    n_iter = np.zeros(n_batch, int)
-    n_rejected = np.zeros(n_batch, int)
-    in_a_row = np.zeros(n_batch, int)
-    lam = np.full(n_batch, float(damping))
-    last_change = np.full(n_batch, np.inf)
-    JtW = np.empty((n_batch, 3, 3 * n_axes))
-    JtWJ = np.empty((n_batch, 3, 3))
-    gradient = np.empty((n_batch, 3))
-    stale = np.ones(n_batch, bool)  # the Jacobian is recomputed after an accepted step
-    active = ~converged
-    while active.any():
-        renew = np.flatnonzero(active & stale)
-        if len(renew):
-            J = _residual_jacobian(q[renew], v_est[renew]) @ tangent_basis(q[renew])
-            JtW[renew] = np.swapaxes(J, -1, -2) * W[renew, None, :]
-            JtWJ[renew] = JtW[renew] @ J
-            gradient[renew] = (JtW[renew] @ e[renew][:, :, None])[:, :, 0]
-            done = renew[
-                (last_change[renew] < rel_tol)
-                & (np.linalg.norm(gradient[renew], axis=1) <= grad_tol)
-            ]
-            active[done] = False  # Eq. 11, at a stationary point
-        stale[:] = False
-        at = np.flatnonzero(active)
+    s = _State.start(v_ref, v_est, W, q, rule)
+    history = {"cost": [float(s.cost[0])], "q": [s.q[0].copy()], "damping": [], "accepted": []}
+    while s.active.any():
+        s.renew(v_ref, v_est, W, rule)
+        at = np.flatnonzero(s.active)
         if not len(at):
             break
-        F = JtWJ[at] + lam[at, None, None] * (np.eye(3) * np.diagonal(JtWJ[at], 0, -2, -1)[:, None])
-        step = np.linalg.solve(F, gradient[at][:, :, None])
-        trial = q[at] - (tangent_basis(q[at]) @ step)[:, :, 0]
-        trial = trial / np.linalg.norm(trial, axis=1, keepdims=True)
-        trial_e = residual(trial, at)
-        trial_cost = np.einsum("bi,bi->b", trial_e, W[at] * trial_e)
-        worse = (trial_cost > cost[at]) & adaptive
-        rejected, accepted = at[worse], at[~worse]
-        n_rejected[rejected] += 1
-        in_a_row[rejected] += 1
-        lam[rejected] *= 10.0
-        given_up = rejected[in_a_row[rejected] >= max_rejections]
-        better = ~worse
-        in_a_row[accepted] = 0
-        n_iter[accepted] += 1
-        last_change[accepted] = np.abs(cost[accepted] - trial_cost[better]) / cost[accepted]
-        converged[accepted] = trial_cost[better] < abs_tol
-        q[accepted], e[accepted], cost[accepted] = (
-            trial[better],
-            trial_e[better],
-            trial_cost[better],
-        )
-        stale[accepted] = True
-        if adaptive:
-            lam[accepted] = np.maximum(lam[accepted] / 10.0, MIN_DAMPING)
-        active &= ~converged & (n_iter < max_iter)
-        active[given_up] = False
-    converged |= _sphere_gradient_norm(q, v_est, W, e) <= grad_tol
-    q = np.where(q[:, :1] < 0, -q, q)
-    return LMBatch(
+        if record:
+            history["damping"].append(float(s.lam[0]))
+        better = s.trial(v_ref, v_est, W, at, rule)
+        if record:
+            history["accepted"].append(bool(better[0]))
+            if better[0]:
+                history["cost"].append(float(s.cost[0]))
+                history["q"].append(s.q[0].copy())
+    history["gradient_norm"] = _sphere_gradient_norm(s.q, v_est, W, s.e)[0] if record else np.nan
+    s.converged |= _sphere_gradient_norm(s.q, v_est, W, s.e) <= rule.grad_tol
+    q = np.where(s.q[:, :1] < 0, -s.q, s.q)  # the same rotation, canonical sign
+    fit = LMBatch(
         R=Rotation.from_quat(q, scalar_first=True).as_matrix(),
-        n_iterations=n_iter,
-        n_rejected=n_rejected,
-        converged=converged,
-        cost=cost,
+        n_iterations=s.n_iter,
+        n_rejected=s.n_rejected,
+        converged=s.converged,
+        cost=s.cost,
     )
+    return fit, history if record else None
+
+
+def _residuals(v_ref, v_est, q) -> np.ndarray:
+    """E = v_ref - R(q) v_est of each problem (B, 3n) (Eq. 5)."""
+    rotated = v_est @ np.swapaxes(_quaternion_matrices(q), -1, -2)
+    return (v_ref[None] - rotated).reshape(len(q), -1)
+
+
+@dataclass
+class _State:
+    """Where each problem of :func:`_levenberg_marquardt` stands: its quaternion, residuals and
+    cost, damping, counts, and (``stale``) whether its Jacobian must be renewed.
+    """
+
+    q: np.ndarray
+    e: np.ndarray
+    cost: np.ndarray
+    lam: np.ndarray
+    converged: np.ndarray
+    active: np.ndarray
+    n_iter: np.ndarray
+    n_rejected: np.ndarray
+    in_a_row: np.ndarray
+    last_change: np.ndarray
+    stale: np.ndarray
+    JtW: np.ndarray
+    JtWJ: np.ndarray
+    gradient: np.ndarray
+
+    @classmethod
+    def start(cls, v_ref, v_est, W, q, rule: _Rule) -> _State:
+        n = len(q)
+        e = _residuals(v_ref, v_est, q)
+        cost = np.einsum("bi,bi->b", e, W * e)
+        converged = cost < rule.abs_tol
+        return cls(q=q.copy(), e=e, cost=cost, lam=np.full(n, float(rule.damping)),
+                   converged=converged, active=~converged, n_iter=np.zeros(n, int),
+                   n_rejected=np.zeros(n, int), in_a_row=np.zeros(n, int),
+                   last_change=np.full(n, np.inf), stale=np.ones(n, bool),
+                   JtW=np.empty((n, 3, W.shape[1])), JtWJ=np.empty((n, 3, 3)),
+                   gradient=np.empty((n, 3)))  # fmt: skip
+
+    def renew(self, v_ref, v_est, W, rule: _Rule) -> None:
+        """The Jacobian on the sphere of the problems that moved; those at a stationary point
+        after a small relative change stop (Eq. 11).
+        """
+        renew = np.flatnonzero(self.active & self.stale)
+        if len(renew):
+            J = _residual_jacobian(self.q[renew], v_est[renew]) @ tangent_basis(self.q[renew])
+            self.JtW[renew] = np.swapaxes(J, -1, -2) * W[renew, None, :]
+            self.JtWJ[renew] = self.JtW[renew] @ J
+            self.gradient[renew] = (self.JtW[renew] @ self.e[renew][:, :, None])[:, :, 0]
+            done = renew[
+                (self.last_change[renew] < rule.rel_tol)
+                & (np.linalg.norm(self.gradient[renew], axis=1) <= rule.grad_tol)
+            ]
+            self.active[done] = False
+        self.stale[:] = False
+
+    def trial(self, v_ref, v_est, W, at: np.ndarray, rule: _Rule) -> np.ndarray:
+        """One damped step (Eq. 9-10) of the problems ``at``; accepted where it lowers the cost
+        (always, without the adaptive rule). Returns, per problem of ``at``, whether it was.
+        """
+        diagonal = np.eye(3) * np.diagonal(self.JtWJ[at], 0, -2, -1)[:, None]
+        F = self.JtWJ[at] + self.lam[at, None, None] * diagonal
+        step = np.linalg.solve(F, self.gradient[at][:, :, None])
+        trial = self.q[at] - (tangent_basis(self.q[at]) @ step)[:, :, 0]
+        trial = trial / np.linalg.norm(trial, axis=1, keepdims=True)
+        trial_e = _residuals(v_ref, v_est[at], trial)
+        trial_cost = np.einsum("bi,bi->b", trial_e, W[at] * trial_e)
+        better = ~((trial_cost > self.cost[at]) & rule.adaptive)
+        rejected, accepted = at[~better], at[better]
+        self.n_rejected[rejected] += 1
+        self.in_a_row[rejected] += 1
+        self.lam[rejected] *= 10.0
+        given_up = rejected[self.in_a_row[rejected] >= rule.max_rejections]
+        self.in_a_row[accepted] = 0
+        self.n_iter[accepted] += 1
+        self.last_change[accepted] = (
+            np.abs(self.cost[accepted] - trial_cost[better]) / self.cost[accepted]
+        )
+        self.converged[accepted] = trial_cost[better] < rule.abs_tol
+        self.q[accepted], self.e[accepted] = trial[better], trial_e[better]
+        self.cost[accepted] = trial_cost[better]
+        self.stale[accepted] = True
+        if rule.adaptive:
+            self.lam[accepted] = np.maximum(self.lam[accepted] / 10.0, MIN_DAMPING)
+        self.active &= ~self.converged & (self.n_iter < rule.max_iter)
+        self.active[given_up] = False
+        return better
 
 
 # --- the method's interface in Kong's protocol (aceval.methods.interface) -----------------------

@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -107,65 +108,59 @@ def simulate_kong(
     writer.protocol_sheets(
         {test: (kind, text) for test, (_, kind, text) in PROTOCOL.items()}, repetitions, CALIBRATES
     )
+    _imus_sheet(out, meta)
+    runs = [(test, rep) for test in PROTOCOL for rep in range(1, repetitions[test] + 1)]
+    write_subject = partial(_write_subject, seed, subjects, runs, meta, options)
+    writer.each_subject(write_subject, len(subjects), options.jobs, f"kong_sim {out}")
+    writer.close()
+    return out
+
+
+def _imus_sheet(out: Path, meta: dict) -> None:
+    """imus.tsv: each IMU of each sensor set, its segment, side, region and declared right axis
+    (from the placements of a 1.75 m body: the right axis does not depend on the size).
+    """
     probe = kong_placements(Anthropometry(1.75))
     write_sheet(
         out / "imus.tsv",
         ["imu", "sensor_set", "segment", "side", "region", "right_axis"],
         [
-            [
-                imu,
-                sensor_set,
-                segment.split("_")[0],
-                side,
-                region,
-                probe[sensor_set][segment].right_axis(),
-            ]
+            [imu, sensor_set, segment.split("_")[0], side, region,
+             probe[sensor_set][segment].right_axis()]
             for sensor_set in meta["sensor_sets"]
             for imu, segment, side, region in IMUS
         ],
-    )
+    )  # fmt: skip
 
-    runs = [(test, rep) for test in PROTOCOL for rep in range(1, repetitions[test] + 1)]
 
-    def write_subject(k: int, writer: DatasetWriter) -> None:
-        subject, _, height_cm, _ = subjects[k]
-        rng = np.random.default_rng([seed, 1, k])
-        body = Anthropometry(height_cm / 100.0)
-        placements = kong_placements(body)
-        offsets = _stance_offsets(rng, options.offplane)
-        mounts = {}
+def _write_subject(seed, subjects, runs, meta, options, k: int, writer: DatasetWriter) -> None:
+    """Subject ``k``: its mountings (ground truth) and every recording of every run (test,
+    repetition), each drawn from the subject's and the run's own random streams.
+    """
+    subject, _, height_cm, _ = subjects[k]
+    rng = np.random.default_rng([seed, 1, k])
+    body = Anthropometry(height_cm / 100.0)
+    placements = kong_placements(body)
+    offsets = _stance_offsets(rng, options.offplane)
+    mounts = {}
+    for sensor_set in meta["sensor_sets"]:
+        for imu, segment, _, _ in IMUS:
+            mount = random_mount(rng, placements[sensor_set][segment], options.misalignment_sd_deg)
+            mounts[sensor_set, imu] = mount
+            stance = euler_pitch_roll_yaw(0.0, 0.0, offsets.get(segment, 0.0))[0]
+            writer.ground_truth(subject, sensor_set, imu, stance @ mount)
+    for j, (test, rep) in enumerate(runs):
+        run_rng = np.random.default_rng([seed, 2, k, j])
+        posture, fixed_ankle = PROTOCOL[test][0](run_rng, body, options.fs_hz, options.offplane)
+        for segment, yaw in offsets.items():
+            posture.add(segment, yaw=yaw)
+        R_seg, origin = segment_poses(posture, body, fixed_ankle)
         for sensor_set in meta["sensor_sets"]:
-            for imu, segment, _, _ in IMUS:
-                mount = random_mount(
-                    rng, placements[sensor_set][segment], options.misalignment_sd_deg
-                )
-                mounts[sensor_set, imu] = mount
-                stance = euler_pitch_roll_yaw(0.0, 0.0, offsets.get(segment, 0.0))[0]
-                writer.ground_truth(subject, sensor_set, imu, stance @ mount)
-        for j, (test, rep) in enumerate(runs):
-            run_rng = np.random.default_rng([seed, 2, k, j])
-            builder = PROTOCOL[test][0]
-            posture, fixed_ankle = builder(run_rng, body, options.fs_hz, options.offplane)
-            for segment, yaw in offsets.items():
-                posture.add(segment, yaw=yaw)
-            R_seg, origin = segment_poses(posture, body, fixed_ankle)
-            for sensor_set in meta["sensor_sets"]:
-                for imu, segment, _, region in IMUS:
-                    placement = placements[sensor_set][segment]
-                    wobble = WOBBLE_DEG[segment.split("_")[0]][sensor_set == "lateral"]
-                    gyr, acc = sensor_signals(
-                        run_rng,
-                        R_seg[segment],
-                        origin[segment],
-                        mounts[sensor_set, imu],
-                        placement.position,
-                        posture.envelope,
-                        wobble,
-                        options,
-                        ACC_RANGE_G[region],
-                    )
-                    writer.recording(subject, sensor_set, test, rep, imu, gyr, acc)
-
-    writer.each_subject(write_subject, len(subjects), options.jobs, f"kong_sim {out}")
-    writer.close()
-    return out
+            for imu, segment, _, region in IMUS:
+                wobble = WOBBLE_DEG[segment.split("_")[0]][sensor_set == "lateral"]
+                gyr, acc = sensor_signals(
+                    run_rng, R_seg[segment], origin[segment], mounts[sensor_set, imu],
+                    placements[sensor_set][segment].position, posture.envelope, wobble, options,
+                    ACC_RANGE_G[region],
+                )  # fmt: skip
+                writer.recording(subject, sensor_set, test, rep, imu, gyr, acc)
