@@ -93,96 +93,123 @@ def holm(p_values) -> np.ndarray:
     return adjusted
 
 
-def unit_means_by_set(
-    table: pd.DataFrame,
-    value: str,
-    unit: list[str],
-    sets: list[str],
-    set_column: str = "sensor_set",
-) -> dict:
-    """Paired t-test on independent units: each unit's (the subject: its IMUs and sides averaged
-    inside it) mean ``value`` per sensor set, paired across the sets; units present in only one
-    set are dropped.
+def smallest_sign_flip_p(n: int) -> float:
+    """The smallest two-sided p an exact sign-flip (permutation) test of a paired difference can
+    reach with ``n`` independent units, 2 / 2**n: 0.0625 for 5 subjects. A claim quoting a
+    smaller p cannot be confirmed by a distribution-free test on fewer units (a t-test gets
+    there only through its normality assumption: |t| > 8.6 for p < 0.001 with n = 5).
     """
-    return paired_by_set(table, value, unit, sets, set_column)
+    return 2.0 / 2.0**n if n > 0 else float("nan")
+
+
+def mean_ci(values, level: float = 0.95) -> tuple[float, float, float, int]:
+    """``(mean, low, high, n)``: the mean of independent ``values`` (NaN dropped) and its
+    t-interval at ``level`` (NaN with fewer than 2 values).
+    """
+    x = np.asarray(values, float)
+    x = x[np.isfinite(x)]
+    if len(x) == 0:
+        return float("nan"), float("nan"), float("nan"), 0
+    sd = float(x.std(ddof=1)) if len(x) > 1 else float("nan")
+    return (float(x.mean()), *summary_ci(float(x.mean()), sd, len(x), level), len(x))
+
+
+def summary_ci(mean: float, sd: float, n: int, level: float = 0.95) -> tuple[float, float]:
+    """The t-interval ``(low, high)`` at ``level`` of a mean of ``n`` independent values with SD
+    ``sd`` (NaN with fewer than 2).
+    """
+    if n < 2 or not np.isfinite(sd):
+        return float("nan"), float("nan")
+    from scipy import stats
+
+    half = float(stats.t.ppf(0.5 + level / 2, n - 1) * sd / np.sqrt(n))
+    return mean - half, mean + half
+
+
+def cell_means_by_set(
+    table: pd.DataFrame, value: str, pair_on: list[str], cell: list[str], sets: list[str],
+    set_column: str = "sensor_set",
+) -> pd.DataFrame:  # fmt: skip
+    """The paired design reduced to its cells: ``value`` paired across the two ``sets`` on
+    ``pair_on`` (rows of one set only dropped), then each ``cell``'s (e.g. subject x IMU) mean per
+    set, columns ``mean_a`` and ``mean_b`` (an empty table when a set is missing). The cells are
+    what the subject-level test and the mixed model read, and what is committed
+    (``set_test_units``) so that both can be recomputed.
+    """
+    wide = table.pivot_table(index=pair_on, columns=set_column, values=value, aggfunc="mean")
+    if not set(sets) <= set(wide.columns):
+        return pd.DataFrame(columns=[*cell, "mean_a", "mean_b"])
+    wide = wide[sets].dropna().reset_index()
+    means = wide.groupby(cell, sort=True)[sets].mean().reset_index()
+    return means.rename(columns={sets[0]: "mean_a", sets[1]: "mean_b"})
+
+
+def subject_test(cells: pd.DataFrame) -> dict:
+    """Paired t-test on the subjects (the independent unit): each subject's mean of its cells'
+    means per set (its IMUs and sides weigh equally), with ``smallest_p``
+    (:func:`smallest_sign_flip_p`).
+    """
+    subjects = cells.groupby("subject")[["mean_a", "mean_b"]].mean()
+    out = paired_ttest(subjects["mean_a"].to_numpy(), subjects["mean_b"].to_numpy())
+    return out | {"n_groups": out["n"], "smallest_p": smallest_sign_flip_p(out["n"])}
 
 
 #: the ways a mixed-model fit can end, each a flag of its own (``fit_flags``, ';'-joined)
 FIT_FLAGS = ("not_converged", "hessian_not_pd", "boundary")
 
 
-def mixed_model_by_set(
-    table: pd.DataFrame,
-    value: str,
-    pair_on: list[str],
-    sets: list[str],
-    group: str = "subject",
-    nested: str | None = None,
-    set_column: str = "sensor_set",
-) -> dict:
-    """Linear mixed model of the paired differences set a - set b (statsmodels MixedLM, REML):
-    ``value`` is paired across the sets on ``pair_on`` (as the paper pairs it), and the
-    differences ``d ~ 1`` get a random intercept per ``group`` (the subject) and, with ``nested``
-    (e.g. 'imu' or 'side'), a variance component for that level within the subject: the design's
-    dependence (many pairs per IMU, several IMUs per subject) is in the model, not in n. The
-    intercept is the set effect, with its 95 % CI, z and p (Wald).
-
-    ``fit_flags`` (:data:`FIT_FLAGS`, ';'-joined): ``not_converged`` (the optimiser says so, or
-    ``fit.converged`` is false), ``hessian_not_pd`` (no valid standard errors) and ``boundary``
-    (a variance component estimated at zero: a singular fit; its p stands, flagged). A fit that did
-    not converge or has no positive-definite Hessian has no p (it leaves the Holm family). ``n``
-    counts paired rows, ``n_groups`` subjects; ``note`` says why a model was not fitted.
+def mixed_model_of_cells(cells: pd.DataFrame) -> dict:
+    """Linear mixed model of the cells' paired differences (statsmodels MixedLM, REML): each
+    cell's mean difference set a - set b (a cell is one IMU, or in Table 7 one side, of one
+    subject: its repetitions and subsets, dependent resamples of the same recordings, are
+    averaged into it) as ``d ~ 1`` with a random intercept per subject; the cells within a
+    subject are the residual level. The intercept is the set effect, with its 95 % CI, z and p
+    (Wald). ``fit_flags`` (:data:`FIT_FLAGS`, ';'-joined): ``not_converged`` (the optimiser says so,
+    or ``fit.converged`` is false), ``hessian_not_pd`` (no valid standard errors), ``boundary``
+    (the subjects' variance estimated at zero: a singular fit; its p stands, flagged). A fit that
+    did not converge or has no positive-definite Hessian has no p (it leaves the Holm family).
+    ``n`` counts cells, ``n_groups`` subjects; ``note`` says why a model was not fitted.
     """
     out = {
-        "mean_a": np.nan, "mean_b": np.nan, "mean_difference": np.nan, "ci95_low": np.nan,
-        "ci95_high": np.nan, "n": 0, "n_groups": 0, "z": np.nan, "p": np.nan, "note": "",
-        "fit_flags": "",
+        "mean_a": float(cells["mean_a"].mean()) if len(cells) else np.nan,
+        "mean_b": float(cells["mean_b"].mean()) if len(cells) else np.nan,
+        "mean_difference": np.nan, "ci95_low": np.nan, "ci95_high": np.nan, "n": len(cells),
+        "n_groups": int(cells["subject"].nunique()) if len(cells) else 0, "z": np.nan,
+        "p": np.nan, "note": "", "fit_flags": "",
     }  # fmt: skip
-    wide = table.pivot_table(index=pair_on, columns=set_column, values=value, aggfunc="mean")
-    if not set(sets) <= set(wide.columns):
-        out["note"] = "not fitted: one set only"
+    d = (cells["mean_a"] - cells["mean_b"]).to_numpy(float)
+    if out["n_groups"] < 2 or out["n"] <= out["n_groups"] or np.std(d) == 0:
+        out["note"] = "not fitted: needs 2 subjects, more cells than subjects and some variation"
         return out
-    wide = wide[sets].dropna().reset_index()
-    d = wide.assign(d=wide[sets[0]] - wide[sets[1]])
-    out.update(
-        mean_a=float(wide[sets[0]].mean()), mean_b=float(wide[sets[1]].mean()), n=len(d),
-        n_groups=int(d[group].nunique()),
-    )  # fmt: skip
-    if out["n_groups"] < 2 or d["d"].std() == 0:
-        out["note"] = "not fitted: needs 2 subjects and some variation"
-        return out
-    fit, flags = _fit_differences(d, group, nested)
+    fit, flags = _fit_differences(d, cells["subject"].to_numpy())
     if fit is None:
         out["note"] = f"not fitted: {flags}"
         return out
-    low, high = fit.conf_int().loc["Intercept"]
     failed = "not_converged" in flags or "hessian_not_pd" in flags
+    low, high = fit.conf_int()[0]
     out.update(
-        mean_difference=float(fit.params["Intercept"]), fit_flags=";".join(flags),
+        mean_difference=float(fit.params[0]), fit_flags=";".join(flags),
         ci95_low=np.nan if failed else float(low), ci95_high=np.nan if failed else float(high),
-        z=np.nan if failed else float(fit.tvalues["Intercept"]),
-        p=np.nan if failed else float(fit.pvalues["Intercept"]),
+        z=np.nan if failed else float(fit.tvalues[0]),
+        p=np.nan if failed else float(fit.pvalues[0]),
     )  # fmt: skip
     return out
 
 
-def _fit_differences(d: pd.DataFrame, group: str, nested: str | None):
-    """(fit, flags) of ``d ~ 1`` (:func:`mixed_model_by_set`); (None, cause) when it cannot be fitted."""
+def _fit_differences(d: np.ndarray, subjects: np.ndarray):
+    """(fit, flags) of ``d ~ 1`` with a random intercept per subject (:func:`mixed_model_of_cells`);
+    (None, cause) when it cannot be fitted.
+    """
     import warnings
 
-    import statsmodels.formula.api as smf
+    from statsmodels.regression.mixed_linear_model import MixedLM
     from statsmodels.tools.sm_exceptions import ConvergenceWarning
 
-    data = d.assign(level=d[nested].astype(str)) if nested else d
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ConvergenceWarning)
         warnings.simplefilter("ignore", RuntimeWarning)
         try:
-            model = smf.mixedlm(
-                "d ~ 1", data, groups=data[group],
-                vc_formula={"level": "0 + C(level)"} if nested else None,
-            )  # fmt: skip
-            fit = model.fit(reml=True)
+            fit = MixedLM(d, np.ones((len(d), 1)), groups=subjects).fit(reml=True)
         except (ValueError, np.linalg.LinAlgError) as exc:
             return None, str(exc)
     said = " ".join(str(w.message) for w in caught if issubclass(w.category, ConvergenceWarning))
@@ -191,28 +218,72 @@ def _fit_differences(d: pd.DataFrame, group: str, nested: str | None):
         flags.append("not_converged")
     if "Hessian" in said or not np.isfinite(fit.bse).all():
         flags.append("hessian_not_pd")
-    variances = np.concatenate([np.diag(np.atleast_2d(fit.cov_re)), np.atleast_1d(fit.vcomp)])
+    variances = np.diag(np.atleast_2d(fit.cov_re))
     if "boundary" in said or (variances <= 1e-8 * max(float(fit.scale), 1e-300)).any():
         flags.append("boundary")
     return fit, flags
 
 
-def variance_shares(table: pd.DataFrame, value: str, factors: list[str]) -> dict[str, float]:
-    """Share of the variance of ``value`` explained by each factor (type II sums of squares of an
-    additive linear model ``value ~ C(f1) + C(f2) + ...``, each divided by the total sum of
-    squares): eta squared, 0-1. NaN for a factor with one level.
+def variance_shares(
+    table: pd.DataFrame, value: str, factors: list[str], n_resamples: int = 0, seed: int = 0
+) -> pd.DataFrame:
+    """Share of the variance of ``value`` explained by each factor: type II sums of squares of an
+    additive linear model ``value ~ C(f1) + C(f2) + ...`` (the residual sum of squares without the
+    factor minus that of the full model), each divided by the total sum of squares: eta squared,
+    0-1. One row per factor: ``eta_squared``; ``aliased``, how many of the factor's contrasts
+    the other factors already span (a design that confounds it, e.g. a pair recorded in one test
+    only: those contrasts have no share of their own; NaN when all of them are, or the factor has
+    one level); with ``n_resamples``, the 95 % percentile interval (``low``, ``high``) over
+    resamples of the subjects with replacement (each drawn subject brings all its rows: the
+    subject is the independent unit); ``n`` rows, ``n_subjects``.
     """
-    import statsmodels.formula.api as smf
-    from statsmodels.stats.anova import anova_lm
+    data = table[[value, *factors, "subject"]].dropna()
+    y = data[value].to_numpy(float)
+    codes = [pd.factorize(data[f], sort=True)[0] for f in factors]
+    shares, aliased = _eta_squared(y, codes)
+    low, high = np.full(len(factors), np.nan), np.full(len(factors), np.nan)
+    by_subject = list(data.groupby("subject", sort=True).indices.values())
+    if n_resamples and len(by_subject) > 1:
+        rng = np.random.default_rng(seed)
+        draws = np.array([
+            _eta_squared(y[rows], [c[rows] for c in codes])[0]
+            for rows in (np.concatenate([by_subject[k] for k in pick])
+                         for pick in rng.integers(0, len(by_subject), (n_resamples, len(by_subject))))
+        ])  # fmt: skip
+        low, high = np.full(len(factors), np.nan), np.full(len(factors), np.nan)
+        defined = np.isfinite(shares) & np.isfinite(draws).any(axis=0)
+        low[defined], high[defined] = np.nanpercentile(draws[:, defined], [2.5, 97.5], axis=0)
+    return pd.DataFrame({"factor": factors, "eta_squared": shares, "low": low, "high": high,
+                         "aliased": aliased, "n": len(data), "n_subjects": len(by_subject)})  # fmt: skip
 
-    data = table[[value, *factors]].dropna()
-    used = [f for f in factors if data[f].nunique() > 1]
-    shares = dict.fromkeys(factors, np.nan)
-    if not used or len(data) <= sum(data[f].nunique() for f in used):
-        return shares
-    formula = f"Q('{value}') ~ " + " + ".join(f"C(Q('{f}'))" for f in used)
-    anova = anova_lm(smf.ols(formula, data).fit(), typ=2)
-    total = float(((data[value] - data[value].mean()) ** 2).sum())
-    for f in used:
-        shares[f] = float(anova.loc[f"C(Q('{f}'))", "sum_sq"] / total) if total > 0 else np.nan
-    return shares
+
+def _eta_squared(y: np.ndarray, codes: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Type II eta squared of each factor (integer ``codes``) in an additive model of ``y``, and
+    how many of its contrasts the other factors span (:func:`variance_shares`).
+    """
+    blocks = [_dummies(c) for c in codes]
+    shares = np.full(len(codes), np.nan)
+    aliased = np.array([b.shape[1] for b in blocks])
+    total = float(((y - y.mean()) ** 2).sum())
+    full, rank = _residual_ss(y, blocks)
+    if total <= 0 or len(y) <= rank:
+        return shares, aliased
+    for k, block in enumerate(blocks):
+        without, rank_without = _residual_ss(y, blocks[:k] + blocks[k + 1 :])
+        aliased[k] = block.shape[1] - (rank - rank_without)
+        if rank > rank_without:
+            shares[k] = max(without - full, 0.0) / total
+    return shares, aliased
+
+
+def _dummies(codes: np.ndarray) -> np.ndarray:
+    """Treatment coding of one factor: a 0/1 column per level but the first."""
+    levels = np.unique(codes)
+    return (codes[:, None] == levels[None, 1:]).astype(float)
+
+
+def _residual_ss(y: np.ndarray, blocks: list[np.ndarray]) -> tuple[float, int]:
+    """The residual sum of squares of ``y`` on an intercept and ``blocks``, and the rank."""
+    X = np.column_stack([np.ones(len(y)), *blocks])
+    coef, _, rank, _ = np.linalg.lstsq(X, y, rcond=None)
+    return float(((y - X @ coef) ** 2).sum()), int(rank)

@@ -79,6 +79,8 @@ TABLES = {
     ),
 }
 CORRELATION_FLAG = 0.95  # Kong's grey cells: correlation <= 0.95
+#: resamples of the subjects behind the shares of variance's intervals (correlation_factors)
+FACTOR_RESAMPLES = 1000
 
 
 def reference(number: int) -> pd.DataFrame:
@@ -156,32 +158,31 @@ def table6(correlations: pd.DataFrame, paper_names: dict) -> pd.DataFrame:
 
 def correlation_factors(correlations: pd.DataFrame | None) -> pd.DataFrame:
     """Kong Obj 1-2, "not related with T_ex but highly related with T_ap and body segment": the
-    share of variance (eta squared, :func:`aceval.evaluation.stats.variance_shares`) of the correlations of
-    Table 3's units (factors T_ex, T_ap, segment) and Table 6's (T_ex, T_ap, pair).
+    share of variance (eta squared, :func:`aceval.evaluation.stats.variance_shares`) of the
+    correlations of Table 3's units (factors T_ex, T_ap, segment) and Table 6's (T_ex, T_ap,
+    pair), each with its 95 % interval from resampling the subjects (:data:`FACTOR_RESAMPLES`).
     """
     from aceval.evaluation.stats import variance_shares
 
-    columns = ["objective", "factor", "eta_squared", "n"]
+    columns = ["objective", "factor", "eta_squared", "low", "high", "aliased", "n", "n_subjects"]
     if correlations is None or correlations.empty:
         return pd.DataFrame(columns=columns)
-    rows = []
     obj1 = _frontal_lateral_units(correlations, "acc")
     pairs = correlations[(correlations["objective"] == "segment_pair") & unflagged(correlations)]
     obj2 = pairs.groupby(["subject", "sensor_set", "side", "pair", "t_ex", "t_ap"], as_index=False)[
         "correlation"
     ].mean()
-    for objective, units, factors in (
-        ("Obj 1", obj1, ["t_ex", "t_ap", "segment"]),
-        ("Obj 2", obj2, ["t_ex", "t_ap", "pair"]),
-    ):
-        if units.empty:
-            continue
-        shares = variance_shares(units, "correlation", factors)
-        rows += [
-            {"objective": objective, "factor": f, "eta_squared": shares[f], "n": len(units)}
-            for f in factors
-        ]
-    return pd.DataFrame(rows, columns=columns)
+    tables = [
+        variance_shares(units, "correlation", factors, FACTOR_RESAMPLES).assign(objective=objective)
+        for objective, units, factors in (
+            ("Obj 1", obj1, ["t_ex", "t_ap", "segment"]),
+            ("Obj 2", obj2, ["t_ex", "t_ap", "pair"]),
+        )
+        if not units.empty
+    ]
+    return (
+        pd.concat(tables, ignore_index=True)[columns] if tables else pd.DataFrame(columns=columns)
+    )
 
 
 def correlation_sensitivity(correlations: pd.DataFrame | None) -> pd.DataFrame:
@@ -190,8 +191,8 @@ def correlation_sensitivity(correlations: pd.DataFrame | None) -> pd.DataFrame:
     (subject x IMU x T_ex x T_ap, each averaged over the repetitions), the drop from no error, and
     that drop in units of the SD between units at no error (``drop_over_sd``: the error is visible
     against the spread of correct calibrations when it is well above 1), and the share of units
-    whose correlation falls below the 5th percentile of the units without error
-    (``detected_share``: 0.05 is chance).
+    whose correlation falls below the 5th percentile of the correct calibrations of their own
+    cell (mode, segment and T_ap, as Table 3 reads them: ``detected_share``, about 0.05 by chance).
     """
     columns = [
         "mode",
@@ -205,7 +206,7 @@ def correlation_sensitivity(correlations: pd.DataFrame | None) -> pd.DataFrame:
     ]
     if correlations is None or correlations.empty:
         return pd.DataFrame(columns=columns)
-    keys = ["subject", "imu", "t_ex", "t_ap", "mode", "heading_error_deg"]
+    keys = ["subject", "imu", "segment", "t_ex", "t_ap", "mode", "heading_error_deg"]
     chosen = (correlations["objective"] == "frontal_lateral_sensitivity") & unflagged(correlations)
     data = correlations.loc[chosen, [*keys, "correlation"]]  # not copies of the other columns
     units = data.groupby(keys, as_index=False)["correlation"].mean()
@@ -215,12 +216,14 @@ def correlation_sensitivity(correlations: pd.DataFrame | None) -> pd.DataFrame:
     at_zero = table[table["heading_error_deg"] == 0].set_index("mode")
     table["drop"] = table["mode"].map(at_zero["mean"]) - table["mean"]
     table["drop_over_sd"] = table["drop"] / table["mode"].map(at_zero["sd"])
-    correct = units[units["heading_error_deg"] == 0].groupby("mode")["correlation"].quantile(0.05)
-    below = units["correlation"] < units["mode"].map(correct)
-    detected = (
-        below.groupby([units["mode"], units["heading_error_deg"]]).mean().rename("detected_share")
-    )
-    table = table.merge(detected.reset_index(), on=["mode", "heading_error_deg"], how="left")
+    cell = ["mode", "segment", "t_ap"]
+    correct = (
+        units[units["heading_error_deg"] == 0].groupby(cell)["correlation"].quantile(0.05)
+    ).rename("reference")
+    units = units.merge(correct.reset_index(), on=cell, how="left")
+    units["detected"] = units["correlation"] < units["reference"]
+    detected = units.groupby(["mode", "heading_error_deg"])["detected"].mean()
+    table = table.merge(detected.rename("detected_share").reset_index(), how="left")
     return table[columns]
 
 
@@ -417,6 +420,23 @@ def _matrix_markdown(table: pd.DataFrame, spec: dict) -> list[str]:
     return lines + [long.to_markdown(index=False, disable_numparse=True)]
 
 
+#: what Tables 7, 8 and 10's markdown says of their three tests
+_TTEST_NOTE = (
+    "Three tests of the same contrast per row: the paper's paired t-test on "
+    "pooled units (repetitions, subsets and T_ex of one subject are not independent, so its p is "
+    "optimistic: it is shown because it is what the paper did); a paired t-test on the subjects "
+    "(each subject's mean per set, its IMUs and sides averaged: a subject's left and right are "
+    "not two units), on which aceval judges the paper's set-preference claims, with the "
+    "smallest p an exact test on that many subjects reaches (2 / 2^n: 0.0625 for 5); a linear "
+    "mixed model of the cells' paired differences (a cell: one IMU, Table 7: one side, of one "
+    "subject; statsmodels MixedLM, REML, Wald z) with a random intercept per subject. A fit "
+    "that did not converge or whose Hessian is not positive definite has no p and is not in "
+    "the Holm family; a subjects' variance estimated at zero is flagged 'boundary'. With 5 "
+    "subjects a Wald z is optimistic. d_z = mean difference / SD of the differences. The cells "
+    "are in table set_test_units. "
+)
+
+
 def _ttest_markdown(table: pd.DataFrame, spec: dict) -> list[str]:
     row = spec["row"]
     set_a, set_b = table["set_a"].iloc[0], table["set_b"].iloc[0]
@@ -440,7 +460,9 @@ def _ttest_markdown(table: pd.DataFrame, spec: dict) -> list[str]:
                 if isinstance(r["fit_flags"], str) and r["fit_flags"]
                 else ""
             )
-            return f"{int(r['n'])} pairs, {int(r['n_groups'])} subjects{fit}" if r["n"] else "0"
+            return f"{int(r['n'])} cells, {int(r['n_groups'])} subjects{fit}" if r["n"] else "0"
+        if r["test"] == "units" and r["n"]:  # what an exact test on these subjects can reach
+            return f"{int(r['n'])} subjects (smallest exact p {_fmt_p(r['smallest_p'])})"
         return str(int(r["n"]))
 
     is_paper = table["test"] == "paper"
@@ -479,16 +501,7 @@ def _ttest_markdown(table: pd.DataFrame, spec: dict) -> list[str]:
     notes = [note for note in table.get("note", pd.Series(dtype=str)).dropna().unique() if note]
     return [
         f"{set_a} vs {set_b} (compared with the paper's frontal/back and lateral sets); difference = "
-        f"{set_a} - {set_b}. Four tests of the same contrast per row: the paper's paired t-test on "
-        "pooled units (repetitions, subsets and T_ex of one subject are not independent, so its p is "
-        "optimistic: it is shown because it is what the paper did); a paired t-test on the subjects "
-        "(each subject's mean per set, its IMUs and sides averaged: a subject's left and right are "
-        "not two units), on which aceval judges the paper's set-preference claims; two linear mixed "
-        "models of the paired differences (statsmodels MixedLM, REML, Wald z): a random intercept "
-        "per subject, then also IMU (Table 7: side) within subject. A fit that did not converge or "
-        "whose Hessian is not positive definite has no p; a variance estimated at zero is flagged "
-        "'boundary' (column n). With 5 subjects a Wald z is optimistic. d_z = mean difference / SD "
-        "of the differences. "
+        f"{set_a} - {set_b}. {_TTEST_NOTE}"
         f"p is raw; p (Holm) corrects each test's p across the rows of this table. {better}.",
         "",
         long.to_markdown(index=False, disable_numparse=True),

@@ -185,11 +185,12 @@ _ENTRIES = [
         "set_test_units",
         "table",
         "kong",
-        "Kong et al. 2016, Tables 7, 8, 10 (the units of the defensible test)",
+        "Kong et al. 2016, Tables 7, 8, 10 (the cells of the tests on subjects and mixed models)",
         ("correlations", "angles"),
-        "The units behind the set comparison on which the claims are judged: each subject's mean "
-        "per sensor set, per table and row (the test on subjects of Tables 7, 8, 10)",
-        "subjects (IMUs and sides averaged inside each)",
+        "The cells behind the set comparison on which the claims are judged: per table, row, "
+        "subject and IMU (Table 7: side), the mean of the paired values in each sensor set; the "
+        "test on subjects averages a subject's cells, the mixed model reads their differences",
+        "subject x IMU (Table 7: subject x side), repetitions and subsets averaged inside each",
         _named(
             "report.set_tests.set_test_units",
             "sensor_sets",
@@ -207,7 +208,10 @@ _ENTRIES = [
         "Kong et al. 2016, Obj 1-2: share of the variance of the correlations explained by the "
         "test the matrix comes from (T_ex), the test it is applied to (T_ap) and the segment",
         "Obj 1: subject x IMU x T_ex x T_ap (Table 3's units); Obj 2: subject x set x side x pair x "
-        "T_ex x T_ap (Table 6's); eta squared from type II sums of squares of an additive model",
+        "T_ex x T_ap (Table 6's); eta squared from type II sums of squares of an additive model, low and "
+        "high its 95 % interval from 1,000 resamples of the subjects; aliased: how many of the "
+        "factor's contrasts the others span (Obj 2's pairs are each recorded in their own tests: "
+        "a factor wholly confounded has no share of its own, shown empty)",
         _named("report.kong2016.correlation_factors", "correlations"),
         _named_markdown,
     ),  # fmt: skip

@@ -220,16 +220,12 @@ def summary_text(tables: dict, analyses: list[str], data: dict, notes: list[str]
     from aceval.report import summary
 
     meta = data["meta"]
-    # Kong's claims and the truth warning read the angles and calibrations; the other analyses'
-    # claims read their tables only
-    angles, calibrations = (
-        (data.get("angles"), data.get("calibrations")) if "kong" in analyses else (None, None)
-    )
+    calibrations = data.get("calibrations") if "kong" in analyses else None
     notes = [f"- {line}" for line in notes if line]
     if calibrations is not None and (warning := truth_warning(calibrations)):
         notes.append(f"- {warning}")
     return summary.to_markdown(
-        summary.claims(tables, angles, calibrations),
+        summary.claims(tables, data),
         meta.get("name", ""),
         meta.get("description", ""),
         bool(meta.get("simulated")),

@@ -115,7 +115,8 @@ def supported_ttest(axes: pd.DataFrame) -> pd.DataFrame:
     return result
 
 
-def _published_lm() -> pd.DataFrame:
+def published_lm() -> pd.DataFrame:
+    """Ricci Sec. 3-4's LM iterations (mean, SD) per frame and residuals after the fit (deg)."""
     return pd.read_csv(REFERENCE / "lm_published.csv", comment="#", dtype={"test": str}).fillna(
         {"test": ""}
     )
@@ -167,7 +168,7 @@ def lm_table(calibrations: pd.DataFrame) -> pd.DataFrame:
         ["random_starts", "random_starts_optimum"]
     ].astype(int)
     published = (
-        _published_lm()
+        published_lm()
         .query("quantity == 'iterations'")
         .rename(columns={"frame": "segment", "mean": "published_mean", "sd": "published_sd"})
     )
@@ -180,7 +181,8 @@ def lm_table(calibrations: pd.DataFrame) -> pd.DataFrame:
 
 def residual_table(axes: pd.DataFrame, paper_names: dict | None = None) -> pd.DataFrame:
     """Ricci Fig. 5 / Eq. 13: residual angle (deg) between each reference axis and its estimate,
-    before (identity) and after the LM fit, mean and SD per segment (with side) and test.
+    before (identity) and after the LM fit, mean, SD and n children per segment (with side) and
+    test, and over the tests (``all``: each child's mean over its tests, then over the children).
     """
     names = paper_names or {}
     used = axes.dropna(subset=["residual_after_deg"])
@@ -196,8 +198,11 @@ def residual_table(axes: pd.DataFrame, paper_names: dict | None = None) -> pd.Da
         )
         .reset_index()
     )
+    per_child = data.groupby(["segment", "subject"], as_index=False)[
+        ["residual_before_deg", "residual_after_deg"]
+    ].mean()  # a child's tests are not independent: one value per child in the overall row
     overall = (
-        data.groupby("segment")
+        per_child.groupby("segment")
         .agg(
             before_mean=("residual_before_deg", "mean"),
             before_sd=("residual_before_deg", "std"),
@@ -210,7 +215,7 @@ def residual_table(axes: pd.DataFrame, paper_names: dict | None = None) -> pd.Da
     )
     result = pd.concat([result, overall], ignore_index=True)
     published = (
-        _published_lm()
+        published_lm()
         .query("quantity == 'residual_after_deg'")
         .rename(columns={"frame": "segment", "mean": "published_mean"})[
             ["segment", "test", "published_mean"]

@@ -1,8 +1,8 @@
 """SUMMARY.md: each claim of Kong et al. 2016 and Ricci et al. 2014 (reference/*/headline_findings.md)
-with 'holds', 'does not hold' or 'not testable on this dataset' and the numbers behind the verdict,
-then (datasets with ground truth) which method and test to use for which segment.
+with its verdict (:mod:`aceval.report.claims`) and the numbers behind it, then (datasets with
+ground truth) which method and test to use for which segment.
 
-Each check states its rule; where the paper says "about", the tolerance is written in the rule.
+Each check states its rule and the source of every number it compares with.
 """
 
 from __future__ import annotations
@@ -18,25 +18,25 @@ from aceval.report.claims import (
     FAILS,
     GROUND_TRUTH,
     HOLDS,
+    INCONCLUSIVE,
     PAPER,
     UNTESTABLE,
+    VERDICTS,
     Claim,
 )
 from aceval.report.kong_claims import kong_claims
 from aceval.report.ricci_claims import ricci_claims
 
 
-def claims(
-    tables: dict, angles: pd.DataFrame | None, calibrations: pd.DataFrame | None
-) -> list[Claim]:
+def claims(tables: dict, data: dict) -> list[Claim]:
     """Kong's claims when the dataset has any of Kong's tables (by number), Ricci's when it has the
-    ricci_* tables.
+    ricci_* tables; both read ``data``'s tidy tables (correlations, angles, calibrations).
     """
     found = []
     if any(isinstance(key, int) for key in tables):
-        found += kong_claims(tables, angles, calibrations)
+        found += kong_claims(tables, data)
     if any(str(key).startswith("ricci_") for key in tables):
-        found += ricci_claims(tables)
+        found += ricci_claims(tables, data)
     return found
 
 
@@ -410,7 +410,7 @@ def to_markdown(
     against a ground truth, the checks of the code, and the extra sections.
     """
     claims = [c for c in found if c.section == PAPER]
-    counts = {v: sum(c.verdict == v for c in claims) for v in (HOLDS, FAILS, UNTESTABLE)}
+    counts = {v: sum(c.verdict == v for c in claims) for v in VERDICTS}
     lines = [f"# {dataset}: the papers' claims on this dataset", "", f"{description}", ""]
     if simulated:
         lines += [
@@ -420,7 +420,11 @@ def to_markdown(
             "",
         ]
     lines += [
-        f"{counts[HOLDS]} hold, {counts[FAILS]} do not hold, {counts[UNTESTABLE]} not testable.",
+        f"{counts[HOLDS]} hold, {counts[FAILS]} do not hold, {counts[INCONCLUSIVE]} inconclusive, "
+        f"{counts[UNTESTABLE]} not testable. Each claim is judged on the subjects as independent "
+        "units, from the 95 % interval of its number (docs/objectives.md, 'How a claim is "
+        "judged'): holds when the whole interval is on the claim's side, does not hold when it is "
+        "wholly on the other, inconclusive when it includes both.",
         "",
     ]
     lines += notes + ([""] if notes else [])
