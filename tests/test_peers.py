@@ -106,3 +106,34 @@ def test_qmt_is_flagged_where_the_knee_barely_flexes():
             found = knee_range_deg(thigh, shank, [0, 1, 0], [0, sign, 0], fs)
             assert found == pytest.approx(flexion_deg, rel=0.02)
             assert (found >= MIN_KNEE_RANGE_DEG) == flexed
+
+
+def test_the_peers_read_the_samples_acevals_methods_read(tmp_path):
+    """Issue 32, point 6: the plan gives each motion file's kept ranges (Kong's movement windows,
+    clipped samples left out); the samples a peer reads through them are exactly those behind
+    aceval's scatter (their count and their scatter sum_k a_k a_k^T)."""
+    import subprocess
+
+    import pandas as pd
+    from peer_io import kept_samples, read_plan, read_recording
+
+    from .smalldataset import simulate_small
+
+    root = simulate_small(tmp_path / "lab")
+    summaries, plan_path = tmp_path / "recordings.csv", tmp_path / "plan.json"
+    subprocess.run([sys.executable, "-m", "aceval", "calibrate", str(root), "--out",
+                    str(tmp_path / "cal.csv"), "--recordings-out", str(summaries), "--plan-out",
+                    str(plan_path)], check=True, capture_output=True)  # fmt: skip
+    plan, rows = read_plan(str(plan_path)), pd.read_csv(summaries).set_index(["imu", "test", "rep"])
+    checked = 0
+    for entry in plan["calibrations"]:
+        for rep, path in entry["reps"].items():
+            acc, _ = read_recording(plan, path)
+            kept = kept_samples(entry, rep)
+            summary = rows.loc[(entry["imu"], entry["test"], int(rep))]
+            assert len(kept) == summary["n_samples"] < len(acc)
+            scatter = (acc[kept].T @ acc[kept]).ravel()
+            expected = summary[[f"s{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]].to_numpy(float)
+            np.testing.assert_allclose(scatter, expected, rtol=1e-6)
+            checked += 1
+    assert checked >= 9

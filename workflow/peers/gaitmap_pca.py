@@ -6,7 +6,9 @@ standing recording (``find_static_samples`` on the gyroscope, the median acceler
 rotated onto gravity by ``get_gravity_rotation``: what ``align_dataset_to_gravity`` does inside),
 then the heading from ``PcaAlignment``: the first principal component of the gravity-aligned
 gyroscope in the horizontal plane becomes the medial-lateral axis (its docs cite Kong 2016). The
-motion samples are the whole recordings of the subset's repetitions (gaitmap trims nothing).
+motion samples are those aceval's methods read from the subset's repetitions (the plan's
+``kept`` ranges: Kong's movement windows, clipped samples left out), so that every method sees
+the same samples; gaitmap itself would take whole recordings (it trims nothing).
 gaitmap leaves the sign of that axis open ("an additional 180 deg flip might still be
 necessary"); it is set by the dataset's declared right axis, as for every aceval method.
 Units as gaitmap wants them: acceleration m/s^2, angular velocity deg/s.
@@ -20,7 +22,7 @@ from gaitmap.preprocessing.sensor_alignment import PcaAlignment
 from gaitmap.utils.consts import GRAV_VEC, SF_ACC, SF_GYR
 from gaitmap.utils.rotations import get_gravity_rotation
 from gaitmap.utils.static_moment_detection import find_static_samples
-from peer_io import Timer, frame_from_axes, main, read_recording, row
+from peer_io import Timer, frame_from_axes, kept_samples, main, read_recording, row
 
 METHOD = "gaitmap_pca"
 #: gaitmap's defaults of align_dataset_to_gravity
@@ -76,7 +78,11 @@ def calibrate(plan: dict) -> list[dict]:
         static = sensor_data(
             *map(np.vstack, zip(*(read_recording(plan, p) for p in entry["static"])))
         )
-        reps = {int(k): read_recording(plan, p) for k, p in entry["reps"].items()}
+        reps = {}
+        for k, path in entry["reps"].items():
+            acc, gyr = read_recording(plan, path)
+            kept = kept_samples(entry, k)
+            reps[int(k)] = acc[kept], gyr[kept]
         with Timer() as gravity_timer:
             gravity, note = gravity_rotation(static, plan["fs_hz"])
         for subset in entry["subsets"]:

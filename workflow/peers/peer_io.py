@@ -9,7 +9,9 @@ aceval:
   its sampling rate and unit factors, and per calibration the IMU, segment, side, test, the
   sensor axis declared to point right (``right_axis``, a unit vector: it fixes the signs every
   method needs, as it does Kong's), the static and motion recording files that aceval's own pass
-  found usable, and the subsets of repetitions to calibrate from (all of them and every k-subset);
+  found usable, the sample ranges of each motion file that aceval's methods read (``kept``: the
+  movement windows of Kong's trimming, clipped samples left out; :func:`kept_samples`), and the
+  subsets of repetitions to calibrate from (all of them and every k-subset);
 * out: one CSV row per calibration and subset in aceval's convention: ``r11..r33`` of R mapping
   sensor-frame vectors into Kong's body frame (x forward, y right, z down), ``flag`` and ``note``
   when the peer cannot give one, and ``seconds`` (the peer's own computation, file reading left
@@ -64,6 +66,15 @@ def read_recording(plan: dict, relative: str) -> tuple[np.ndarray, np.ndarray]:
     """(acc m/s^2, gyr rad/s), each (N, 3), of a recording of the plan's dataset."""
     values = read_columns(plan, relative, COLUMNS[1:])
     return values[:, :3] * plan["acc_scale"], values[:, 3:] * plan["gyr_scale"]
+
+
+def kept_samples(entry: dict, rep, n: int | None = None) -> np.ndarray:
+    """The indices of repetition ``rep``'s samples that aceval's methods read (the plan's
+    ``kept`` ranges), below ``n`` when given (two recordings cut to the shorter one).
+    """
+    ranges = entry["kept"][str(rep)]
+    index = np.concatenate([np.arange(a, b) for a, b in ranges]) if ranges else np.arange(0)
+    return index if n is None else index[index < n]
 
 
 def frame_from_axes(down: np.ndarray, right: np.ndarray, right_axis: np.ndarray) -> np.ndarray:

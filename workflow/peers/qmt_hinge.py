@@ -12,7 +12,9 @@ calibrations are flagged ``knee_barely_flexes`` (they leave the medians, as acev
 do). The
 vertical comes from quiet standing (the median specific force, as for Kong and gaitmap); the sign
 of the axis, which the estimate leaves open, from the declared right axis. The repetitions of the
-subset are concatenated, each cut to the shorter of its two recordings.
+subset are concatenated, each cut to the shorter of its two recordings and to the samples aceval's
+methods read from both (the plan's ``kept`` ranges of the thigh and of the shank, intersected: the
+joint needs simultaneous samples).
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ import io
 
 import numpy as np
 import qmt
-from peer_io import Timer, frame_from_axes, main, read_recording, row
+from peer_io import Timer, frame_from_axes, kept_samples, main, read_recording, row
 
 METHOD = "qmt_hinge"
 #: the knee must flex for a hinge axis to be seen (Seel et al. 2012 excite the joint on purpose);
@@ -75,7 +77,10 @@ def calibrate(plan: dict) -> list[dict]:
             parts = []
             for r in subset:
                 n = min(len(recordings["thigh"][r][0]), len(recordings["shank"][r][0]))
-                parts.append([recordings[s][r][i][:n] for s in ("thigh", "shank") for i in (0, 1)])
+                both = np.intersect1d(kept_samples(thigh, r, n), kept_samples(shank, r, n))
+                parts.append(
+                    [recordings[s][r][i][both] for s in ("thigh", "shank") for i in (0, 1)]
+                )
             acc1, gyr1, acc2, gyr2 = (np.vstack([p[i] for p in parts]) for i in range(4))
             with Timer() as timer, contextlib.redirect_stdout(io.StringIO()):  # its iterations
                 j1, j2 = qmt.jointAxisEstHingeOlsson(acc1, acc2, gyr1, gyr2)

@@ -19,10 +19,11 @@ from aceval.data.rotations import axis_vector
 def calibration_plan(dataset: Dataset, summaries: pd.DataFrame, retest_k: int | None = 3) -> dict:
     """What a peer tool calibrates, in the file interface of workflow/peers/peer_io.py: per (subject,
     set, IMU, motion test) that Kong's method calibrates, the static and motion recording files
-    this pass found usable, the declared right axis as a vector, and the subsets of repetitions
-    (all of them, then every subset of ``retest_k``); and (``static``) every IMU's quiet-standing
-    files. Ricci's functional design has no calibration here (the peers calibrate from a vertical
-    and one movement axis).
+    this pass found usable, the sample ranges of each motion file that aceval's methods read
+    (``kept``: the trimmer's movement windows, clipped samples left out), the declared right axis
+    as a vector, and the subsets of repetitions (all of them, then every subset of ``retest_k``);
+    and (``static``) every IMU's quiet-standing files. Ricci's functional design has no
+    calibration here (the peers calibrate from a vertical and one movement axis).
     """
     plan = {
         "dataset": str(dataset.root.resolve()),
@@ -66,7 +67,15 @@ def calibration_plan(dataset: Dataset, summaries: pd.DataFrame, retest_k: int | 
                 "right_axis": axis_vector(dataset.right_axis(sensor_set, imu)).tolist(),
                 "static": static_paths[(subject, sensor_set, imu)],
                 "reps": {str(r): paths[(subject, sensor_set, test, r, imu)] for r in reps},
+                "kept": {str(r): _ranges(k) for r, k in zip(group["rep"], group["kept"])},
                 "subsets": chosen,
             }
         )
     return plan
+
+
+def _ranges(text) -> list[list[int]]:
+    """'a:b;c:d' -> [[a, b], [c, d]] (half-open sample ranges)."""
+    if not isinstance(text, str) or not text:
+        return []
+    return [[int(v) for v in part.split(":")] for part in text.split(";")]

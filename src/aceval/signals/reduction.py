@@ -217,7 +217,8 @@ def summarise(
     and the unit moments of the accelerometer. Motion tests: ``n_samples`` kept by the trimmer
     (``moving``; None when it found no movement) and the scatter ``s11..s33`` (m^2/s^4);
     walking tests (``first_phase`` gait) also ``step_hz`` and the scatter ``h11..h33`` of the
-    acceleration band-passed around it (:mod:`aceval.methods.step_harmonic`).
+    acceleration band-passed around it (:mod:`aceval.methods.step_harmonic`); ``kept``, the
+    half-open sample ranges behind the scatter ('a:b;c:d', the samples the peers read too).
     Samples clipped at the declared accelerometer range, or at a plateau found in the data
     (``n_clipped``), carry a wrong direction and are left out of the scatter; above
     :data:`MAX_CLIPPED_FRACTION` the recording is left out. A recording that cannot be used gets
@@ -255,7 +256,9 @@ def summarise(
             )
         mask = mask & ~clipped
         row["n_samples"] = int(mask.sum())
-        row["n_segments"] = len(mask_to_ranges(mask))
+        kept = mask_to_ranges(mask)
+        row["n_segments"] = len(kept)
+        row["kept"] = ";".join(f"{a}:{b}" for a, b in kept)  # what the peers are given too
         row.update(zip(SCATTER_COLUMNS, scatter(data.acc[mask]).ravel()))
         if dataset.first_phase(rec["test"]) == "gait":  # walking: the step-harmonic scatter
             step, row["step_hz"] = step_scatter(data.acc, dataset.fs_hz, mask)
