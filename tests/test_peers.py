@@ -55,6 +55,17 @@ def test_peer_rows_pass_the_same_rotation_gate_as_acevals():
     gated = gate_peers(rows, lambda sensor_set, imu: "+y")
     assert gated["flag"].tolist() == ["", "right_axis_mismatch", "not_applicable"]
     assert gated["right_axis_angle_deg"].iloc[:2].round(6).tolist() == [0.0, 90.0]
+    # the peer's own axis 20 deg from the vertical (body z = sensor z here), or a PCA whose two
+    # variances are nearly equal: flagged as aceval's axis methods and Kong's plane would be
+    tilted = np.array([0.0, np.sin(np.radians(20)), np.cos(np.radians(20))])
+    axes = pd.DataFrame([
+        {**rows.iloc[0].to_dict(), "axis_x": 0.0, "axis_y": 1.0, "axis_z": 0.0, "axis_variance_ratio": 0.1},
+        {**rows.iloc[0].to_dict(), **dict(zip(["axis_x", "axis_y", "axis_z"], tilted))},
+        {**rows.iloc[0].to_dict(), "axis_x": 0.0, "axis_y": 1.0, "axis_z": 0.0, "axis_variance_ratio": 0.8},
+    ])  # fmt: skip
+    gated = gate_peers(axes, lambda sensor_set, imu: "+y")
+    assert gated["flag"].tolist() == ["", "axis_near_vertical", "axis_undetermined"]
+    assert gated["axis_vertical_angle_deg"].round(6).tolist()[:2] == [90.0, 20.0]
 
 
 def test_methods_are_compared_on_the_cells_they_share():

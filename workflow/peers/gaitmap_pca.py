@@ -57,9 +57,10 @@ def gravity_rotation(static: pd.DataFrame, fs_hz: float) -> tuple:
     return get_gravity_rotation(np.median(static[SF_ACC].to_numpy()[still], axis=0), GRAV_VEC), note
 
 
-def pca_rotation(gravity, motion: pd.DataFrame) -> np.ndarray:
+def pca_rotation(gravity, motion: pd.DataFrame) -> tuple[np.ndarray, float]:
     """Gaitmap's sensor -> aligned rotation (z up, y the gravity-aligned gyroscope's principal
-    horizontal axis, x = y x z).
+    horizontal axis, x = y x z), and the ratio of its PCA's two variances (second / first: near 1,
+    the principal axis is undetermined).
     """
     aligned = pd.DataFrame(
         np.column_stack(
@@ -68,7 +69,8 @@ def pca_rotation(gravity, motion: pd.DataFrame) -> np.ndarray:
         columns=[*SF_ACC, *SF_GYR],
     )
     pca = PcaAlignment(target_axis="y", pca_plane_axis=("gyr_x", "gyr_y")).align(aligned)
-    return (pca.rotation_ * gravity).as_matrix()
+    variance = pca.pca_.explained_variance_
+    return (pca.rotation_ * gravity).as_matrix(), float(variance[1] / variance[0])
 
 
 def calibrate(plan: dict) -> list[dict]:
@@ -90,10 +92,11 @@ def calibrate(plan: dict) -> list[dict]:
                 np.vstack([reps[r][0] for r in subset]), np.vstack([reps[r][1] for r in subset])
             )
             with Timer() as timer:
-                aligned = pca_rotation(gravity, motion)
+                aligned, ratio = pca_rotation(gravity, motion)
             R = frame_from_axes(-aligned[2], aligned[1], entry["right_axis"])
             seconds = gravity_timer.seconds + timer.seconds  # one calibration: both steps
-            rows.append(row(entry, subset, METHOD, R, seconds, note=note))
+            rows.append(row(entry, subset, METHOD, R, seconds, note=note, axis=aligned[1],
+                            axis_variance_ratio=ratio))  # fmt: skip
     return rows
 
 

@@ -13,9 +13,9 @@ aceval:
   movement windows of Kong's trimming, clipped samples left out; :func:`kept_samples`), and the
   subsets of repetitions to calibrate from (all of them and every k-subset);
 * out: one CSV row per calibration and subset in aceval's convention: ``r11..r33`` of R mapping
-  sensor-frame vectors into Kong's body frame (x forward, y right, z down), ``flag`` and ``note``
-  when the peer cannot give one, and ``seconds`` (the peer's own computation, file reading left
-  out).
+  sensor-frame vectors into Kong's body frame (x forward, y right, z down), the peer's own axis
+  and its eigenvalue ratio (:data:`AXIS_COLUMNS`, for aceval's gate), ``flag`` and ``note`` when
+  the peer cannot give one, and ``seconds`` (the peer's own computation, file reading left out).
 """
 
 from __future__ import annotations
@@ -30,9 +30,13 @@ import numpy as np
 
 COLUMNS = ["t", "acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z"]
 R_COLUMNS = [f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
+#: the peer's own medial-lateral axis in the sensor frame, before frame_from_axes removes its
+#: vertical part, and the ratio of the eigenvalues that decide it (second / first; NaN when the
+#: method has none): what aceval's gate reads (axis near the vertical, axis undetermined)
+AXIS_COLUMNS = ["axis_x", "axis_y", "axis_z", "axis_variance_ratio"]
 OUT_COLUMNS = [
     "subject", "sensor_set", "imu", "segment", "side", "test", "repetitions", "n_reps", "method",
-    *R_COLUMNS, "flag", "note", "seconds",
+    *R_COLUMNS, *AXIS_COLUMNS, "flag", "note", "seconds",
 ]  # fmt: skip
 
 
@@ -98,15 +102,22 @@ def subset_label(subset) -> str:
     return "+".join(f"R{r}" for r in subset)
 
 
-def row(entry: dict, subset, method: str, R=None, seconds=float("nan"), flag="", note="") -> dict:
-    """An output row for one calibration (R None: not calibrated, ``flag`` and ``note`` say why)."""
+def row(
+    entry: dict, subset, method: str, R=None, seconds=float("nan"), flag="", note="",
+    axis=None, axis_variance_ratio=float("nan"),
+) -> dict:  # fmt: skip
+    """An output row for one calibration (R None: not calibrated, ``flag`` and ``note`` say why;
+    ``axis``: the peer's medial-lateral axis in the sensor frame, see :data:`AXIS_COLUMNS`).
+    """
     values = np.full(9, np.nan) if R is None else np.asarray(R, float).ravel()
+    axis = np.full(3, np.nan) if axis is None else np.ravel(axis) / np.linalg.norm(axis)
     return {
         **{k: entry[k] for k in ("subject", "sensor_set", "imu", "segment", "side", "test")},
         "repetitions": subset_label(subset),
         "n_reps": len(subset),
         "method": method,
         **dict(zip(R_COLUMNS, values)),
+        **dict(zip(AXIS_COLUMNS, [*axis, axis_variance_ratio])),
         "flag": flag,
         "note": note,
         "seconds": seconds,

@@ -97,7 +97,7 @@ def calibrate(plan: dict) -> list[dict]:
             )
             for name, entry, axis in (("thigh", thigh, j1), ("shank", shank, j2)):
                 R = frame_from_axes(down[name], np.ravel(axis), entry["right_axis"])
-                rows.append(row(entry, subset, METHOD, R, timer.seconds / 2, flag, note))
+                rows.append(row(entry, subset, METHOD, R, timer.seconds / 2, flag, note, axis=axis))
         done |= {id(thigh), id(shank)}
     for entry in entries:
         if id(entry) not in done:

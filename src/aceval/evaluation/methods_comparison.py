@@ -205,30 +205,52 @@ def uncertainty_table(calibrations: pd.DataFrame) -> pd.DataFrame:
 
 
 def gate_peers(peers: pd.DataFrame, right_axis_of) -> pd.DataFrame:
-    """The peers' rows through the gate aceval's own rows pass that needs only the rotation: the
-    declared right axis (``right_axis_of(sensor_set, imu)`` -> '+y', ...) within
-    :data:`aceval.signals.checks.MAX_RIGHT_AXIS_ANGLE_DEG` of the calibration's body y, else
-    ``right_axis_mismatch`` beside the peer's own flag; column ``right_axis_angle_deg``. Flagged
-    rows leave the medians, as aceval's do. (The direction vote and the axis and plane limits
-    need the recordings' statistics, which a peer's output does not carry.)
+    """The peers' rows through the gates aceval's own rows pass, with the same limits:
+
+    * ``right_axis_mismatch``: the declared right axis (``right_axis_of(sensor_set, imu)`` ->
+      '+y', ...) more than :data:`aceval.signals.checks.MAX_RIGHT_AXIS_ANGLE_DEG` from the
+      calibration's body y (column ``right_axis_angle_deg``);
+    * ``axis_near_vertical``: the peer's own medial-lateral axis (``axis_x..z``, before its
+      vertical part is removed) closer to the vertical than the axis methods allow
+      (:class:`aceval.methods.sagittal.AxisLimits`, 45 deg; column ``axis_vertical_angle_deg``);
+    * ``axis_undetermined``: the two eigenvalues that decide the peer's axis (gaitmap's PCA,
+      ``axis_variance_ratio``) closer than Kong's plane normal may be
+      (:class:`aceval.methods.kong.KongLimits` ``max_normal_ratio``, 0.5).
+
+    Each flag joins the peer's own; flagged rows leave the medians, as aceval's do. (The
+    direction vote needs the recordings' first movement phases, which a peer's output does not
+    carry: the right-axis gate stands in for it.)
     """
     from aceval.calibrate.table import combine_flags
     from aceval.data.rotations import axis_vector
+    from aceval.methods.kong import KongLimits
+    from aceval.methods.sagittal import AxisLimits
     from aceval.signals.checks import MAX_RIGHT_AXIS_ANGLE_DEG, right_axis_angle_deg
 
     if peers.empty:
         return peers
-    body_y = peers[R_COLUMNS].to_numpy(float).reshape(-1, 3, 3)[:, 1, :]
+    R = peers[R_COLUMNS].to_numpy(float).reshape(-1, 3, 3)
     right = np.array(
         [axis_vector(right_axis_of(s, i)) for s, i in zip(peers["sensor_set"], peers["imu"])]
     )
-    angle = right_axis_angle_deg(body_y, right)
-    mismatch = angle > MAX_RIGHT_AXIS_ANGLE_DEG
-    flags = [
-        combine_flags(f, "right_axis_mismatch" if m else "")
-        for f, m in zip(peers["flag"].fillna("").astype(str), mismatch)
+    angle = right_axis_angle_deg(R[:, 1, :], right)
+    axis = peers.reindex(columns=["axis_x", "axis_y", "axis_z"]).to_numpy(float)
+    with np.errstate(invalid="ignore"):
+        cosine = np.abs(np.einsum("bi,bi->b", axis, R[:, 2, :])) / np.linalg.norm(axis, axis=1)
+    vertical_angle = np.degrees(np.arccos(np.clip(cosine, 0.0, 1.0)))
+    ratio = peers.reindex(columns=["axis_variance_ratio"]).to_numpy(float)[:, 0]
+    checks = [
+        ("right_axis_mismatch", angle > MAX_RIGHT_AXIS_ANGLE_DEG),
+        ("axis_near_vertical", vertical_angle < AxisLimits().min_vertical_angle_deg),
+        ("axis_undetermined", ratio > KongLimits().max_normal_ratio),
     ]
-    return peers.assign(right_axis_angle_deg=angle, flag=flags)
+    flags = [
+        combine_flags(own, *(name for name, hit in checks if hit[k]))
+        for k, own in enumerate(peers["flag"].fillna("").astype(str))
+    ]
+    return peers.assign(
+        right_axis_angle_deg=angle, axis_vertical_angle_deg=vertical_angle, flag=flags
+    )
 
 
 def with_truth(calibrations: pd.DataFrame, ground_truth: pd.DataFrame | None) -> pd.DataFrame:
