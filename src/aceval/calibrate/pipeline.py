@@ -36,6 +36,12 @@ from aceval.methods.statistics import Pooled, pool
 from aceval.methods.uncertainty import bootstrap_cones
 from aceval.signals.checks import direction_checks
 
+#: a subset's calibration farther than this from its unit's calibration from all repetitions is
+#: ``unstable`` (:func:`flag_unstable`): Kong's Obj 5 finds calibrations of one IMU from different
+#: tests within "about 5 deg" (Table 11), so a subset of one test's repetitions farther from that
+#: test's own calibration disagrees with it more than whole tests do in the paper
+UNSTABLE_DEG = 5.0
+
 
 def calibrate(
     dataset: Dataset,
@@ -80,8 +86,10 @@ def calibrate_sagittal(
         return pd.DataFrame(columns=CALIBRATION_COLUMNS), plan.static_axes
     every = pool(plan.units, plan.every_subset.unit, plan.every_subset.weights)
     kong = _with_direction(plan, plan.every_subset, every, METHODS[0].fit(every, {}))
+    kong = flag_unstable(kong, every, retest_k)
     rows = pool(plan.units, plan.methods.unit, plan.methods.weights)
-    fitted = _method_fits(plan, rows)
+    fitted = {name: fit if name == "kong" else flag_unstable(fit, rows, retest_k)
+              for name, fit in _method_fits(plan, rows).items()}  # fmt: skip
     full_kong = _full_rows(every)
     full_rows = _full_rows(rows)
     R_full = {"kong": kong.R[full_kong]}
@@ -129,18 +137,14 @@ def _direction(plan: Plan, subsets: Subsets, R: np.ndarray, rows=slice(None)) ->
 
 
 def _with_direction(plan: Plan, subsets: Subsets, pooled: Pooled, kong: Fit) -> Fit:
-    """Kong's calibrations of every subset with the direction checks' flags and evidence: the
-    declared right axis judged on each subset's own y0; forward or backward, a property of the
-    IMU's mounting, judged on all repetitions together and given to every subset.
+    """Kong's calibrations of every subset with the direction checks' flags and evidence, each
+    judged on its own: the declared right axis on the subset's own y0, forward or backward on the
+    subset's own repetitions (a subset inherits no flag from the calibration of all of them).
     """
     direction = _direction(plan, subsets, kong.R)
-    full = _full_rows(pooled)
-    backward = has_flag(pd.Series(direction["flag"][full]), "backward").to_numpy()[subsets.unit]
     sensor = plan.identity["sensor_flag"].to_numpy()[subsets.unit]
-    flag = [
-        combine_flags(s, own, "backward" if b else "", "right_axis_mismatch" if m else "")
-        for s, own, b, m in zip(sensor, kong.flag, backward, direction["mismatch"])
-    ]
+    flag = [combine_flags(s, own, checks)
+            for s, own, checks in zip(sensor, kong.flag, direction["flag"])]  # fmt: skip
     columns = kong.columns | {
         "first_phase_agreement": direction["first_phase_agreement"],
         "right_axis_angle_deg": direction["right_axis_angle_deg"],
@@ -149,40 +153,61 @@ def _with_direction(plan: Plan, subsets: Subsets, pooled: Pooled, kong: Fit) -> 
 
 
 def _method_fits(plan: Plan, pooled: Pooled) -> dict[str, Fit]:
-    """Every registered method's calibrations of the all-repetitions and test-retest rows, flagged
-    by the sensor checks and (from all repetitions) the direction checks; a test-retest row also
-    carries the flag of the same method's calibration from all repetitions (a property of the
-    mounting). A method's own ``not_applicable`` stays alone.
+    """Every registered method's calibrations of the all-repetitions and test-retest rows, each
+    flagged by the sensor checks and by its own direction checks (the subset's own repetitions
+    and y0: nothing inherited from the calibration of all of them). A method's own
+    ``not_applicable`` stays alone.
     """
     fitted: dict[str, Fit] = {}
     for method in METHODS:
         fitted[method.name] = method.fit(pooled, fitted)
     sensor = plan.identity["sensor_flag"].to_numpy()[pooled.unit]
-    full = _full_rows(pooled)
     out = {}
     for method in METHODS[1:]:
         fit = fitted[method.name]
-        flag = fit.flag.copy()
+        flag = np.array([f if f == "not_applicable" else combine_flags(s, f)
+                         for s, f in zip(sensor, fit.flag)], dtype=object)  # fmt: skip
         columns = dict(fit.columns)
         columns["first_phase_agreement"] = np.full(len(pooled), np.nan)
         columns["right_axis_angle_deg"] = np.full(len(pooled), np.nan)
-        checked = full[np.isfinite(fit.R[full]).all(axis=(1, 2))]
+        checked = np.flatnonzero(np.isfinite(fit.R).all(axis=(1, 2)))
         direction = _direction(plan, plan.methods, fit.R[checked], checked)
         for key in ("first_phase_agreement", "right_axis_angle_deg"):
             columns[key][checked] = direction[key]
-        for row, checks in zip(checked, direction["flag"]):
-            flag[row] = combine_flags(sensor[row], fit.flag[row], checks)
-        for row in np.setdiff1d(full, checked):
-            if fit.flag[row] != "not_applicable":
-                flag[row] = combine_flags(sensor[row], fit.flag[row])
-        retest = np.flatnonzero(~pooled.all_repetitions)
-        flag[retest] = [
-            combine_flags(sensor[row], fit.flag[row], flag[full[pooled.unit[row]]])
-            for row in retest
+        flag[checked] = [
+            combine_flags(f, checks) for f, checks in zip(flag[checked], direction["flag"])
         ]
         out[method.name] = Fit(fit.R, flag, columns)
     out["kong"] = fitted["kong"]
     return out
+
+
+def flag_unstable(fit: Fit, pooled: Pooled, retest_k: int | None) -> Fit:
+    """Each calibration from a subset of a unit's repetitions more than :data:`UNSTABLE_DEG` from
+    the same method's calibration from all of them is flagged ``unstable`` (column
+    ``full_set_angle_deg``), and so is the calibration from all of them when most of its
+    test-retest subsets (:data:`aceval.calibrate.plan` ``retest_k`` repetitions) are: which
+    repetitions are included then decides the answer. Two unflagged calibrations of one unit
+    are thus within twice that angle of each other. Kong's Obj 3-4 and the methods' test-retest,
+    which measure this spread, keep calibrations whose only flag is ``unstable``
+    (:func:`aceval.calibrate.table.spread_usable`).
+    """
+    full = _full_rows(pooled)
+    at = full[pooled.unit]
+    finite = np.isfinite(fit.R).all(axis=(1, 2))
+    ok = (at >= 0) & finite & finite[np.maximum(at, 0)]
+    angle = np.full(len(pooled), np.nan)
+    angle[ok] = error_angle_deg(fit.R[ok], fit.R[at[ok]])
+    unstable = angle > UNSTABLE_DEG
+    n_reps = pooled.weights.sum(axis=1)
+    retest = ~pooled.all_repetitions & (n_reps == (retest_k or 0))
+    for unit in np.unique(pooled.unit[retest & ok]):
+        rows = retest & ok & (pooled.unit == unit)
+        if unstable[rows].mean() > 0.5:
+            unstable[full[unit]] = True
+    flag = np.array([combine_flags(f, "unstable" if u else "") for f, u in zip(fit.flag, unstable)],
+                    dtype=object)  # fmt: skip
+    return Fit(fit.R, flag, fit.columns | {"full_set_angle_deg": angle})
 
 
 def propagate_backward(calibrations: pd.DataFrame) -> pd.DataFrame:

@@ -63,6 +63,7 @@ FIT_COLUMNS = [
     "cone_vertical_share",
     "step_ratio",
     "step_hz",
+    "full_set_angle_deg",
     "note",
 ]
 

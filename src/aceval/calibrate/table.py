@@ -76,6 +76,22 @@ def usable(calibrations: pd.DataFrame, method: str = "kong") -> pd.DataFrame:
     return calibrations[unflagged(calibrations)]
 
 
+#: flags that say how far a calibration is from the others of its unit, not that it is wrong in
+#: itself: Kong's Obj 3-4 and the methods' test-retest, which measure that spread, keep them
+SPREAD_FLAGS = ("unstable",)
+
+
+def spread_usable(calibrations: pd.DataFrame, method: str = "kong") -> pd.DataFrame:
+    """A method's calibrations that are unflagged or flagged only by :data:`SPREAD_FLAGS`: what
+    the spread between subsets (Kong Obj 3-4, every method's test-retest) is measured on (leaving
+    the unstable subsets out would hide the spread those objectives measure).
+    """
+    calibrations = kong_rows(calibrations, method)
+    flags = calibrations["flag"].fillna("").astype(str)
+    spread_only = flags.str.split(";").map(lambda names: set(names) - {""} <= set(SPREAD_FLAGS))
+    return calibrations[unflagged(calibrations) | spread_only]
+
+
 def kong_rows(calibrations: pd.DataFrame, method: str = "kong") -> pd.DataFrame:
     """The rows of Kong's method, or of ``method`` (all rows of a table without ``method``)."""
     return (

@@ -2,7 +2,8 @@
 
 Input is the calibration table of :func:`aceval.calibrate.pipeline.calibrate` (one row per subject, sensor
 set, IMU, test and subset of repetitions, with r11..r33 and ``flag``). Flagged calibrations are
-left out; the tables count what is left (``n``).
+left out (Obj 3-4 keep those flagged only ``unstable``: the spread they measure); the tables
+count what is left (``n``).
 
 * Obj 1 / Obj 2: correlation of calibrated 3-axis signals (Eq. 7-10), :func:`correlation_3d`;
   which calibrations are compared is planned here, the signals are read in :mod:`aceval.calibrate.pipeline`.
@@ -21,7 +22,7 @@ import itertools
 import numpy as np
 import pandas as pd
 
-from aceval.calibrate.table import CALIBRATION_KEY, full_sets, matrices, parse_subset, usable
+from aceval.calibrate.table import CALIBRATION_KEY, full_sets, matrices, parse_subset, spread_usable
 from aceval.data.contract import R_COLUMNS
 from aceval.data.rotations import error_angle_deg, vertical_share
 
@@ -171,10 +172,11 @@ def _angle_rows(
 
 
 def _subset_groups(calibrations: pd.DataFrame, method: str = "kong"):
-    """The usable calibrations of ``method`` (positional index) and, per (subject, set, IMU,
+    """The calibrations of ``method`` that the spread between subsets is measured on
+    (:func:`aceval.calibrate.table.spread_usable`; positional index) and, per (subject, set, IMU,
     test), ``({subset: position}, all repetitions)``.
     """
-    table = usable(calibrations, method).reset_index(drop=True)
+    table = spread_usable(calibrations, method).reset_index(drop=True)
     groups = []
     for _, group in table.groupby(CALIBRATION_KEY, sort=True):
         by_subset = {parse_subset(rep): pos for pos, rep in zip(group.index, group["repetitions"])}

@@ -105,23 +105,40 @@ def fit(pooled: Pooled, fitted: Mapping[str, Fit]) -> Fit:
                           horizontal_right(pooled.gyro_axis, pooled.z0, pooled.right), w_kong,
                           w_gyro)  # fmt: skip
     undetermined = w_kong + w_gyro <= 0
+    switches = _weight_switches(pooled.unit, w_kong, w_gyro)
     flag = np.array(
         [
-            combine_flags(k, a) or "not_planar" if none else ""
-            for k, a, none in zip(kong.flag, axis_flag, undetermined)
+            combine_flags(k, a) or "not_planar" if none else ("weight_switch" if switch else "")
+            for k, a, none, switch in zip(kong.flag, axis_flag, undetermined, switches)
         ],
         dtype=object,
     )
     return Fit(R, flag, {"weight_kong": w_kong, "weight_gyro": w_gyro})
 
 
+def _weight_switches(unit: np.ndarray, w_kong: np.ndarray, w_gyro: np.ndarray) -> np.ndarray:
+    """True for every row of a unit whose calibrations (all repetitions and the subsets) do not
+    all use the same estimates: one of the two weights 0 in some and not in others. The heading
+    then jumps with the choice of repetitions (issue 28: 10-12 deg on real walking), however
+    repeatable each estimate is: flagged ``weight_switch``.
+    """
+    switch = np.zeros(len(unit), dtype=bool)
+    for weight in (w_kong, w_gyro):
+        used = (weight > 0).astype(float)
+        some = np.bincount(unit, used, minlength=unit.max() + 1 if len(unit) else 0)
+        count = np.bincount(unit, minlength=len(some))
+        mixed = (some > 0) & (some < count)
+        switch |= mixed[unit]
+    return switch
+
+
 def resample(pooled: Pooled, fitted: Mapping[str, Fit]) -> Fit:
-    """The combined heading of bootstrap resamples, from Kong's resampled calibrations
-    (``fitted['kong']``, weight 0 where flagged) and the resampled gyroscope axis (weighted by
-    its rho whatever the axis methods' limits).
+    """The combined heading of bootstrap resamples, as :func:`fit` weighs it: Kong's resampled
+    calibrations (``fitted['kong']``, weight 0 where flagged) and the resampled gyroscope axis
+    (weight 0 where the axis methods flag it, ``fitted['triad']``).
     """
     kong = fitted["kong"]
-    w_kong, w_gyro = _weights(pooled, kong, np.ones(len(pooled), dtype=bool))
+    w_kong, w_gyro = _weights(pooled, kong, fitted["triad"].flag == "")
     R = combined_rotation(pooled.z0, kong.R[:, 1],
                           horizontal_right(pooled.gyro_axis, pooled.z0, pooled.right), w_kong,
                           w_gyro)  # fmt: skip

@@ -7,9 +7,10 @@ Every repetition of a motion test is reduced to a few sums (:mod:`aceval.methods
 calibration from any resample of repetitions costs a few weighted 3x3 sums and one ``eigh``.
 :func:`bootstrap_cones` draws ``n_boot`` resamples of each unit's repetitions with replacement
 (Efron's bootstrap, the repetition as the unit), calibrates each by every method's ``resample``
-(NaN where the method would flag it), and reports the 95th percentile of the angle between a
-resample's calibration and the calibration from all repetitions (Kong Eq. 11) as the half-angle of
-a 95 % cone, and the median share of those deviations about the body vertical.
+(NaN where the method would flag it: counted as 180 deg away), and reports the 95th percentile
+of the angle between a resample's calibration and the calibration from all repetitions (Kong
+Eq. 11) as the half-angle of a 95 % cone, and the median share of those deviations about the
+body vertical.
 
 What it does not see: z0 from quiet standing is held (one static recording gives no resample),
 so the cone is the heading's spread only; a bias shared by all repetitions (a sensor that does
@@ -41,8 +42,9 @@ def resample_weights(n_rep: int, n_boot: int = N_BOOT, seed: int = 0) -> np.ndar
 
 def cones(resampled: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(cone95_deg, cone_vertical_share)`` (U,) of each unit's resampled calibrations (U, n_boot,
-    3, 3) about its calibration ``R`` (U, 3, 3); NaN where ``R`` or fewer than half of the
-    resamples are finite.
+    3, 3) about its calibration ``R`` (U, 3, 3); NaN where ``R`` is. A resample the method would
+    flag (not finite) counts as 180 deg away: the calibration is undetermined there, and
+    leaving it out would narrow the cone (so a cone is 180 deg when more than 5 % are).
     """
     n_units, n_boot = resampled.shape[:2]
     ok = np.isfinite(resampled).all(axis=(2, 3)) & np.isfinite(R).all(axis=(1, 2))[:, None]
@@ -52,10 +54,11 @@ def cones(resampled: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     norm = np.linalg.norm(rotvec, axis=-1)
     with np.errstate(invalid="ignore", divide="ignore"):
         share = np.where(norm > 0, np.abs(rotvec[..., 2]) / norm, np.nan)
-    judged = ok.sum(axis=1) >= n_boot / 2
+    judged = np.isfinite(R).all(axis=(1, 2))
     cone95, median_share = np.full(n_units, np.nan), np.full(n_units, np.nan)
     if judged.any():
-        cone95[judged] = np.nanpercentile(np.degrees(norm[judged]), 100 * LEVEL, axis=1)
+        angles = np.where(ok[judged], np.degrees(norm[judged]), 180.0)
+        cone95[judged] = np.percentile(angles, 100 * LEVEL, axis=1)
         some = judged & np.isfinite(share).any(axis=1)
         median_share[some] = np.nanmedian(share[some], axis=1)
     return cone95, median_share
