@@ -223,6 +223,7 @@ def _units(dataset, motion, z0, statics, sensors) -> tuple[Units, pd.DataFrame]:
         else None,
         steps=steps,
         step_hz=padded(["step_hz"], np.nan),
+        step_disagrees=np.nan_to_num(padded(["step_disagrees"], 0.0)),
     )
     return units, identity
 

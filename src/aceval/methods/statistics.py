@@ -37,7 +37,9 @@ class Units:
     (0 where absent), ``present`` (U, R), ``scatters`` (U, R, 3, 3) m^2/s^4, ``n_samples`` (U, R),
     ``moments`` (U, R, 16) (:data:`SUM` ... :data:`PHASE`; absent: 0, a missing phase: NaN),
     ``third`` (U, R, 10) or None, ``steps`` (U, R, 3, 3) the step-band scatter (NaN where a
-    repetition has none: the unit has no step-harmonic calibration) and ``step_hz`` (U, R).
+    repetition has none: the unit has no step-harmonic calibration), ``step_hz`` (U, R) the
+    step frequency of the subject's walking test and ``step_disagrees`` (U, R) 1 where that
+    test's recordings disagree on it (:func:`aceval.methods.step_harmonic.pooled_steps`).
     """
 
     z0: np.ndarray
@@ -53,6 +55,7 @@ class Units:
     third: np.ndarray | None
     steps: np.ndarray
     step_hz: np.ndarray
+    step_disagrees: np.ndarray
 
     def __len__(self) -> int:
         return len(self.z0)
@@ -99,6 +102,7 @@ class Units:
             if steps is None
             else np.asarray(steps, float)[None],
             step_hz=np.full((1, n), np.nan),
+            step_disagrees=np.zeros((1, n)),
         )
 
     @property
@@ -121,7 +125,8 @@ class Pooled:
     of the unit gyroscope samples (Ricci Eq. 1), signed along the declared right axis, and
     ``gyro_rho`` (B,) its reliability (Ricci Eq. 2); ``spread_deg`` (B,) the median angle between
     each chosen repetition's own axis and the pooled one (NaN for a resample); ``steps`` (B, 3, 3)
-    the step-band scatter (NaN where the unit has none) and ``step_hz`` (B,) the chosen
+    the step-band scatter (NaN where the unit has none), ``step_disagrees`` (B,) whether the
+    recordings disagree on the step frequency (:class:`Units`) and ``step_hz`` (B,) the chosen
     repetitions' median step frequency. ``z0``, ``right``, ``rho_static``, ``first_phase`` and
     ``walking`` repeat the unit's; ``all_repetitions`` (B,): the row uses every repetition once
     (the calibration "from all repetitions"); ``n_unit`` (B,) the unit gyroscope samples.
@@ -144,6 +149,7 @@ class Pooled:
     spread_deg: np.ndarray
     steps: np.ndarray
     step_hz: np.ndarray
+    step_disagrees: np.ndarray
 
     def __len__(self) -> int:
         return len(self.unit)
@@ -183,6 +189,7 @@ class Pooled:
             spread_deg=np.array([spread_deg], float),
             steps=np.full((1, 3, 3), np.nan),
             step_hz=nan,
+            step_disagrees=np.zeros(1, dtype=bool),
         )
 
 
@@ -225,6 +232,7 @@ def pool(units: Units, unit: np.ndarray, weights: np.ndarray, subsets: bool = Tr
         spread_deg=spread,
         steps=steps,
         step_hz=step_hz,
+        step_disagrees=(np.where(chosen, units.step_disagrees[unit], 0.0) > 0).any(axis=1),
     )
 
 

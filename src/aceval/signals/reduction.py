@@ -34,7 +34,7 @@ from aceval.data.rotations import axis_vector
 from aceval.methods.functional import recording_moments
 from aceval.methods.kong import scatter, vertical_axis
 from aceval.methods.step_harmonic import SCATTER_COLUMNS as STEP_COLUMNS
-from aceval.methods.step_harmonic import step_scatter
+from aceval.methods.step_harmonic import harmonic, pooled_steps, step_scatter
 from aceval.signals.alignment import aligned, pooled_lag
 from aceval.signals.checks import MIN_STILL_S, STILL_COLUMNS, agreement_moments, third_moments
 from aceval.signals.segmentation import TrimParams, mask_to_ranges, movement_mask
@@ -109,6 +109,8 @@ def reduce_recordings(
     max_lag = int(round(max_lag_s * dataset.fs_hz))
     pair_imus = segment_pair_imus(dataset, segment_pairs or {})
     records = dict(zip(recordings.index, recordings.to_dict("records")))  # one conversion
+    walking: dict[tuple, list] = {}  # (subject, test) -> its walking recordings, until all are read
+    unread = recordings.groupby(["subject", "test"]).size().to_dict()
     for (subj, test, rep), group in recordings.groupby(["subject", "test", "rep"], sort=False):
         loaded: dict[tuple[str, str], tuple[Recording, np.ndarray]] = {}
         by_set: dict[str, dict] = {}
@@ -134,6 +136,12 @@ def reduce_recordings(
                     moving = None
             if needed:
                 summaries[index] = summarise(dataset, rec, data, moving, is_static, trim)
+            if dataset.first_phase(test) == "gait" and moving is not None:
+                usable = needed and not summaries[index]["flag"]
+                segment = dataset.places[(rec["sensor_set"], rec["imu"])][0]
+                walking.setdefault((subj, test), []).append(
+                    (index if usable else None, data.acc, moving, segment, int(rep))
+                )  # the ones not calibrated here still tell the step frequency
             if not is_static:
                 mask = moving if moving is not None else np.zeros(len(data.t), dtype=bool)
                 loaded[(rec["sensor_set"], rec["imu"])] = (data, mask)
@@ -143,10 +151,37 @@ def reduce_recordings(
         if test not in static and loaded:
             pairs += _pair_rows(dataset, subj, test, int(rep), loaded, pair_imus, max_lag)
             _add_signatures(dataset, test, by_set, summaries)
+        unread[(subj, test)] -= len(group)
+        if not unread[(subj, test)] and (subj, test) in walking:  # its last repetition: pool them
+            add_step_scatters(dataset, walking.pop((subj, test)), summaries)
     report = ValidationReport(dataset.name)
     report.findings = [f for k in sorted(findings) for f in findings[k]]  # in the sheet's order
     ordered = [summaries[k] for k in sorted(summaries)]
     return Reduction(pd.DataFrame(ordered), pd.DataFrame(pairs, columns=PAIR_COLUMNS), report)
+
+
+def add_step_scatters(dataset: Dataset, recordings: list, summaries: dict) -> None:
+    """The step-harmonic columns of one subject's walking test (``recordings``: (summary index or
+    None, acceleration, moving mask, segment, repetition) of every recording read, every repetition and
+    IMU, those not calibrated in this test too: they tell the step frequency,
+    :func:`aceval.methods.step_harmonic.pooled_steps`): ``step_hz``, the repetition's step
+    frequency, ``step_hz_own``, the recording's own, ``step_disagrees`` (1 where the test's
+    repetitions disagree on it) and ``h11..h33``, the scatter of the acceleration band-passed at
+    the segment's harmonic of the step over the kept samples.
+    """
+    fs = dataset.fs_hz
+    step_hz, _, own, disagree = pooled_steps([r[1:] for r in recordings], fs)
+    for (index, acc, _, segment, rep), own_hz in zip(recordings, own):
+        if index is None:
+            continue
+        kept = np.zeros(len(acc), dtype=bool)
+        for part in filter(None, str(summaries[index].get("kept", "")).split(";")):
+            start, stop = map(int, part.split(":"))
+            kept[start:stop] = True
+        scatter = step_scatter(acc, fs, kept, harmonic(segment) * step_hz[rep])
+        summaries[index].update(step_hz=step_hz[rep], step_hz_own=own_hz,
+                                step_disagrees=float(disagree))  # fmt: skip
+        summaries[index].update(zip(STEP_COLUMNS, scatter.ravel()))
 
 
 def summarise_recordings(
@@ -216,9 +251,9 @@ def summarise(
     """The summary row of one recording (module docstring). Static tests: ``z0_x, z0_y, z0_z``
     and the unit moments of the accelerometer. Motion tests: ``n_samples`` kept by the trimmer
     (``moving``; None when it found no movement) and the scatter ``s11..s33`` (m^2/s^4);
-    walking tests (``first_phase`` gait) also ``step_hz`` and the scatter ``h11..h33`` of the
-    acceleration band-passed around it (:mod:`aceval.methods.step_harmonic`); ``kept``, the
-    half-open sample ranges behind the scatter ('a:b;c:d', the samples the peers read too).
+    ``kept``, the half-open sample ranges behind the scatter ('a:b;c:d', the samples the peers
+    read too). Walking tests get their step-harmonic columns once all repetitions of the
+    subject's test are read (:func:`add_step_scatters`).
     Samples clipped at the declared accelerometer range, or at a plateau found in the data
     (``n_clipped``), carry a wrong direction and are left out of the scatter; above
     :data:`MAX_CLIPPED_FRACTION` the recording is left out. A recording that cannot be used gets
@@ -260,9 +295,6 @@ def summarise(
         row["n_segments"] = len(kept)
         row["kept"] = ";".join(f"{a}:{b}" for a, b in kept)  # what the peers are given too
         row.update(zip(SCATTER_COLUMNS, scatter(data.acc[mask]).ravel()))
-        if dataset.first_phase(rec["test"]) == "gait":  # walking: the step-harmonic scatter
-            step, row["step_hz"] = step_scatter(data.acc, dataset.fs_hz, mask)
-            row.update(zip(STEP_COLUMNS, step.ravel()))
         row.update(recording_moments(data.gyr[mask], dataset.fs_hz, motion=True))
         row.update(third_moments(data.gyr[mask]))
     except CalibrationError as exc:
