@@ -125,9 +125,15 @@ def test_neura_import_with_ground_truth(tmp_path):
     assert len(shanks) == 4 and (shanks["methods_differ_deg"] > 12).all()
     assert shanks["flag"].str.contains("methods_differ").all()
     assert (shanks["twist_mean_deg"].abs() > 4).all()
-    # a truth whose two half-walk fits differ by more than 5 deg says so
+    # the truth's uncertainty (its strides, other points, +-1 sample) says when it is unstable
     unstable = method["flag"].str.contains("truth_unstable")
-    assert (unstable == (method["split_half_deg"] > 5)).all() and unstable.any()
+    assert (unstable == (method["truth_uncertainty_deg"] > 5)).all()
+    assert (method["truth_uncertainty_deg"] < 5).all() and (method["lag_samples"] == 2).all()
+    # the independent check (the long axis' angular velocity, no marker frame) agrees with the
+    # truth on every leg sensor, and shows the marker frame's shank truths 16-24 deg off
+    legs = method[method["segment"] != "waist"]
+    assert (legs["long_axis_check_deg"] <= 2).all()
+    assert (shanks["marker_frame_long_axis_check_deg"] > 12).all()
     assert "ground truth" in set(
         pd.read_csv(out / "import_report.tsv", sep="\t", dtype=str)["status"]
     )
@@ -135,7 +141,7 @@ def test_neura_import_with_ground_truth(tmp_path):
     # where the sensors sit: the main shank sensors near the ankle, the second ones higher up
     assert (method.loc[("main", ["shank_r", "shank_l"]), "lever_arm_m"] < 0.15).all()
     assert (method.loc[("shank2", ["shank_r", "shank_l"]), "lever_arm_m"] > 0.2).all()
-    assert (shanks["pair_consistency_deg"] < 10).all()
+    assert (shanks["pair_heading_deg"] < 10).all() and (shanks["pair_tilt_deg"] < 10).all()
     # the sheet's right_axis is the sensor axis nearest the true body y
     for (_, sensor_set, imu), row in dataset.ground_truth.iterrows():
         y = row[[f"r2{j}" for j in (1, 2, 3)]].to_numpy(float)
@@ -369,7 +375,8 @@ def test_gaitmap_import_with_two_truths_that_agree(tmp_path):
     assert dataset.recordings.groupby("test")["rep"].max().to_dict()["T6"] >= 3
     method = pd.read_csv(out / "ground_truth_method.tsv", sep="\t")
     # the feet's two truths agree (no soft tissue between heel, toe and fifth metatarsal markers)
-    assert (method["methods_differ_deg"] < 5).all() and (method["split_half_deg"] < 3).all()
+    assert (method["methods_differ_deg"] < 5).all() and (method["truth_uncertainty_deg"] < 3).all()
+    assert (method["truth_n_strides"] >= 5).all() and (method["long_axis_check_deg"] <= 2).all()
     assert (method["lever_arm_m"].between(0.03, 0.25)).all()
     # the sheet's right_axis is the sensor axis nearest the true body y
     for (_, sensor_set, imu), row in dataset.ground_truth.iterrows():

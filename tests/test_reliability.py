@@ -333,9 +333,10 @@ def test_truth_errors_measure_against_both_truths_and_carry_the_truths_flag():
     )  # fmt: skip
     sheet = pd.DataFrame(
         [
-            {**key, "split_half_deg": 7.0, "flag": "methods_differ;truth_unstable",
+            {**key, "truth_uncertainty_deg": 7.0, "flag": "methods_differ;truth_unstable",
+             "long_axis_check_deg": 0.5, "marker_frame_long_axis_check_deg": 14.0,
              "marker_frame_split_half_deg": 1.0, "methods_differ_deg": 25.0,
-             "twist_mean_deg": 8.0, "lever_arm_m": 0.09, "pair_consistency_deg": 6.0,
+             "twist_mean_deg": 8.0, "lever_arm_m": 0.09, "pair_heading_deg": 6.0,
              **{f"marker_frame_{c}": v for c, v in zip(R_COLUMNS, marker_frame)}}
         ]
     )  # fmt: skip
@@ -346,7 +347,9 @@ def test_truth_errors_measure_against_both_truths_and_carry_the_truths_flag():
     assert row["truth_flag"] == "methods_differ;truth_unstable" and row["heading"] == "determined"
     text = "\n".join(summary.truth_section({"truth_errors": table}))
     assert (
-        "13.0 deg (truth +- 7.0)" in text and "truth flagged methods_differ;truth_unstable" in text
+        "13.0 deg (truth +- 7.0, long-axis check 0.5)" in text
+        and "(its long-axis check 14.0)" in text
+        and "truth flagged methods_differ;truth_unstable" in text
     )
     # issue 28: a marker-frame truth whose own vertical check fails is not used
     failing = methods_comparison.truth_errors(

@@ -7,7 +7,12 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from aceval.data.rotations import error_angle_deg
-from aceval.data.truth import acceleration_truth, pair_consistency_deg, twist_about_axis
+from aceval.data.truth import (
+    acceleration_truth,
+    long_axis_heading_deg,
+    pair_consistency_deg,
+    twist_about_axis,
+)
 from aceval.importers.vicon import ground_truth
 from aceval.simulate.engine import OVERSAMPLE, PAD, measure
 
@@ -80,7 +85,21 @@ def test_point_acceleration_truth_ignores_a_twisting_marker_frame(twist):
         assert abs(np.mean(seen[-200:])) == pytest.approx(twist, abs=2.0)
     else:
         assert error_old < 1.0
-    assert new["split_half_deg"] < 1.0
+    # per stride (0.9 Hz: 1.1 s each) the heading agrees with the whole bout's
+    strides = [(int((4 + 1.1 * k) * FS), int((5.1 + 1.1 * k) * FS)) for k in range(2)]
+    per_stride = acceleration_truth(acc, gyr, markers["ANKLE"], standing, bout, FS, 0, strides)
+    assert per_stride["stride_sd_deg"] < 1.0 and per_stride["stride_se_deg"] < 1.0
+    # the long axis (knee to ankle), seen by the markers, asks no correction of the right truth
+    # (whatever the wand does) and the marker frame's twist of the wrong one
+    a, b = bout
+    orientation = new["orientation"][a - new["start"] : b - new["start"]]
+    gyr_walk = gyr[a:b] - gyr[: standing[1]].mean(axis=0)
+    correction = long_axis_heading_deg(orientation, gyr_walk, markers["KNEE"][a:b],
+                                       markers["ANKLE"][a:b], FS)  # fmt: skip
+    assert abs(correction) < 2.0
+    turned = Rotation.from_euler("z", 10, degrees=True) * orientation
+    assert long_axis_heading_deg(turned, gyr_walk, markers["KNEE"][a:b], markers["ANKLE"][a:b],
+                                 FS) == pytest.approx(-10.0, abs=2.0)  # fmt: skip
     # the fitted lever arm is where the sensor sits: 16 cm from the ankle point
     ankle_to_sensor = lever - np.array([0.4, 0.0, 0.0])
     assert np.linalg.norm(new["lever_arm_m"]) == pytest.approx(
@@ -96,6 +115,11 @@ def test_pair_consistency_of_two_sensors_on_one_segment():
     mount_a, mount_b = Rotation.random(2, random_state=3).as_matrix()  # sensor -> segment
     gyr_a, gyr_b = omega_segment @ mount_a, omega_segment @ mount_b  # segment -> sensor frames
     R_a, R_b = BODY @ mount_a, BODY @ mount_b
-    assert pair_consistency_deg(gyr_a, gyr_b, R_a, R_b) < 1e-6
+    assert max(pair_consistency_deg(gyr_a, gyr_b, R_a, R_b)) < 1e-6
+    # a truth turned by 5 deg about the body vertical is a heading inconsistency, not a tilt
     turned = Rotation.from_euler("z", 5, degrees=True).as_matrix() @ R_b
-    assert pair_consistency_deg(gyr_a, gyr_b, R_a, turned) == pytest.approx(5.0, abs=1e-6)
+    heading, tilt = pair_consistency_deg(gyr_a, gyr_b, R_a, turned)
+    assert heading == pytest.approx(5.0, abs=1e-6) and tilt < 1e-6
+    tilted = Rotation.from_euler("x", 3, degrees=True).as_matrix() @ R_b
+    heading, tilt = pair_consistency_deg(gyr_a, gyr_b, R_a, tilted)
+    assert tilt == pytest.approx(3.0, abs=1e-6) and heading < 1e-6

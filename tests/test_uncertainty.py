@@ -194,12 +194,10 @@ def test_recommendation_uses_the_truth_where_there_is_one_and_test_retest_otherw
     assert "**thigh**: kong from T6 (median error 2.00 deg, n = 5; test-retest 0.50 deg" in lines
     truth_errors = pd.DataFrame(
         {"subject": "S1", "sensor_set": "frontal", "imu": ["IMU1", "IMU2"], "segment": "thigh",
-         "truth_split_half_deg": [0.5, 2.5], "methods_differ_deg": [1.0, 4.0]}
+         "truth_uncertainty_deg": [0.5, 2.5], "methods_differ_deg": [1.0, 4.0]}
     )  # fmt: skip
     measured = summary.recommendation_section({"methods": methods, "truth_errors": truth_errors})
-    assert "the truth +- 2.5 deg (split-half), its two methods up to 4.0 deg apart" in "".join(
-        measured
-    )
+    assert "the truth +- 2.5 deg, its two methods up to 4.0 deg apart" in "".join(measured)
     no_truth = "\n".join(summary.recommendation_section({"methods_retest": retest}))
     assert "No ground truth here" in no_truth
     assert "**thigh**: combined from T6 (median test-retest 0.10 deg" in no_truth

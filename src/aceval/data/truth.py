@@ -19,8 +19,11 @@ inherits the twist. This method uses the markers only as points whose accelerati
 4. ``psi`` and ``d`` minimise the misfit (alternating: a 2-D Procrustes for ``psi``, least squares
    for ``d``). Everything is low-passed alike (6 Hz).
 
-Uncertainty: the RMS misfit (m/s^2), the heading from each half of the bout (``split_half_deg``)
-and the lever arm itself (where the sensor sits).
+Uncertainty: the RMS misfit (m/s^2), the spread of the headings fitted on each stride alone
+(weighted by how much the point accelerates: ``stride_sd_deg``, ``stride_se_deg``), and, from the
+caller (:func:`aceval.importers.vicon.truth_rows`), the spread over other points of the segment and
+over +-1 sample of time offset; the lever arm itself says where the sensor sits.
+:func:`long_axis_heading_deg` checks a heading without any marker frame.
 """
 
 from __future__ import annotations
@@ -94,14 +97,20 @@ def acceleration_truth(
     bout: tuple[int, int],
     fs_hz: float,
     lag: int = 0,
+    strides: list[tuple[int, int]] | None = None,
 ) -> dict:
     """The sensor's orientation while standing (``R_ws0``: sensor -> world, world z up) from
     quiet standing and the optical acceleration of a point ``point_world`` (N, 3, metres, world
     frame) rigid with the segment, over the walking ``bout`` (module docstring).
 
     ``acc`` (m/s^2) and ``gyr`` (rad/s) are the sensor's (N, 3) samples; IMU sample ``t + lag``
-    matches optical sample ``t``. Returns ``R_ws0`` (Rotation), ``lever_arm_m`` (sensor frame, from
-    the point to the sensor), ``rms_misfit_m_s2``, ``split_half_deg`` and ``n_samples``.
+    matches optical sample ``t``. Returns ``R_ws0`` (Rotation), ``heading_rad`` (its heading
+    ``psi``), ``lever_arm_m`` (sensor frame, from the point to the sensor), ``rms_misfit_m_s2``,
+    ``n_samples`` and, per stride of ``strides`` (sample ranges within the bout; the bout's start
+    before the first one counts as one more), the heading fitted on that stride alone with the
+    lever arm held: ``stride_sd_deg``, their SD about ``psi`` weighted by each stride's horizontal
+    acceleration power (gait initiation, where the point hardly accelerates, weighs little), and
+    ``stride_se_deg``, that SD over the square root of the strides' effective number.
     """
     acc, gyr = np.asarray(acc, float), np.asarray(gyr, float)
     s0, s1 = standing
@@ -120,22 +129,86 @@ def acceleration_truth(
     K = _skew(alpha) + _skew(omega) @ _skew(omega)
     w = point_acceleration(point_world, fs_hz)[a:b] - GRAVITY_UP_WORLD
     psi, lever, rms = _fit(Q, f, K, w)
-    half = (b - a) // 2
-    halves = [
-        _fit(Q[part], f[part], K[part], w[part])[0] for part in (slice(0, half), slice(half, None))
-    ]
-    split = abs((halves[0] - halves[1] + np.pi) % (2 * np.pi) - np.pi)
+    sd, se, n_strides = _stride_spread(Q, f, K, w, lever, psi, _chunks(strides, a, b))
     return {
         "R_ws0": Rotation.from_euler("z", psi) * R0,
+        "heading_rad": psi,
         "lever_arm_m": lever,
         "rms_misfit_m_s2": rms,
-        "split_half_deg": float(np.degrees(split)),
+        "stride_sd_deg": sd,
+        "stride_se_deg": se,
+        "n_strides": n_strides,
         "n_samples": b - a,
         # the sensor's orientation (sensor -> world) from the end of standing to the end of the
         # bout, optical samples [start, b): for the marker-frame twist check
         "orientation": Rotation.from_euler("z", psi) * R0 * delta,
         "start": start,
     }
+
+
+def _chunks(strides, a: int, b: int) -> list[slice]:
+    """The strides within the bout ``[a, b)`` as slices of it, the bout's start before the first
+    one as one more; one chunk per second when no strides are given.
+    """
+    inside = sorted((max(s, a), min(e, b)) for s, e in (strides or []) if min(e, b) > max(s, a))
+    if not inside:
+        step = max(1, (b - a) // max(1, round((b - a) / 100)))  # about 1 s at 100 Hz
+        return [slice(k, min(k + step, b - a)) for k in range(0, b - a, step)]
+    chunks = [slice(0, inside[0][0] - a)] if inside[0][0] > a else []
+    return chunks + [slice(s - a, e - a) for s, e in inside]
+
+
+def _heading(Q, f, K, w, lever) -> float:
+    """The heading (rad) that best maps the sensor's specific force onto the optical one, the
+    lever arm held (the 2-D Procrustes step of :func:`_fit`).
+    """
+    v = np.einsum("nij,nj->ni", Q, f) - np.einsum("nij,njk,k->ni", Q, K, lever)
+    return float(np.arctan2(np.sum(v[:, 0] * w[:, 1] - v[:, 1] * w[:, 0]),
+                            np.sum(v[:, 0] * w[:, 0] + v[:, 1] * w[:, 1])))  # fmt: skip
+
+
+def _stride_spread(Q, f, K, w, lever, psi: float, chunks: list[slice]) -> tuple[float, float, int]:
+    """Weighted SD (deg) of the chunks' own headings about ``psi``, its standard error (the
+    weight: each chunk's horizontal optical acceleration power) and the number of chunks.
+    """
+    weights, offsets = [], []
+    for chunk in chunks:
+        if chunk.stop - chunk.start < 3:
+            continue
+        weights.append(float(np.sum(w[chunk, :2] ** 2)))
+        own = _heading(Q[chunk], f[chunk], K[chunk], w[chunk], lever)
+        offsets.append((own - psi + np.pi) % (2 * np.pi) - np.pi)
+    weights, offsets = np.asarray(weights), np.asarray(offsets)
+    if len(weights) < 2 or weights.sum() <= 0:
+        return float("nan"), float("nan"), len(weights)
+    sd = float(np.sqrt(np.sum(weights * offsets**2) / weights.sum()))
+    n_effective = weights.sum() ** 2 / np.sum(weights**2)
+    return float(np.degrees(sd)), float(np.degrees(sd / np.sqrt(n_effective))), len(weights)
+
+
+def long_axis_heading_deg(
+    orientation: Rotation, gyr: np.ndarray, line_from: np.ndarray, line_to: np.ndarray, fs_hz: float
+) -> float:
+    """An optical check of a sensor's heading that uses no marker frame: the angular velocity of
+    a line rigid with the segment (two markers or joint centres, e.g. the knee and ankle centres
+    for the shank) is seen directly across the line, ``u x du/dt``; the gyroscope, turned into
+    the world by ``orientation`` (sensor -> world per sample, from a truth), must show the same.
+    Returns the heading correction (deg, about the world vertical) that best matches them, from
+    -180 to 180: near 0 when the truth's heading is right. ``gyr`` (rad/s, bias removed) and the
+    lines' world trajectories (N, 3, m) share ``orientation``'s samples.
+    """
+    u = lowpass(np.asarray(line_to, float) - np.asarray(line_from, float), fs_hz)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    across = np.cross(u, np.gradient(u, 1.0 / fs_hz, axis=0))
+    g = orientation.apply(lowpass(np.asarray(gyr, float), fs_hz))
+    best, cost = 0.0, np.inf
+    for heading in np.radians(np.arange(-180.0, 180.0, 0.5)):
+        turned = Rotation.from_euler("z", heading).apply(g)
+        perpendicular = turned - np.sum(turned * u, axis=1, keepdims=True) * u
+        value = float(np.sum((perpendicular - across) ** 2))
+        if value < cost:
+            best, cost = heading, value
+    return float(np.degrees(best))
 
 
 def twist_about_axis(
@@ -152,11 +225,27 @@ def twist_about_axis(
 
 def pair_consistency_deg(
     gyr_a: np.ndarray, gyr_b: np.ndarray, R_a: np.ndarray, R_b: np.ndarray
-) -> float:
+) -> tuple[float, float]:
     """Two sensors on one segment: the rotation between them measured by their gyroscopes (the
     one mapping b's angular velocity onto a's, ``Rotation.align_vectors``) against the one their
-    truths imply (``R_a^T R_b``: b -> body -> a). The angle between the two (deg).
+    truths imply (``R_a^T R_b``: b -> body -> a). Their difference, expressed in the body frame,
+    split into its part about the body vertical (``heading``, deg: what Kong's calibration
+    estimates) and the rest (``tilt``, deg: which both truths share from the accelerometers'
+    vertical), as ``(heading_deg, tilt_deg)``.
     """
     measured, _ = Rotation.align_vectors(gyr_a, gyr_b)
     implied = Rotation.from_matrix(np.asarray(R_a, float).T @ np.asarray(R_b, float))
-    return float(np.degrees((measured * implied.inv()).magnitude()))
+    body = Rotation.from_matrix(np.asarray(R_a, float))  # sensor a -> body
+    difference = body * (measured * implied.inv()) * body.inv()
+    return swing_twist_deg(difference)
+
+
+def swing_twist_deg(rotation: Rotation) -> tuple[float, float]:
+    """``(twist, swing)`` (deg) of a rotation about the z axis: the angle of its part about z and
+    of the rest (swing-twist decomposition, ``R = swing * twist``).
+    """
+    x, y, z, w = rotation.as_quat()
+    norm = np.hypot(z, w)
+    twist = Rotation.from_quat([0.0, 0.0, z / norm, w / norm]) if norm > 0 else Rotation.identity()
+    swing = rotation * twist.inv()
+    return float(np.degrees(twist.magnitude())), float(np.degrees(swing.magnitude()))

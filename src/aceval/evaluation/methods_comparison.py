@@ -369,18 +369,22 @@ MAX_MARKER_FRAME_VERTICAL_DEG = 5.0
 def truth_errors(calibrations: pd.DataFrame, method_sheet: pd.DataFrame | None) -> pd.DataFrame:
     """Real recordings with a marker-based ground truth (``ground_truth_method.tsv``): per sensor,
     test and method (each from all repetitions), the error against the truth beside the truth's
-    own uncertainty (the split-half of its fit) and flag, the error against the second, marker-frame
-    truth where that truth's own vertical check passes (:data:`MAX_MARKER_FRAME_VERTICAL_DEG`; else
-    NaN, column ``marker_frame_vertical_check_deg`` says why) and the two truths' difference, the
-    marker frame's twist, where the sensor sits (lever arm from the segment's point) and the
-    method's conditioning (Kong: the smallest/middle eigenvalue ratio and the planarity;
-    ``heading`` says 'undetermined' when the ratio is above Kong's 0.5).
+    own uncertainty (``truth_uncertainty_deg``: its strides, points and time offsets,
+    :func:`aceval.importers.vicon.truth_rows`), its flag and its independent long-axis check, the
+    error against the second, marker-frame truth where that truth's own vertical check passes
+    (:data:`MAX_MARKER_FRAME_VERTICAL_DEG`; else NaN, column ``marker_frame_vertical_check_deg``
+    says why) with its long-axis check, the two truths' difference, the marker frame's twist,
+    where the sensor sits (lever arm from the segment's point), two sensors on one segment
+    (their truths against their gyroscopes: heading and tilt) and the method's conditioning
+    (Kong: the smallest/middle eigenvalue ratio and the planarity; ``heading`` says
+    'undetermined' when the ratio is above Kong's 0.5).
     """
     columns = [
         "subject", "sensor_set", "imu", "segment", "side", "test", "method", "flag", "error_deg",
-        "truth_split_half_deg", "truth_flag", "error_marker_frame_deg",
-        "marker_frame_vertical_check_deg", "marker_frame_split_half_deg", "methods_differ_deg",
-        "twist_mean_deg", "lever_arm_m", "pair_consistency_deg", "normal_ratio", "planarity", "heading",
+        "truth_uncertainty_deg", "truth_flag", "long_axis_check_deg", "error_marker_frame_deg",
+        "marker_frame_vertical_check_deg", "marker_frame_long_axis_check_deg", "methods_differ_deg",
+        "twist_mean_deg", "lever_arm_m", "pair_heading_deg", "pair_tilt_deg", "normal_ratio",
+        "planarity", "heading",
     ]  # fmt: skip
     if method_sheet is None or calibrations.empty or "error_deg" not in calibrations:
         return pd.DataFrame(columns=columns)
@@ -399,7 +403,6 @@ def truth_errors(calibrations: pd.DataFrame, method_sheet: pd.DataFrame | None) 
     valid = np.isfinite(R).all(axis=(1, 2)) & ~(checked > MAX_MARKER_FRAME_VERTICAL_DEG)
     data["error_marker_frame_deg"] = np.nan
     data.loc[valid, "error_marker_frame_deg"] = error_angle_deg(R[valid], marker[valid])
-    data["truth_split_half_deg"] = data["split_half_deg"]
     data["truth_flag"] = data["flag_truth"].astype(object).fillna("")
     data["flag"] = data["flag"].astype(object).fillna("")
     if "normal_ratio" not in data:

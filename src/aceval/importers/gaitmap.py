@@ -9,7 +9,8 @@ right_axis``) names each sensor and its markers.
 
 Rules (config/README.md "Real datasets"):
 
-* The markers are low-passed at 6 Hz and resampled to the IMU's times (linear interpolation).
+* The markers are resampled to the IMU's times (linear interpolation) and low-passed at 6 Hz
+  once, by the truth.
 * T0 = quiet standing: from the start to 0.2 s before the first movement (Kong's trimmer on
   either foot), at least 0.5 s (the trial has about 0.9 s).
 * T6 = straight walking: strides from the left foot's angular speed; a stride during which a
@@ -46,8 +47,9 @@ IMU_RATE_HZ = 204.8
 MOCAP_RATE_HZ = 100.0
 STANDING_MARGIN_S = 0.2
 MIN_STANDING_S = 0.5
-#: the foot frame's three markers (origin, along, in-plane) and the point matched
-FRAME, POINT = ("FCC", "TOE", "FM5"), "FCC"
+#: the foot frame's three markers (origin, along, in-plane), the point matched and the foot's long
+#: axis (heel to toe: the independent check of the truth's heading)
+FRAME, POINT, LONG_AXIS = ("FCC", "TOE", "FM5"), "FCC", ("FCC", "TOE")
 #: Xsens/NilsPod-class IMU ranges of gaitmap's example: +-16 g, +-2000 deg/s
 ACC_RANGE_G, GYR_RANGE_DPS = 16.0, 2000.0
 
@@ -130,10 +132,8 @@ def import_gaitmap(
 
 def _read(src: Path, sheet: pd.DataFrame) -> tuple[dict, dict]:
     """``(signals, markers)``: each sensor's (gyr rad/s, acc m/s^2) and each marker of its frame
-    (m, low-pass filtered and resampled to the IMU's samples).
+    (m, resampled to the IMU's samples; the truth low-passes them, once).
     """
-    from aceval.data.truth import lowpass
-
     imu = read_two_header_csv(src / "imu_sample_not_rotated.csv")
     mocap = read_two_header_csv(src / "mocap_sample.csv")
     signals, markers = {}, {}
@@ -148,8 +148,8 @@ def _read(src: Path, sheet: pd.DataFrame) -> tuple[dict, dict]:
             label = f"{row['prefix']}_{marker}"
             if label not in mocap.columns.get_level_values(0):
                 raise FormatError(f"{src / 'mocap_sample.csv'}: no marker {label}")
-            smooth = lowpass(mocap[label][["x", "y", "z"]].to_numpy(float) / 1000.0, MOCAP_RATE_HZ)
-            markers[label] = resample(smooth, MOCAP_RATE_HZ, len(imu), IMU_RATE_HZ)
+            position = mocap[label][["x", "y", "z"]].to_numpy(float) / 1000.0
+            markers[label] = resample(position, MOCAP_RATE_HZ, len(imu), IMU_RATE_HZ)
     return signals, markers
 
 
@@ -169,7 +169,8 @@ def _truth(sheet: pd.DataFrame, signals: dict, markers: dict, spans: dict) -> pd
         ("main", row["imu"]): dict(
             segment=row["segment"], side=row["side"], gyr=signals[row["imu"]][0], acc=signals[row["imu"]][1],
             frame=tuple(f"{row['prefix']}_{m}" for m in FRAME), point=markers[f"{row['prefix']}_{POINT}"],
-            sensor_id=row["name"],
+            points={m: markers[f"{row['prefix']}_{m}"] for m in FRAME},
+            long_axis=tuple(markers[f"{row['prefix']}_{m}"] for m in LONG_AXIS), sensor_id=row["name"],
         )
         for row in sheet.to_dict("records")
     }  # fmt: skip
@@ -202,4 +203,5 @@ def _spans(signals: dict, sheet: pd.DataFrame, fs_hz: float) -> dict:
             break
         stretch.append(stride)
     spans["first_straight"] = [(stretch[0][0], stretch[-1][1])]
+    spans["strides"] = stretch  # the truth's per-stride uncertainty reads them
     return spans

@@ -93,7 +93,8 @@ def _with_truth(
         subject,
         "",
         "ground truth",
-        f"{len(table)} sensors; split-half {table['split_half_deg'].max():.1f} deg at most; "
-        f"{len(flagged)} with the two methods more than 5 deg apart (ground_truth_method.tsv)",
+        f"{len(table)} sensors; uncertainty {table['truth_uncertainty_deg'].max():.1f} deg at most; "
+        f"{len(flagged)} flagged (the two methods or the uncertainty beyond 5 deg: "
+        "ground_truth_method.tsv)",
     )
     return report

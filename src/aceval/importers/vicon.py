@@ -8,9 +8,9 @@ the marker-frame method of this module (:func:`ground_truth`, the second estimat
    segment (:data:`SEGMENT_MARKERS`) give an orthonormal frame ``R_world_seg(t)``.
 2. Optical angular velocity in the segment frame from consecutive frames (central difference of
    ``R(t-1)^T R(t+1)``); the gyroscope is low-passed alike and its bias (mean while standing) removed.
-3. Time alignment: one lag per sensor set (one recording system, one clock; within +-0.3 s), the
-   one that maximises the summed correlations of its sensors' two angular speeds during the walk
-   (used by both methods).
+3. Time alignment: one lag for the trial (one synchronised recording, one clock; within +-0.3 s),
+   the one that maximises the summed correlations of its sensors' two angular speeds during the
+   walk (used by both methods).
 4. ``R_seg_sensor`` = the rotation that maps the accelerometer's vertical while standing exactly
    onto the Vicon vertical in the segment frame, and best maps gyroscope onto optical angular
    velocity over the walk about it (Wahba problem with one exact pair,
@@ -23,12 +23,16 @@ the marker-frame method of this module (:func:`ground_truth`, the second estimat
    (toe-out of the feet, tibial torsion) is therefore a real error of Kong's plane, not of the
    truth.
 
-Uncertainty reported per sensor: the split-half of each method, their difference, the marker
-frame's twist, the lever arm, the pair consistency of two sensors on one segment, and for the
-marker frame the RMS misfit of the angular velocities and ``vertical_check_deg`` (the tilt between
-the accelerometer's vertical and the one a fit of the angular velocities alone gives). Because the
-vertical is the accelerometer's in both, Kong's z0 agrees with the truth by construction: the error
-against it is the heading (the medial-lateral axis), the part Kong's PCA estimates.
+Uncertainty reported per sensor (:func:`truth_rows`): the spread of the strides' own headings
+(weighted by motion), over other points of the segment and over +-1 sample of time offset,
+combined; an independent optical check of each truth's heading from the angular velocity of the
+segment's long axis (no marker frame); the two truths' difference, the marker frame's twist, the
+lever arm, the pair consistency of two sensors on one segment (heading and tilt apart), and for
+the marker frame its own split-half, the RMS misfit of the angular velocities and
+``vertical_check_deg`` (the tilt between the accelerometer's vertical and the one a fit of the
+angular velocities alone gives). Because the vertical is the accelerometer's in both, Kong's z0
+agrees with the truth by construction: the error against it is the heading (the medial-lateral
+axis), the part Kong's PCA estimates.
 """
 
 from __future__ import annotations
@@ -50,6 +54,22 @@ SEGMENT_MARKERS = {
     ("shank", "left"): ("LKJC", "LAJC", "LTIB"),
     ("foot", "right"): ("RHEE", "RTOE", "RAJC"),
     ("foot", "left"): ("LHEE", "LTOE", "LAJC"),
+}
+#: another point of a segment counts in the truth's uncertainty when its horizontal acceleration
+#: over the bout has at least this share of the chosen point's power (:func:`_uncertainty`)
+MIN_POINT_POWER = 0.5
+#: a line rigid with each leg segment whose angular velocity checks a truth's heading without any
+#: marker frame (:func:`aceval.data.truth.long_axis_heading_deg`): the thigh's and shank's joint
+#: centres, the foot's heel to toe. The legs swing across these lines; the pelvis hardly turns
+#: across any of its marker lines in walking (its ASIS line read 19 deg off a truth that its other
+#: checks put within 3: no check), so it has none
+LONG_AXES = {
+    ("thigh", "right"): ("RHJC", "RKJC"),
+    ("thigh", "left"): ("LHJC", "LKJC"),
+    ("shank", "right"): ("RKJC", "RAJC"),
+    ("shank", "left"): ("LKJC", "LAJC"),
+    ("foot", "right"): ("RHEE", "RTOE"),
+    ("foot", "left"): ("LHEE", "LTOE"),
 }
 #: the body's medial-lateral axis (from, to), pointing right: the line of the anterior superior iliac
 #: spines while standing. Kong calibrates every IMU to the whole-body frame, so every segment shares it.
@@ -126,21 +146,19 @@ def _filtered_gyr(gyr: np.ndarray, standing: tuple[int, int], fs_hz: float) -> n
     return _lowpass(gyr - gyr[standing[0] : standing[1]].mean(axis=0), fs_hz)
 
 
-def common_lags(
+def common_lag(
     markers: dict, sensors: dict, standing: tuple[int, int], walk: tuple[int, int], fs_hz: float
-) -> dict:
-    """One lag per sensor set (one recording system, one clock): the lag of the sum of its
-    sensors' :func:`lag_scores` over the walk. Before, each sensor chose its own inside one
-    synchronised recording (NeuRA: thigh_l -1, the others +2). ``{sensor_set: lag}``.
+) -> int:
+    """One lag for the whole trial (its sensors are one synchronised recording, one clock): the
+    lag of the sum of every sensor's :func:`lag_scores` over the walk. Before, each sensor set
+    chose its own, and earlier each sensor (NeuRA: thigh_l -1, the others +2).
     """
-    totals: dict = {}
-    for (sensor_set, _), sensor in sensors.items():
+    total = None
+    for sensor in sensors.values():
         optical = optical_angular_velocity(segment_frames(markers, sensor["frame"], fs_hz), fs_hz)
         scores = lag_scores(optical, _filtered_gyr(sensor["gyr"], standing, fs_hz), walk, fs_hz)
-        totals[sensor_set] = (
-            totals[sensor_set].add(scores, fill_value=0) if sensor_set in totals else scores
-        )
-    return {sensor_set: int(total.idxmax()) for sensor_set, total in totals.items()}
+        total = scores if total is None else total.add(scores, fill_value=0)
+    return int(total.idxmax())
 
 
 def sensor_to_segment(
@@ -182,7 +200,7 @@ def ground_truth(
 ) -> dict:
     """The marker-frame method (module docstring): the sensor's orientation while standing,
     ``R_ws0`` (Rotation, sensor -> world), from the segment frame of the three points ``names``,
-    with its uncertainty. ``lag``: the recording's time offset (:func:`common_lags`); None: this
+    with its uncertainty. ``lag``: the recording's time offset (:func:`common_lag`); None: this
     sensor's own best.
     """
     n = len(next(iter(markers.values())))
@@ -242,7 +260,8 @@ SEGMENT_POINTS = {
     ("foot", "left"): ("LHEE",),
 }
 #: two truths of one sensor farther apart than this (deg) are flagged ``methods_differ``; a truth
-#: whose fits on the two halves of the bout are farther apart is flagged ``truth_unstable``
+#: whose uncertainty (strides, points, lags: :func:`_uncertainty`) is larger is flagged
+#: ``truth_unstable``
 MAX_METHOD_DIFFERENCE_DEG = 5.0
 
 
@@ -277,13 +296,16 @@ def ground_truth_table(
         ].iloc[0]
         if (segment, side) not in SEGMENT_MARKERS:
             raise FormatError(f"no Vicon marker set for segment {segment} ({side})")
+        frame = SEGMENT_MARKERS[(segment, side)]
         sensors[key] = dict(
             segment=segment,
             side=side,
             gyr=gyr,
             acc=acc,
-            frame=SEGMENT_MARKERS[(segment, side)],
+            frame=frame,
             point=segment_point(markers, segment, side),
+            points={name: markers[name] for name in frame},
+            long_axis=tuple(markers[n] for n in LONG_AXES.get((segment, side), ())),
             sensor_id=imports["sensor_ids"][key],
         )
     table = truth_rows(markers, sensors, spans, fs_hz, B)
@@ -298,16 +320,21 @@ def truth_rows(
     """Both truths of every sensor and their checks (Kong's body frame ``B``: rows x, y, z in
     world coordinates).
 
-    ``sensors``: ``{(sensor_set, imu): {segment, side, gyr, acc, frame, point, sensor_id}}`` with
-    ``frame`` the three marker names of the segment frame and ``point`` the world trajectory of a
-    point rigid with the segment. The true R (r11..r33) is the optical point acceleration method
-    (:func:`aceval.data.truth.acceleration_truth`, from the end of quiet standing to the end of the first
-    straight stretch), beside the marker-frame method (:func:`ground_truth`, ``marker_frame_*``);
-    ``methods_differ_deg``; ``flag`` names what exceeds :data:`MAX_METHOD_DIFFERENCE_DEG` (the
-    truths' difference, the truth's split-half), joined by ';'; the marker frame's
-    twist relative to the sensor during the walk (``twist_*_deg``, about the segment's long axis,
-    since standing); the lever arm from the point to the sensor; for two sensors on one segment,
-    their gyroscopes' relative rotation against their truths' (``pair_consistency_deg``).
+    ``sensors``: ``{(sensor_set, imu): {segment, side, gyr, acc, frame, point, points,
+    long_axis, sensor_id}}`` with ``frame`` the three marker names of the segment frame, ``point``
+    the world trajectory of a point rigid with the segment, ``points`` other such points (name ->
+    trajectory) and ``long_axis`` a line rigid with it (two trajectories) or None. The true R
+    (r11..r33) is the optical point acceleration method (:func:`aceval.data.truth.
+    acceleration_truth`, from the end of quiet standing to the end of the first straight walk),
+    beside the marker-frame method (:func:`ground_truth`, ``marker_frame_*``). Its uncertainty
+    (:func:`_uncertainty`): the spread of the strides' own headings, over the other points and
+    over +-1 sample of time offset; ``long_axis_check_deg`` (and the marker frame's) the heading
+    an independent optical check would correct each truth by; ``flag`` names what exceeds
+    :data:`MAX_METHOD_DIFFERENCE_DEG` (the truths' difference, the truth's uncertainty); the
+    marker frame's twist relative to the sensor during the walk (``twist_*_deg``, about the
+    segment's long axis); the lever arm from the point to the sensor; for two sensors on one
+    segment, their gyroscopes' relative rotation against their truths' (``pair_heading_deg``,
+    ``pair_tilt_deg``).
     """
     from aceval.data.truth import acceleration_truth, twist_about_axis
 
@@ -316,34 +343,96 @@ def truth_rows(
     # from the end of quiet standing (gait initiation included) to the end of the first straight stretch
     bout = (standing[1], spans.get("first_straight", spans["T6"][:1])[0][1])
     rows, kept = [], {}
-    lags = common_lags(markers, sensors, standing, walk, fs_hz)
+    lag = common_lag(markers, sensors, standing, walk, fs_hz)
     for (sensor_set, imu), sensor in sensors.items():
         gyr, acc = sensor["gyr"], sensor["acc"]
-        old = ground_truth(
-            markers, sensor["frame"], gyr, acc, standing, walk, fs_hz, lags[sensor_set]
-        )
-        new = acceleration_truth(
-            acc, gyr, sensor["point"], standing, bout, fs_hz, old["lag_samples"]
-        )
+        old = ground_truth(markers, sensor["frame"], gyr, acc, standing, walk, fs_hz, lag)
+        new = acceleration_truth(acc, gyr, sensor["point"], standing, bout, fs_hz, lag,
+                                 spans.get("strides"))  # fmt: skip
         R, R_marker = B @ new["R_ws0"].as_matrix(), B @ old.pop("R_ws0").as_matrix()
         frames = old.pop("frames")[new["start"] : bout[1]]
         twist = twist_about_axis(frames, new["orientation"], [1.0, 0.0, 0.0], 0)[
             bout[0] - new["start"] :
         ]
+        checks = _uncertainty(sensor, new, standing, bout, fs_hz, lag)
+        checks |= _long_axis_checks(sensor, new, R, R_marker, bout, fs_hz, lag, standing)
         kept[(sensor_set, imu)] = ((sensor["segment"], sensor["side"]), gyr[walk[0] : walk[1]], R)
         rows.append(
             {
                 "sensor_set": sensor_set,
                 "imu": imu,
-                **_truth_columns(sensor, new, old, R, R_marker, twist),
+                **_truth_columns(sensor, new, old, R, R_marker, twist, checks),
             }
         )
     return _with_pair_consistency(pd.DataFrame(rows), kept)
 
 
-def _truth_columns(sensor: dict, new: dict, old: dict, R, R_marker, twist) -> dict:
-    """One sensor's row of :func:`truth_rows` after its identity: the truth R, both methods'
-    diagnostics, their difference, the marker frame's twist and the flags.
+def _uncertainty(sensor: dict, new: dict, standing, bout, fs_hz: float, lag: int) -> dict:
+    """The truth's uncertainty (deg): ``truth_stride_se_deg`` (the strides' own headings,
+    :func:`aceval.data.truth.acceleration_truth`), ``truth_points_deg`` (the largest change of the
+    heading when another point of the segment is matched: its frame markers and the middle of
+    its long axis, those whose horizontal acceleration over the bout has at least
+    :data:`MIN_POINT_POWER` of the chosen point's: a point that hardly accelerates, such as the
+    hip centre on the thigh, cannot fix a heading) and ``truth_lags_deg`` (the largest change at
+    one sample more or less of time offset), and ``truth_uncertainty_deg``, the three combined as
+    a root sum of squares.
+    """
+    from aceval.data.truth import acceleration_truth, point_acceleration
+
+    def change(point, shift) -> float:
+        other = acceleration_truth(sensor["acc"], sensor["gyr"], point, standing, bout, fs_hz,
+                                   lag + shift)["heading_rad"]  # fmt: skip
+        return float(np.degrees(abs((other - new["heading_rad"] + np.pi) % (2 * np.pi) - np.pi)))
+
+    def power(point) -> float:
+        return float(np.sum(point_acceleration(point, fs_hz)[bout[0] : bout[1], :2] ** 2))
+
+    others = list(sensor.get("points", {}).values())
+    if sensor.get("long_axis"):
+        others.append((sensor["long_axis"][0] + sensor["long_axis"][1]) / 2)
+    enough = MIN_POINT_POWER * power(sensor["point"])
+    points = max((change(p, 0) for p in others if power(p) >= enough), default=np.nan)
+    lags = max(change(sensor["point"], shift) for shift in (-1, 1))
+    parts = np.array([new["stride_se_deg"], points, lags])
+    return {
+        "truth_stride_sd_deg": new["stride_sd_deg"],
+        "truth_stride_se_deg": new["stride_se_deg"],
+        "truth_n_strides": new["n_strides"],
+        "truth_points_deg": points,
+        "truth_lags_deg": lags,
+        "truth_uncertainty_deg": float(np.sqrt(np.nansum(parts**2))),
+    }
+
+
+def _long_axis_checks(sensor, new, R, R_marker, bout, fs_hz: float, lag: int, standing) -> dict:
+    """``long_axis_check_deg`` and ``marker_frame_long_axis_check_deg``: the heading correction
+    (deg, unsigned) that the angular velocity of the segment's long axis asks of each truth
+    (:func:`aceval.data.truth.long_axis_heading_deg`); NaN without a long axis.
+    """
+    from aceval.data.truth import long_axis_heading_deg
+
+    line = sensor.get("long_axis")
+    if not line:
+        return {"long_axis_check_deg": np.nan, "marker_frame_long_axis_check_deg": np.nan}
+    a, b = bout
+    start = new["start"]
+    bias = sensor["gyr"][standing[0] : standing[1]].mean(axis=0)
+    correction = long_axis_heading_deg(
+        new["orientation"][a - start : b - start], sensor["gyr"][a + lag : b + lag] - bias,
+        line[0][a:b], line[1][a:b], fs_hz,
+    )  # fmt: skip
+    # the marker-frame truth differs from this one by a turn about the vertical (both match the
+    # accelerometer's vertical exactly): theta about body z (down) is -theta about world z (up),
+    # so the marker frame's correction is this one plus theta
+    theta = np.degrees(Rotation.from_matrix(R_marker @ R.T).as_rotvec()[2])
+    marker = (correction + theta + 180.0) % 360.0 - 180.0
+    return {"long_axis_check_deg": abs(correction), "marker_frame_long_axis_check_deg": abs(marker)}
+
+
+def _truth_columns(sensor: dict, new: dict, old: dict, R, R_marker, twist, checks: dict) -> dict:
+    """One sensor's row of :func:`truth_rows` after its identity: the truth R, its uncertainty
+    and checks (``checks``), both methods' diagnostics, their difference, the marker frame's twist
+    and the flags.
     """
     from aceval.data.rotations import error_angle_deg
 
@@ -356,7 +445,7 @@ def _truth_columns(sensor: dict, new: dict, old: dict, R, R_marker, twist) -> di
         "method": "optical point acceleration, from standing to the end of the first straight walk",
         "lag_samples": old["lag_samples"],
         "rms_misfit_m_s2": new["rms_misfit_m_s2"],
-        "split_half_deg": new["split_half_deg"],
+        **checks,
         "n_samples": new["n_samples"],
         "lever_arm_x_m": new["lever_arm_m"][0],
         "lever_arm_y_m": new["lever_arm_m"][1],
@@ -372,7 +461,7 @@ def _truth_columns(sensor: dict, new: dict, old: dict, R, R_marker, twist) -> di
             name
             for name, raised in (
                 ("methods_differ", difference > MAX_METHOD_DIFFERENCE_DEG),
-                ("truth_unstable", new["split_half_deg"] > MAX_METHOD_DIFFERENCE_DEG),
+                ("truth_unstable", checks["truth_uncertainty_deg"] > MAX_METHOD_DIFFERENCE_DEG),
             )
             if raised
         ),
@@ -380,19 +469,20 @@ def _truth_columns(sensor: dict, new: dict, old: dict, R, R_marker, twist) -> di
 
 
 def _with_pair_consistency(table: pd.DataFrame, kept: dict) -> pd.DataFrame:
-    """``pair_consistency_deg`` of two sensors on one segment (their gyroscopes' relative
-    rotation against their truths'); NaN for a sensor alone on its segment.
+    """``pair_heading_deg`` and ``pair_tilt_deg`` of two sensors on one segment (their
+    gyroscopes' relative rotation against their truths', split about the body vertical:
+    :func:`aceval.data.truth.pair_consistency_deg`); NaN for a sensor alone on its segment.
     """
     from aceval.data.truth import pair_consistency_deg
 
-    table["pair_consistency_deg"] = np.nan
+    table["pair_heading_deg"], table["pair_tilt_deg"] = np.nan, np.nan
     for key_a, (segment_a, gyr_a, R_a) in kept.items():
         for key_b, (segment_b, gyr_b, R_b) in kept.items():
             if segment_a == segment_b and key_a[0] < key_b[0]:
-                value = pair_consistency_deg(gyr_a, gyr_b, R_a, R_b)
+                heading, tilt = pair_consistency_deg(gyr_a, gyr_b, R_a, R_b)
                 for key in (key_a, key_b):
                     same = (table["sensor_set"] == key[0]) & (table["imu"] == key[1])
-                    table.loc[same, "pair_consistency_deg"] = value
+                    table.loc[same, ["pair_heading_deg", "pair_tilt_deg"]] = heading, tilt
     return table
 
 

@@ -179,6 +179,7 @@ def trial_spans(
                 break
             first.append(stride)
         spans["first_straight"] = [(first[0][0], first[-1][1])]
+        spans["strides"] = first  # the truth's per-stride uncertainty reads them
     return spans
 
 

@@ -264,7 +264,7 @@ def recommendation_section(tables: dict) -> list[str]:
         truth_rows = _truth_rows(tables, segment)
         if truth and len(truth_rows):  # the truth is a measurement: its own uncertainty beside
             evidence += (
-                f"; the truth +- {truth_rows['truth_split_half_deg'].max():.1f} deg (split-half), "
+                f"; the truth +- {truth_rows['truth_uncertainty_deg'].max():.1f} deg, "
                 f"its two methods up to {truth_rows['methods_differ_deg'].max():.1f} deg apart"
             )
         same_cell = (group["test"] == best["test"]) & (group["sensor_set"] == best["sensor_set"])
@@ -353,10 +353,19 @@ def loose_reference_section(tables: dict) -> list[str]:
     return lines + [""]
 
 
+def _long_axis(correction: float) -> str:
+    """', long-axis check 0.5' (the heading correction the long axis asks), or nothing."""
+    return f", long-axis check {correction:.1f}" if np.isfinite(correction) else ""
+
+
 def _marker_frame(r) -> str:
     """The error against the marker-frame truth, or why that truth is not used for this sensor."""
     if np.isfinite(r["error_marker_frame_deg"]):
-        return f"against the marker-frame truth {r['error_marker_frame_deg']:.1f} deg"
+        return f"against the marker-frame truth {r['error_marker_frame_deg']:.1f} deg" + (
+            f" (its long-axis check {r['marker_frame_long_axis_check_deg']:.1f})"
+            if np.isfinite(r["marker_frame_long_axis_check_deg"])
+            else ""
+        )
     return (
         f"the marker-frame truth not used (its vertical check {r['marker_frame_vertical_check_deg']:.1f}"
         f" deg > {MAX_MARKER_FRAME_VERTICAL_DEG:g})"
@@ -376,7 +385,9 @@ def truth_section(tables: dict) -> list[str]:
         "",
         "Each IMU's calibration from all repetitions, error to the truth (optical point acceleration: "
         "quiet standing's vertical plus the heading that matches the sensor's acceleration to a joint "
-        "centre's) with that truth's own split-half uncertainty, then the error to the second, "
+        "centre's) with that truth's own uncertainty (its strides, points and time offsets) and "
+        "the heading correction an independent check asks of it (the angular velocity of the "
+        "segment's long axis), then the error to the second, "
         "marker-frame truth (only where its own vertical check passes: within "
         f"{MAX_MARKER_FRAME_VERTICAL_DEG:g} deg), the two truths' difference and the marker frame's "
         "mean twist about the segment's long axis while walking, where the sensor sits (from the "
@@ -390,7 +401,8 @@ def truth_section(tables: dict) -> list[str]:
             flag += f", truth flagged {r['truth_flag']}"
         lines.append(
             f"- {r['imu']} ({r['sensor_set']}, {r['test']}): {r['error_deg']:.1f} deg "
-            f"(truth +- {r['truth_split_half_deg']:.1f}); {_marker_frame(r)}; "
+            f"(truth +- {r['truth_uncertainty_deg']:.1f}{_long_axis(r['long_axis_check_deg'])}); "
+            f"{_marker_frame(r)}; "
             f"truths {r['methods_differ_deg']:.1f} deg apart, "
             f"twist {r['twist_mean_deg']:+.1f} deg; sensor {100 * r['lever_arm_m']:.0f} cm from the "
             f"segment's point; eigenvalue ratio {r['normal_ratio']:.2f} ({r['heading']}){flag}"
