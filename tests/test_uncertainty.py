@@ -135,7 +135,7 @@ def test_resample_weights_draw_n_repetitions_each_time():
     assert np.isnan(cones(one_flagged, np.full((1, 3, 3), np.nan))[0]).all()
 
 
-def _calibrations(errors, cones, shares, flags=None):
+def _calibrations(errors, cones, spreads, flags=None):
     n = len(errors)
     return pd.DataFrame(
         {
@@ -149,24 +149,65 @@ def _calibrations(errors, cones, shares, flags=None):
             "n_reps": 5,
             "flag": flags or [""] * n,
             "error_deg": errors,
-            "error_vertical_share": shares,
+            "error_vertical_share": 1.0,
             "cone95_deg": cones,
+            "spread95_deg": spreads,
         }
     )
 
 
-def test_coverage_counts_errors_inside_their_cone_and_the_heading_part_apart():
+def test_coverage_counts_errors_inside_their_cone_beside_the_spread_alone():
     table = uncertainty_table(
-        _calibrations([1.0, 3.0, 2.0, 9.0], [2.0, 2.0, 2.0, 1.0], [1.0, 0.5, 1.0, 0.0])
-    ).iloc[0]
-    assert table["n"] == 4
-    assert table["coverage"] == pytest.approx(0.5)  # 1 <= 2 and 2 <= 2
-    # heading parts 1, 1.5, 2, 0: all inside
-    assert table["heading_coverage"] == pytest.approx(1.0)
+        _calibrations([1.0, 3.0, 2.0, 9.0], [2.0, 2.0, 2.0, 1.0], [0.5, 0.5, 2.0, 0.5])
+    )
+    cell, pooled = table.iloc[0], table.iloc[-1]
+    assert cell["n"] == 4 and pooled["segment"] == "all" and pooled["n"] == 4
+    assert cell["coverage"] == pytest.approx(0.5)  # 1 <= 2 and 2 <= 2
+    assert cell["spread_coverage"] == pytest.approx(0.25)  # only 2 <= 2
+    # 4 subjects: too few to resample, a binomial interval around 2 of 4
+    assert cell["interval"] == "binomial" and cell["coverage_low"] < 0.5 < cell["coverage_high"]
     flagged = uncertainty_table(
         _calibrations([1.0, 3.0], [2.0, 2.0], [1.0, 1.0], ["", "not_planar"])
     )
     assert flagged.iloc[0]["n"] == 1
+    # with a measured truth, its own uncertainty is allowed for
+    sheet = pd.DataFrame({"subject": ["S0", "S1", "S2", "S3"], "sensor_set": "frontal",
+                          "imu": "IMU1", "truth_uncertainty_deg": [0.0, 1.5, 0.0, 0.0]})  # fmt: skip
+    with_truth = uncertainty_table(
+        _calibrations([1.0, 3.0, 2.0, 9.0], [2.0, 2.0, 2.0, 1.0], [0.5] * 4), sheet
+    ).iloc[0]
+    assert with_truth["coverage_with_truth"] == pytest.approx(0.75)  # 3 - 1.5 <= 2 as well
+
+
+def test_the_cone_model_learns_a_known_bias_and_covers_95_percent():
+    """Simulated errors: each calibration's spread (SD s), the tilt of the datasheet bias and a
+    heading bias tau = 3 deg in one cell, 0 in another: the fit finds tau, and its cone covers
+    about 95 % of fresh errors drawn alike; a cell it never saw falls back on the largest tau."""
+    from aceval.methods.uncertainty import TILT_SD_DEG, Z95, fit_model, model_cones
+
+    rng = np.random.default_rng(0)
+
+    def draw(n, tau, test):
+        spread_sd = rng.uniform(0.3, 2.0, n)
+        heading = rng.normal(0, np.sqrt(spread_sd**2 + tau**2))
+        tilt = rng.normal(0, TILT_SD_DEG / np.sqrt(2), (n, 2))
+        error = np.sqrt(heading**2 + (tilt**2).sum(axis=1))
+        return pd.DataFrame({"method": "kong", "test": test, "segment": "thigh",
+                             "spread95_deg": Z95 * spread_sd, "error_deg": error})  # fmt: skip
+
+    model = fit_model(pd.concat([draw(4000, 3.0, "T6"), draw(4000, 0.0, "T5")]))
+    cells = model.set_index(["test", "segment"])
+    assert cells.loc[("T6", "thigh"), "tau_deg"] == pytest.approx(3.0, abs=0.2)
+    assert cells.loc[("T5", "thigh"), "tau_deg"] < 0.3
+    assert cells.loc[("*", "*"), "tau_deg"] == cells["tau_deg"].max()
+    fresh = pd.concat([draw(4000, 3.0, "T6"), draw(4000, 0.0, "T5")], ignore_index=True)
+    cone, source = model_cones(fresh["spread95_deg"], fresh["method"], fresh["test"],
+                               fresh["segment"], model)  # fmt: skip
+    assert (source == "cell").all()
+    assert np.mean(fresh["error_deg"] <= cone) == pytest.approx(0.95, abs=0.01)
+    _, unseen = model_cones([1.0, np.nan], ["kong", "kong"], ["T9", "T9"], ["head", "head"], model)
+    assert unseen.tolist() == ["method", ""]
+    assert np.isnan(model_cones([1.0], ["peer"], ["T6"], ["thigh"], model)[0]).all()
 
 
 def test_recommendation_uses_the_truth_where_there_is_one_and_test_retest_otherwise():

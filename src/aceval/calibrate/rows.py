@@ -12,6 +12,7 @@ from aceval.calibrate.plan import Plan, Subsets
 from aceval.data.contract import R_COLUMNS
 from aceval.methods.interface import Fit
 from aceval.methods.statistics import Pooled
+from aceval.methods.uncertainty import load_model, model_cones
 
 
 def error_placeholders(R) -> dict:
@@ -59,8 +60,10 @@ FIT_COLUMNS = [
     "right_axis_angle_deg",
     "weight_kong",
     "weight_gyro",
+    "spread95_deg",
+    "spread_vertical_share",
     "cone95_deg",
-    "cone_vertical_share",
+    "cone_model",
     "step_ratio",
     "step_hz",
     "full_set_angle_deg",
@@ -75,9 +78,11 @@ TABLE_COLUMNS = [
     "normal_vertical_angle_deg", "rho_static", "rho_motion", "z0_tests", "normal_gyro_angle_deg",
     "first_phase_agreement", "right_axis_angle_deg", "gyro_acc_agreement",
     "gyro_acc_evidence_deg", "static_vertical_angle_deg", "flag", "error_deg",
-    "error_vertical_share", "cone95_deg", "cone_vertical_share", "axis_spread_deg",
+    "error_vertical_share", "cone95_deg", "cone_model", "spread95_deg", "spread_vertical_share",
+    "axis_spread_deg",
     *[c for c in FIT_COLUMNS if c not in ("first_phase_agreement", "right_axis_angle_deg",
-                                           "cone95_deg", "cone_vertical_share")],
+                                           "cone95_deg", "cone_model", "spread95_deg",
+                                           "spread_vertical_share")],
 ]  # fmt: skip
 
 
@@ -95,7 +100,9 @@ def calibration_rows(
     """The calibrations table's rows of one method's ``fit`` of ``subsets`` (pooled as ``pooled``),
     those ``chosen`` (default all): identity, R, flag, the method's diagnostics, the statistics
     they came from and, on the rows from all repetitions (``full``: each unit's row), the
-    method's cone (``cones``: method -> (cone95_deg, cone_vertical_share), one per unit). The
+    spread between its repetitions (``cones``: method -> (spread95_deg, spread_vertical_share),
+    one per unit, :func:`aceval.methods.uncertainty.bootstrap_cones`) and the model's 95 % cone
+    from it (``cone95_deg``, ``cone_model``: :func:`aceval.methods.uncertainty.model_cones`). The
     columns ``_unit``, ``_block`` (0: every subset, 1: all repetitions, 2: a test-retest subset),
     ``_subset`` and ``_method`` (``order``) sort the table.
     """
@@ -123,8 +130,12 @@ def calibration_rows(
     columns |= fit.columns
     if method in cones:
         at = full[unit] == np.arange(len(unit))
-        for name, values in zip(("cone95_deg", "cone_vertical_share"), cones[method]):
+        for name, values in zip(("spread95_deg", "spread_vertical_share"), cones[method]):
             columns[name] = np.where(at, values[unit], np.nan)
+        columns["cone95_deg"], columns["cone_model"] = model_cones(
+            columns["spread95_deg"], np.full(len(unit), method), identity["test"].to_numpy(),
+            identity["segment"].to_numpy(), load_model(),
+        )  # fmt: skip
     first = np.searchsorted(unit, unit)  # the units' rows are contiguous, in unit order
     block = 0 if method == "kong" else np.where(pooled.all_repetitions, 1, 2)
     columns |= {"_unit": unit, "_block": block, "_subset": np.arange(len(unit)) - first,

@@ -74,9 +74,7 @@ def methods_table(
         )
         .reset_index()
     )
-    if (
-        "cone95_deg" in data
-    ):  # the bootstrap cone (aceval.methods.uncertainty), where the method has one
+    if "cone95_deg" in data:  # the 95 % cone (aceval.methods.uncertainty), where it has one
         cones = data.groupby(keys)["cone95_deg"].median().rename("cone95_median_deg")
         table = table.merge(cones.reset_index(), on=keys, how="left")
     retest = (
@@ -159,7 +157,7 @@ def retest_table(
         .agg(mean="mean", sd="std", median="median", p95=_p95, n="count")
         .reset_index()
     )
-    if "cone95_deg" in calibrations:  # beside it, the bootstrap cone of the full-set calibrations
+    if "cone95_deg" in calibrations:  # beside it, the 95 % cone of the full-set calibrations
         full = full_set_rows(calibrations)
         full = full[unflagged(full)]
         cones = full.groupby(keys)["cone95_deg"].median().rename("cone95_median_deg")
@@ -167,41 +165,60 @@ def retest_table(
     return _method_order(_with_not_applicable(table, calibrations, keys), keys[:3])
 
 
-def uncertainty_table(calibrations: pd.DataFrame) -> pd.DataFrame:
-    """How often the truth falls inside a calibration's 95 % bootstrap cone
-    (:mod:`aceval.methods.uncertainty`): per segment, test and method, over the unflagged calibrations
-    from all repetitions with a cone and a truth: ``n``, the median cone half-angle and error
-    (deg), ``coverage`` (share with error <= cone), and the same for the heading part of the error
-    (``heading_error_deg``: its component about the body vertical, deg), which is all the cone
-    can see (z0 is held). Coverage well below 0.95 says the error is mostly bias, not spread.
+def uncertainty_table(
+    calibrations: pd.DataFrame, method_sheet: pd.DataFrame | None = None
+) -> pd.DataFrame:
+    """How often the truth falls inside a calibration's 95 % cone (:mod:`aceval.methods.
+    uncertainty`: the repetitions' spread, the tilt of z0 and the heading bias learned from
+    simulation), per segment, test and method and (``segment`` and ``test`` 'all') per method,
+    over the unflagged calibrations from all repetitions with a cone and a truth: ``n``,
+    ``n_subjects``, the median cone, the repetitions' spread alone and the error (deg),
+    ``coverage`` (error <= cone) with its 95 % interval (``coverage_low``, ``coverage_high``,
+    ``interval``: resampled subjects, or binomial with few subjects,
+    :func:`aceval.evaluation.stats.coverage_interval`), ``spread_coverage`` (error <= the spread
+    alone: what the bootstrap covers without the model), and, on real data with a measured truth
+    (``method_sheet``), ``coverage_with_truth`` (error minus the truth's own uncertainty <= cone).
     """
-    columns = ["segment", "test", "method", "n", "cone95_median_deg", "error_median_deg",
-               "coverage", "heading_error_median_deg", "heading_coverage"]  # fmt: skip
+    from aceval.evaluation.stats import coverage_interval
+
+    columns = ["segment", "test", "method", "n", "n_subjects", "cone95_median_deg",
+               "spread95_median_deg", "error_median_deg", "coverage", "coverage_low",
+               "coverage_high", "interval", "spread_coverage", "coverage_with_truth"]  # fmt: skip
     if "cone95_deg" not in calibrations:
         return pd.DataFrame(columns=columns)
     data = full_set_errors(calibrations)
-    data = data[np.isfinite(data["cone95_deg"])]
+    data = data[np.isfinite(data["cone95_deg"].astype(float))]
     if data.empty:
         return pd.DataFrame(columns=columns)
-    heading = data["error_deg"] * data["error_vertical_share"].fillna(0.0)
+    truth_sd = np.full(len(data), np.nan)
+    if method_sheet is not None and "truth_uncertainty_deg" in method_sheet:
+        sheet = method_sheet.astype({"subject": str}).set_index(["subject", "sensor_set", "imu"])
+        keys = list(zip(data["subject"].astype(str), data["sensor_set"], data["imu"]))
+        truth_sd = np.array([sheet["truth_uncertainty_deg"].get(k, np.nan) for k in keys], float)
     data = data.assign(
-        heading_error_deg=heading,
-        inside=data["error_deg"] <= data["cone95_deg"],
-        heading_inside=heading <= data["cone95_deg"],
-    )
-    table = (
-        data.groupby(["segment", "test", "method"])
-        .agg(
-            n=("error_deg", "count"),
-            cone95_median_deg=("cone95_deg", "median"),
-            error_median_deg=("error_deg", "median"),
-            coverage=("inside", "mean"),
-            heading_error_median_deg=("heading_error_deg", "median"),
-            heading_coverage=("heading_inside", "mean"),
-        )
-        .reset_index()
-    )
-    return _method_order(table, ["segment", "test"])[columns]
+        hit=data["error_deg"] <= data["cone95_deg"],
+        spread_hit=data["error_deg"] <= data["spread95_deg"],
+        truth_hit=np.where(np.isfinite(truth_sd), data["error_deg"] - truth_sd <= data["cone95_deg"],
+                           np.nan),
+    )  # fmt: skip
+    rows = []
+    groups = [*data.groupby(["segment", "test", "method"], sort=False),
+              *((("all", "all", m), g) for m, g in data.groupby("method", sort=False))]  # fmt: skip
+    for (segment, test, method), group in groups:
+        low, high, how = coverage_interval(group["hit"], group["subject"])
+        rows.append({
+            "segment": segment, "test": test, "method": method, "n": len(group),
+            "n_subjects": group["subject"].nunique(),
+            "cone95_median_deg": group["cone95_deg"].median(),
+            "spread95_median_deg": group["spread95_deg"].median(),
+            "error_median_deg": group["error_deg"].median(), "coverage": group["hit"].mean(),
+            "coverage_low": low, "coverage_high": high, "interval": how,
+            "spread_coverage": group["spread_hit"].mean(),
+            "coverage_with_truth": group["truth_hit"].mean(),
+        })  # fmt: skip
+    table = pd.DataFrame(rows, columns=columns)
+    cells = _method_order(table[table["segment"] != "all"], ["segment", "test"])
+    return pd.concat([cells, _method_order(table[table["segment"] == "all"], [])])[columns]
 
 
 def gate_peers(peers: pd.DataFrame, right_axis_of) -> pd.DataFrame:

@@ -287,3 +287,33 @@ def _residual_ss(y: np.ndarray, blocks: list[np.ndarray]) -> tuple[float, int]:
     X = np.column_stack([np.ones(len(y)), *blocks])
     coef, _, rank, _ = np.linalg.lstsq(X, y, rcond=None)
     return float(((y - X @ coef) ** 2).sum()), int(rank)
+
+
+#: subjects from which a coverage's interval resamples the subjects; with fewer, it is the
+#: binomial (Clopper-Pearson) interval of the calibrations, which treats them as independent
+MIN_SUBJECTS_TO_RESAMPLE = 5
+
+
+def coverage_interval(
+    hit, subjects, n_resamples: int = 1000, seed: int = 0
+) -> tuple[float, float, str]:
+    """``(low, high, how)``: the 95 % interval of a coverage (the share of ``hit``, one per
+    calibration) from resampling the ``subjects`` with replacement (``how`` 'subjects'), or with
+    fewer than :data:`MIN_SUBJECTS_TO_RESAMPLE` subjects the Clopper-Pearson interval of the
+    calibrations ('binomial'); NaN without calibrations.
+    """
+    hit = np.asarray(hit, float)
+    if len(hit) == 0:
+        return float("nan"), float("nan"), ""
+    table = pd.DataFrame({"hit": hit, "subject": np.asarray(subjects)})
+    sums = table.groupby("subject")["hit"].agg(["sum", "count"]).to_numpy(float)
+    if len(sums) < MIN_SUBJECTS_TO_RESAMPLE:
+        from scipy import stats
+
+        ci = stats.binomtest(int(hit.sum()), len(hit)).proportion_ci(0.95)
+        return float(ci.low), float(ci.high), "binomial"
+    rng = np.random.default_rng(seed)
+    draws = rng.integers(0, len(sums), size=(n_resamples, len(sums)))
+    shares = sums[draws, 0].sum(axis=1) / sums[draws, 1].sum(axis=1)
+    low, high = np.percentile(shares, [2.5, 97.5])
+    return float(low), float(high), "subjects"

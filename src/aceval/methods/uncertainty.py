@@ -22,7 +22,11 @@ uncertainty`` measures the cone's coverage against the ground truth.
 
 from __future__ import annotations
 
+import functools
+from pathlib import Path
+
 import numpy as np
+import pandas as pd
 
 from aceval.data.rotations import relative_rotvec
 from aceval.methods.interface import Fit, Method
@@ -32,6 +36,17 @@ from aceval.methods.statistics import Units, pool
 N_BOOT = 200
 #: the cone's coverage level
 LEVEL = 0.95
+#: the accelerometer's zero-g offset, +-60 mg as 3 SD of a constant bias (InvenSense MPU-9250
+#: datasheet, rev. 1.1; the simulator's, :class:`aceval.simulate.engine.ImuErrorModel`): what
+#: tilts z0 from quiet standing
+ACC_OFFSET_MG = 60.0
+#: the RMS tilt (deg) of z0 that bias gives: two horizontal axes, each atan(bias / g)
+TILT_SD_DEG = float(np.sqrt(2) * np.degrees(np.arctan(ACC_OFFSET_MG / 3 * 1e-3)))
+#: a 1-D spread's 95th percentile over its SD (the bootstrap's spread is mostly heading)
+Z95 = 1.959964
+#: the model learned from simulations (:mod:`aceval.evaluation.coverage`): per method, test and
+#: segment the heading bias ``tau_deg`` no resampling sees, and per method the factor ``q``
+MODEL_PATH = Path(__file__).parent / "cone_model.csv"
 
 
 def resample_weights(n_rep: int, n_boot: int = N_BOOT, seed: int = 0) -> np.ndarray:
@@ -93,3 +108,67 @@ def bootstrap_cones(
             resampled = fitted[method.name].R.reshape(len(units), n_boot, 3, 3)
             out[method.name] = cones(resampled, R_full[method.name])
     return out
+
+
+# --- the cone: the repetitions' spread, the tilt and the shared heading bias -----------------
+
+
+def fit_model(rows: pd.DataFrame) -> pd.DataFrame:
+    """The model of a 95 % cone, ``q * sqrt((spread95 / Z95)^2 + TILT_SD^2 + tau^2)``, learned
+    from calibrations with a truth (``rows``: method, test, segment, ``spread95_deg``,
+    ``error_deg``): per (method, test, segment), ``tau_deg``, the RMS error the spread and the
+    tilt leave unexplained, ``sqrt(max(mean(error^2) - mean(spread_sd^2) - TILT_SD^2, 0))``; per
+    method, ``q``, the 95th percentile of the errors over their modelled RMS; and per method a
+    row with test and segment '*' whose ``tau_deg`` is the largest of its cells (for a test or
+    segment it never saw). ``n`` the calibrations behind each row.
+    """
+    data = rows.assign(spread_sd=rows["spread95_deg"] / Z95)
+    cells = (
+        data.groupby(["method", "test", "segment"], sort=True)
+        .apply(lambda g: pd.Series({
+            "tau_deg": np.sqrt(max(np.mean(g["error_deg"] ** 2) - np.mean(g["spread_sd"] ** 2)
+                                   - TILT_SD_DEG**2, 0.0)),
+            "n": len(g)}), include_groups=False)
+        .reset_index()
+    )  # fmt: skip
+    data = data.merge(cells[["method", "test", "segment", "tau_deg"]])
+    rms = np.sqrt(data["spread_sd"] ** 2 + TILT_SD_DEG**2 + data["tau_deg"] ** 2)
+    q = (data["error_deg"] / rms).groupby(data["method"]).quantile(LEVEL).rename("q")
+    fallback = cells.groupby("method").agg(tau_deg=("tau_deg", "max"), n=("n", "sum")).reset_index()
+    table = pd.concat([cells, fallback.assign(test="*", segment="*")], ignore_index=True)
+    return table.merge(q.reset_index(), on="method")[
+        ["method", "test", "segment", "tau_deg", "q", "n"]
+    ]
+
+
+@functools.lru_cache(maxsize=1)
+def load_model(path=MODEL_PATH) -> pd.DataFrame | None:
+    """The learned model (:func:`fit_model`), read once, or None where none has been learned."""
+    return pd.read_csv(path) if Path(path).is_file() else None
+
+
+def model_cones(spread95, method, test, segment, model: pd.DataFrame | None):
+    """``(cone95_deg, source)`` of calibrations with bootstrap spreads ``spread95`` (deg) by
+    ``method`` from ``test`` on ``segment`` (arrays): the model's cone, ``source`` 'cell' where
+    the model learned that method, test and segment, 'method' where it falls back on the
+    method's largest ``tau`` (a test or segment the simulations do not have), '' (and NaN) where
+    it has no such method or the spread is NaN.
+    """
+    spread95 = np.asarray(spread95, float)
+    n = len(spread95)
+    cone, source = np.full(n, np.nan), np.full(n, "", dtype=object)
+    if model is None or n == 0:
+        return cone, source
+    by_cell = model.set_index(["method", "test", "segment"])
+    keys = list(zip(method, test, segment))
+    for k, (m, t, g) in enumerate(keys):
+        if (m, t, g) in by_cell.index:
+            row, source[k] = by_cell.loc[(m, t, g)], "cell"
+        elif (m, "*", "*") in by_cell.index:
+            row, source[k] = by_cell.loc[(m, "*", "*")], "method"
+        else:
+            continue
+        spread_sd = spread95[k] / Z95
+        cone[k] = row["q"] * np.sqrt(spread_sd**2 + TILT_SD_DEG**2 + row["tau_deg"] ** 2)
+    source[~np.isfinite(cone)] = ""
+    return np.minimum(cone, 180.0), source

@@ -408,11 +408,14 @@ _ENTRIES = [
         "methods",
         "beyond the papers (an uncertainty with every calibration)",
         ("calibrations",),
-        "The 95 % bootstrap cone of a calibration (resampled repetitions; half-angle, deg) against "
-        "its error to the ground truth: coverage, the share of calibrations whose error (and whose "
-        "heading error) lies inside their cone",
-        "calibrations from all repetitions of both sensor sets (unflagged, with a cone)",
-        _named("evaluation.methods_comparison.uncertainty_table", "calibrations"),
+        "The 95 % cone of a calibration (the spread of its resampled repetitions, the tilt of z0 "
+        "from the accelerometer's bias and the heading bias learned from simulation: "
+        "docs/uncertainty.md) against its error to the ground truth: coverage, the share of "
+        "calibrations whose error lies inside their cone, with its 95 % interval; beside it the "
+        "coverage of the repetitions' spread alone",
+        "calibrations from all repetitions of both sensor sets (unflagged, with a cone); rows "
+        "'all': the method over every segment and test",
+        _named("evaluation.methods_comparison.uncertainty_table", "calibrations", "truth_method"),
         _named_markdown,
     ),  # fmt: skip
     Output(

@@ -18,14 +18,17 @@ from aceval.simulate.engine import (
 
 @dataclass(frozen=True)
 class SimOptions:
-    """Switches of the physical effects (all on by default). ``offplane`` and ``wobble`` scale
-    out-of-sagittal-plane motion and soft-tissue wobble (1 = physiological value, 0 = off).
+    """Switches of the physical effects (all on by default). ``offplane``, ``wobble`` and
+    ``sensor_bias`` scale out-of-sagittal-plane motion, soft-tissue wobble and the sensors'
+    constant biases (1 = physiological or datasheet value, 0 = off).
     """
 
     fs_hz: float = 100.0
     noise: bool = True
     offplane: float = 1.0
     wobble: float = 1.0
+    #: scale of the sensors' constant biases (1 = the datasheet's, :class:`ImuErrorModel`)
+    sensor_bias: float = 1.0
     misalignment_sd_deg: float = 10.0
     repetitions: int = 5
     jobs: int = 1  # processes writing subjects side by side (the output does not depend on it)
@@ -60,4 +63,5 @@ def sensor_signals(
         R_ws = R_ws @ small_rotations(amplitude * envelope[:, None] * rotvec)
     p_w = origin + R_seg @ np.asarray(position, dtype=float)
     gyr, acc = measure(R_ws, p_w, options.fs_hz)
-    return error_model.apply(rng, gyr, acc, options.fs_hz, acc_range_g, enabled=options.noise)
+    return error_model.apply(rng, gyr, acc, options.fs_hz, acc_range_g, enabled=options.noise,
+                             bias_scale=options.sensor_bias)  # fmt: skip

@@ -78,15 +78,20 @@ class ImuErrorModel:
     gyr_bias_max_dps: float = 5.0
     gyr_range_dps: float = 400.0
 
-    def apply(self, rng, gyr, acc, fs_hz: float, acc_range_g: float, enabled: bool = True):
-        """Noisy, biased and saturated copies of ideal (gyr rad/s, acc m/s^2) samples."""
+    def apply(
+        self, rng, gyr, acc, fs_hz: float, acc_range_g: float, enabled: bool = True,
+        bias_scale: float = 1.0,
+    ):  # fmt: skip
+        """Noisy, biased and saturated copies of ideal (gyr rad/s, acc m/s^2) samples; the
+        biases scaled by ``bias_scale`` (the same draws: a halved bias is the same sensor's).
+        """
         if not enabled:
             return gyr.copy(), acc.copy()
         bandwidth = fs_hz / 2
         acc_sd = self.acc_noise_density_ug * 1e-6 * GRAVITY * np.sqrt(bandwidth)
         gyr_sd = np.radians(self.gyr_noise_density_dps) * np.sqrt(bandwidth)
-        acc_bias = rng.normal(0, self.acc_bias_max_mg * 1e-3 * GRAVITY / 3, 3)
-        gyr_bias = rng.normal(0, np.radians(self.gyr_bias_max_dps) / 3, 3)
+        acc_bias = bias_scale * rng.normal(0, self.acc_bias_max_mg * 1e-3 * GRAVITY / 3, 3)
+        gyr_bias = bias_scale * rng.normal(0, np.radians(self.gyr_bias_max_dps) / 3, 3)
         acc_out = acc + acc_bias + rng.normal(0, acc_sd, acc.shape)
         gyr_out = gyr + gyr_bias + rng.normal(0, gyr_sd, gyr.shape)
         acc_limit = acc_range_g * GRAVITY
