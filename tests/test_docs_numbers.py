@@ -60,3 +60,33 @@ def test_a_quoted_number_is_the_committed_one(match):
 def test_the_docs_quote_the_committed_results():
     """The markers are there (a docs rewrite that drops them would silently stop the check)."""
     assert len(list(_quotes())) >= 20
+
+
+def refresh() -> int:
+    """``python -m tests.test_docs_numbers``: rewrite every quoted number from its committed
+    source at the precision it is written with (then read the prose around each change)."""
+    changed = 0
+    for doc in sorted((REPO / "docs").glob("*.md")):
+        text = doc.read_text()
+
+        def current(match) -> str:
+            nonlocal changed
+            table = pd.read_csv(REPO / "results" / match["path"], dtype=str, keep_default_na=False)
+            chosen = pd.Series(True, index=table.index)
+            for pair in match["keys"].split():
+                key, value = pair.split("=", 1)
+                chosen &= table[key].map(lambda cell, v=value: _same(cell, v))
+            value = float(table[chosen].iloc[0][match["column"]]) * (100 if match["percent"] else 1)
+            quoted = match["number"]
+            decimals = len(quoted.split(".")[1]) if "." in quoted else 0
+            new = f"{value:.{decimals}f}"
+            changed += new != quoted
+            return new + match.group(0)[len(quoted) :]
+
+        doc.write_text(MARKER.sub(current, text))
+    print(f"{changed} quoted number(s) refreshed")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(refresh())

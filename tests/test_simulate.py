@@ -240,3 +240,23 @@ def test_cli_simulate_then_validate(tmp_path, capsys):
     assert "0 error(s)" in capsys.readouterr().out
     assert main(["simulate", "box", "--out", str(out), "--seed", "2"]) == 2  # refuses to overwrite
     assert not list(tmp_path.glob(".box.*"))  # no staging folder left behind
+
+
+def test_the_walk_has_a_measured_lower_leg_and_the_assumed_one_on_request():
+    """Issue 30: in walking the shank and foot leave the sagittal plane (knee ab/adduction,
+    tibial rotation, subtalar motion) and turn from one repetition to the next; the assumed walk
+    of earlier versions (``variability='assumed'``) keeps them sagittal."""
+    from aceval.simulate.body import Anthropometry
+    from aceval.simulate.kong_protocol import t6_walk
+
+    body = Anthropometry(1.75)
+    measured, _ = t6_walk(np.random.default_rng(0), body, 100.0, 1.0)
+    assumed, _ = t6_walk(np.random.default_rng(0), body, 100.0, 1.0, measured=False)
+    for segment in ("shank_r", "foot_l"):
+        _, roll, yaw = measured.angle(segment)
+        assert np.ptp(roll) > np.radians(5) and np.ptp(yaw) > np.radians(5)
+        _, roll, yaw = assumed.angle(segment)
+        assert np.ptp(np.broadcast_to(roll, 1)) == 0 and np.ptp(np.broadcast_to(yaw, 1)) == 0
+    walks = [t6_walk(np.random.default_rng(k), body, 100.0, 1.0)[0] for k in range(30)]
+    mean_yaw = [np.mean(w.angle("shank_r")[2][len(w.t) // 3 : 2 * len(w.t) // 3]) for w in walks]
+    assert np.degrees(np.std(mean_yaw)) > 2.0  # the lower leg's heading varies per repetition

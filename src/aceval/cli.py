@@ -57,6 +57,12 @@ def _add_simulate(commands) -> None:
     simulate.add_argument("--no-offplane", action="store_true", help="pure sagittal-plane motion")
     simulate.add_argument("--no-wobble", action="store_true", help="no soft-tissue wobble")
     simulate.add_argument(
+        "--assumed-variability",
+        action="store_true",
+        help="Kong: the walk's lower leg as assumed before its variability was measured on real "
+        "recordings (sagittal, the same heading every repetition: docs/simulation.md), to compare",
+    )
+    simulate.add_argument(
         "--jobs", type=int, default=1, help="subjects simulated side by side (same output; 1)"
     )
     simulate.add_argument(

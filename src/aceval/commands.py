@@ -39,6 +39,7 @@ def simulate(args) -> int:
         noise=not args.no_noise,
         offplane=0.0 if args.no_offplane else 1.0,
         wobble=0.0 if args.no_wobble else 1.0,
+        variability="assumed" if args.assumed_variability else "measured",
         repetitions=args.repetitions,
         jobs=args.jobs,
         file_format=args.format,

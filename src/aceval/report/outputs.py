@@ -252,6 +252,22 @@ _ENTRIES = [
         _named_markdown,
     ),  # fmt: skip
     Output(
+        "variability",
+        "table",
+        "kong",
+        "beyond the papers (what the simulator's variability is set from)",
+        ("calibrations", "angles", "correlations"),
+        "How variable the motion is, per subject, test and segment: one repetition's calibration "
+        "against all of them (Kong Eq. 13, k = 1), the 3-of-5 test-retest (Eq. 15), the "
+        "eigenvalue ratio and planarity of all repetitions' accelerations (Eq. 3), two sensors "
+        "on one segment (Obj 1): the same statistics on real and simulated data",
+        "subject x test x segment, each the median over the subject's IMUs and sensor sets",
+        _named(
+            "evaluation.variability.variability_table", "calibrations", "angles", "correlations"
+        ),
+        _named_markdown,
+    ),  # fmt: skip
+    Output(
         "conditioning",
         "table",
         "kong",

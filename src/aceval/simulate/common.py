@@ -29,6 +29,9 @@ class SimOptions:
     wobble: float = 1.0
     #: scale of the sensors' constant biases (1 = the datasheet's, :class:`ImuErrorModel`)
     sensor_bias: float = 1.0
+    #: the walk's lower-leg variability: 'measured' (set from real walking, docs/simulation.md)
+    #: or 'assumed' (a sagittal lower leg, as before 2026-11-24: the old datasets exactly)
+    variability: str = "measured"
     misalignment_sd_deg: float = 10.0
     repetitions: int = 5
     jobs: int = 1  # processes writing subjects side by side (the output does not depend on it)

@@ -13,7 +13,7 @@ from aceval.data.writer import DatasetWriter, simulated_meta, write_sheet
 from aceval.simulate.body import Anthropometry, kong_placements, random_mount
 from aceval.simulate.common import SimOptions, sensor_signals
 from aceval.simulate.engine import euler_pitch_roll_yaw
-from aceval.simulate.kong_protocol import PROTOCOL
+from aceval.simulate.kong_protocol import PROTOCOL, t6_walk
 from aceval.simulate.motion import segment_poses
 
 IMUS = [  # Kong Sec. 2.3 and Fig. 4
@@ -151,7 +151,9 @@ def _write_subject(seed, subjects, runs, meta, options, k: int, writer: DatasetW
             writer.ground_truth(subject, sensor_set, imu, stance @ mount)
     for j, (test, rep) in enumerate(runs):
         run_rng = np.random.default_rng([seed, 2, k, j])
-        posture, fixed_ankle = PROTOCOL[test][0](run_rng, body, options.fs_hz, options.offplane)
+        build = PROTOCOL[test][0]
+        extra = {"measured": options.variability == "measured"} if build is t6_walk else {}
+        posture, fixed_ankle = build(run_rng, body, options.fs_hz, options.offplane, **extra)
         for segment, yaw in offsets.items():
             posture.add(segment, yaw=yaw)
         R_seg, origin = segment_poses(posture, body, fixed_ankle)

@@ -144,6 +144,19 @@ def t5_leg_swing(rng, body, fs, offplane):
     return posture, None
 
 
+def _lower_leg(rng, posture, s: str, sign: float, gait, angle, hip_roll, offplane) -> None:
+    """The shank's and foot's out-of-sagittal motion in walking (``angle``: the stride's phase,
+    rad) and this repetition's heading (:data:`KNEE_ADDUCTION_DEG` ...
+    :data:`LOWER_LEG_HEADING_SD_DEG`), scaled by ``offplane``.
+    """
+    heading = rng.normal(0.0, LOWER_LEG_HEADING_SD_DEG * D2R)
+    knee = offplane * sign * KNEE_ADDUCTION_DEG * D2R * gait * np.sin(angle)
+    tibia = offplane * sign * (TIBIAL_ROTATION_DEG * D2R * gait * np.cos(angle) + heading * gait)
+    subtalar = offplane * sign * SUBTALAR_DEG * D2R * gait * np.sin(angle)
+    posture.add(f"shank_{s}", roll=hip_roll + knee, yaw=tibia)
+    posture.add(f"foot_{s}", roll=hip_roll + knee + subtalar, yaw=tibia)
+
+
 def _gait_angles(phase):
     """Sagittal joint angles (rad) over a stride (phase 0-1, heel strike at 0), shaped after the
     normative curves of Winter (2009, Ch. 1; Perry & Burnfield 2010): hip +30 -> -10 deg, knee
@@ -161,9 +174,27 @@ def _gait_angles(phase):
     return hip, knee, ankle
 
 
-def t6_walk(rng, body, fs, offplane):
+#: the lower leg's out-of-sagittal motion over the stride (deg, amplitudes of sinusoids at the
+#: stride frequency; 2026-11-24, issue 30): knee ab/adduction 3 and tibial rotation 4 (the
+#: tibiofemoral arcs of about 6 and 8-10 deg in walking, Lafortune et al. 1992, J Biomech
+#: 25:347), subtalar eversion/inversion 5 (about 10 deg in all, Perry & Burnfield 2010, Ch. 4).
+#: The shank and foot also inherit the thigh's frontal tilt (hip ab/adduction), as the chain does
+KNEE_ADDUCTION_DEG, TIBIAL_ROTATION_DEG, SUBTALAR_DEG = 3.0, 4.0, 5.0
+#: the lower leg's heading from one walking repetition to the next (deg, SD of a per-repetition
+#: turn of shank and foot about the vertical): set from real walking, where one repetition's Kong
+#: calibration of the shank turns 1.82 deg from all of them (median over HuGaDB's 9 sessions,
+#: range 0.55-3.61; table variability, repetition_heading_deg). The shank's plane turns by less
+#: than its heading, since its acceleration also follows the knee's path: 4.2 deg gives 1.5-1.7
+#: on seeds 0-1 (measured 2026-11-24 with tools like aceval.evaluation.variability)
+LOWER_LEG_HEADING_SD_DEG = 4.2
+
+
+def t6_walk(rng, body, fs, offplane, measured: bool = True):
     """7 m straight walk at preferred speed (1.3 m/s, cadence 110 steps/min; Perry & Burnfield
-    2010), standing 1 s before and after, 0.8 s ramps at start and end.
+    2010), standing 1 s before and after, 0.8 s ramps at start and end. ``measured``: the lower
+    leg's out-of-sagittal motion and its repetition-to-repetition heading (:data:`KNEE_ADDUCTION_DEG`
+    ... :data:`LOWER_LEG_HEADING_SD_DEG`); False: the assumed walk of earlier versions (a
+    sagittal lower leg), which ``aceval simulate --assumed-variability`` keeps for comparison.
     """
     speed, cadence = _vary(rng, 1.3, 0.08), _vary(rng, 110.0, 0.05)
     stride = 120.0 / cadence
@@ -185,10 +216,11 @@ def t6_walk(rng, body, fs, offplane):
         posture.add(f"foot_{s}", pitch=foot)
         sign = 1.0 if s == "r" else -1.0
         # hip ab/adduction ~ +-5 deg over the stride (Perry & Burnfield 2010)
-        posture.add(
-            f"thigh_{s}",
-            roll=offplane * sign * 5 * D2R * gait * np.sin(2 * np.pi * (phase_r + shift)),
-        )
+        angle = 2 * np.pi * (phase_r + shift)
+        hip_roll = offplane * sign * 5 * D2R * gait * np.sin(angle)
+        posture.add(f"thigh_{s}", roll=hip_roll)
+        if measured:
+            _lower_leg(rng, posture, s, sign, gait, angle, hip_roll, offplane)
     stride_wave = 2 * np.pi * phase_r
     # pelvis: rotation +-4 deg, obliquity +-3 deg, tilt +-1.5 deg at step frequency (Perry &
     # Burnfield 2010); trunk counter-rotates; COM moves +-2.5 cm vertically and +-2 cm sideways
