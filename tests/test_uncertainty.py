@@ -179,6 +179,14 @@ def test_coverage_counts_errors_inside_their_cone_beside_the_spread_alone():
     assert with_truth["coverage_with_truth"] == pytest.approx(0.75)  # 3 - 1.5 <= 2 as well
 
 
+def test_a_cone_is_not_called_95_percent_where_no_cell_could_be_judged():
+    pooled = pd.Series({"coverage": 0.95, "cone95_median_deg": 4.0, "error_median_deg": 2.0})
+    assert summary._cone_verdict(pooled, 0.85) == "A 95 % cone here."
+    assert "a cell at 70%" in summary._cone_verdict(pooled, 0.70)
+    unjudged = summary._cone_verdict(pooled, np.nan)  # e.g. one real subject: cells of 1-2
+    assert unjudged.startswith("Not a validated") and "no test x segment cell" in unjudged
+
+
 def test_the_cone_model_learns_a_known_bias_and_covers_95_percent():
     """Simulated errors: each calibration's spread (SD s), the tilt of the datasheet bias and a
     heading bias tau = 3 deg in one cell, 0 in another: the fit finds tau, and its cone covers

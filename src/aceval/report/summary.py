@@ -214,7 +214,9 @@ def uncertainty_section(tables: dict) -> list[str]:
         lines.append(
             f"- **{r['method']}**: the truth inside the cone for {r['coverage']:.0%} "
             f"[{r['coverage_low']:.0%}, {r['coverage_high']:.0%}] of {int(r['n'])} calibrations "
-            f"({r['interval']} interval), its worst cell {worst:.0%}; median cone "
+            f"({r['interval']} interval), "
+            + (f"its worst cell {worst:.0%}" if pd.notna(worst) else "no cell with 5 calibrations")
+            + f"; median cone "
             f"{r['cone95_median_deg']:.2f} deg against median error {r['error_median_deg']:.2f} "
             f"deg; the repetitions' spread alone covers {r['spread_coverage']:.0%}"
             + (f"; with the truth's own uncertainty {r['coverage_with_truth']:.0%}"
@@ -242,6 +244,7 @@ def _cone_verdict(pooled: pd.Series, worst_cell: float) -> str:
         f"pooled {pooled['coverage']:.0%} outside {CONE_COVERAGE[0]:.0%}-{CONE_COVERAGE[1]:.0%}"
         if not CONE_COVERAGE[0] <= pooled["coverage"] <= CONE_COVERAGE[1] else "",
         f"a cell at {worst_cell:.0%}" if worst_cell < MIN_CELL_COVERAGE else "",
+        "no test x segment cell with 5 calibrations to judge" if pd.isna(worst_cell) else "",
         f"cone {ratio:.1f} times the error" if ratio > MAX_CONE_OVER_ERROR else "",
     ]  # fmt: skip
     misses = [m for m in misses if m]
