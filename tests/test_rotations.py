@@ -2,7 +2,13 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from aceval.data.rotations import axis_vector, error_angle_deg, random_rotations, vertical_share
+from aceval.data.rotations import (
+    axis_vector,
+    error_angle_deg,
+    random_rotations,
+    vector_angle_deg,
+    vertical_share,
+)
 
 
 def test_error_angle_of_known_rotation():
@@ -42,3 +48,17 @@ def test_axis_vector():
     np.testing.assert_array_equal(axis_vector("x"), [1, 0, 0])
     with pytest.raises(ValueError, match="right_axis 'up'"):
         axis_vector("up")
+
+
+def test_vector_angle_between_unit_vectors_and_their_lines():
+    x, y = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+    tilted = np.array([np.cos(np.radians(30)), np.sin(np.radians(30)), 0.0])
+    assert vector_angle_deg(x, tilted) == pytest.approx(30.0)
+    assert vector_angle_deg(x, -tilted) == pytest.approx(150.0)
+    assert vector_angle_deg(x, -tilted, sign_free=True) == pytest.approx(30.0)
+    assert vector_angle_deg(x, y) == pytest.approx(90.0)
+    # stacks broadcast; a common rotation leaves the angle; a vector that is not finite gives NaN
+    R = random_rotations(1, seed=3)[0]
+    stack = vector_angle_deg(np.stack([x, x]) @ R.T, np.stack([tilted, y]) @ R.T)
+    np.testing.assert_allclose(stack, [30.0, 90.0])
+    assert np.isnan(vector_angle_deg(x, np.full(3, np.nan)))

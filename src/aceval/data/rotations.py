@@ -65,6 +65,18 @@ def vertical_share(R1: np.ndarray, R2: np.ndarray) -> np.ndarray:
         return np.where(norm > 0, np.abs(rotvec[..., 2]) / norm, np.nan)
 
 
+def vector_angle_deg(a: np.ndarray, b: np.ndarray, sign_free: bool = False) -> np.ndarray:
+    """Angle (deg) between unit vectors ``a`` and ``b`` ((..., 3), broadcast); ``sign_free``:
+    between the lines they span (0-90 deg: an axis whose sign is not known). NaN where either is
+    not finite.
+    """
+    with np.errstate(invalid="ignore"):
+        cosine = np.sum(np.asarray(a, float) * np.asarray(b, float), axis=-1)
+        if sign_free:
+            cosine = np.abs(cosine)
+        return np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
+
+
 def random_rotations(n: int, seed: int | np.random.Generator | None = None) -> np.ndarray:
     """``n`` uniformly random rotation matrices, shape (n, 3, 3)."""
     return Rotation.random(n, random_state=seed).as_matrix()

@@ -14,7 +14,7 @@ import pandas as pd
 
 from aceval.calibrate.table import CALIBRATION_KEY, full_set_rows, full_sets, kong_rows, unflagged
 from aceval.data.contract import R_COLUMNS
-from aceval.data.rotations import error_angle_deg, vertical_share
+from aceval.data.rotations import error_angle_deg, vector_angle_deg, vertical_share
 from aceval.evaluation.objectives import SEGMENT_ORDER, test_retest_angles
 from aceval.evaluation.stats import holm
 from aceval.methods.kong import KongLimits
@@ -253,8 +253,8 @@ def gate_peers(peers: pd.DataFrame, right_axis_of) -> pd.DataFrame:
     angle = right_axis_angle_deg(R[:, 1, :], right)
     axis = peers.reindex(columns=["axis_x", "axis_y", "axis_z"]).to_numpy(float)
     with np.errstate(invalid="ignore"):
-        cosine = np.abs(np.einsum("bi,bi->b", axis, R[:, 2, :])) / np.linalg.norm(axis, axis=1)
-    vertical_angle = np.degrees(np.arccos(np.clip(cosine, 0.0, 1.0)))
+        axis = axis / np.linalg.norm(axis, axis=1)[:, None]
+    vertical_angle = vector_angle_deg(axis, R[:, 2, :], sign_free=True)
     ratio = peers.reindex(columns=["axis_variance_ratio"]).to_numpy(float)[:, 0]
     checks = [
         ("right_axis_mismatch", angle > MAX_RIGHT_AXIS_ANGLE_DEG),
@@ -457,12 +457,8 @@ def loose_reference_angles(
     R = data[R_COLUMNS].to_numpy(float).reshape(-1, 3, 3)
     right = data[["right_x", "right_y", "right_z"]].to_numpy(float)
     up = data[["up_x", "up_y", "up_z"]].to_numpy(float)
-    data["right_axis_angle_deg"] = np.degrees(
-        np.arccos(np.clip(np.einsum("ki,ki->k", R[:, 1], right), -1.0, 1.0))
-    )
-    data["vertical_angle_deg"] = np.degrees(
-        np.arccos(np.clip(np.einsum("ki,ki->k", R[:, 2], -up), -1.0, 1.0))
-    )
+    data["right_axis_angle_deg"] = vector_angle_deg(R[:, 1], right)
+    data["vertical_angle_deg"] = vector_angle_deg(R[:, 2], -up)
     data["reference_standing_up_angle_deg"] = data["standing_up_angle_deg"]
     data["flag"] = data["flag"].astype(object).fillna("")
     data["method_rank"] = data["method"].map({m: i for i, m in enumerate(METHOD_ORDER)})

@@ -66,9 +66,8 @@ def variability_table(
     if correlations is not None and len(correlations):
         chosen = correlations[(correlations["objective"] == "frontal_lateral")
                               & (correlations["signal"] == "acc") & unflagged(correlations)]  # fmt: skip
-        chosen = chosen[
-            chosen["t_ex"] == chosen["t_ap"]
-        ]  # each set calibrated from the test itself
+        # each set calibrated from the test itself
+        chosen = chosen[chosen["t_ex"] == chosen["t_ap"]]
         units = chosen.groupby(["t_ap", "segment", "subject", "imu"])["correlation"].mean()
         units = units.rename("value").reset_index().rename(columns={"t_ap": "test"})
         parts.append(_per_subject(units, "two_sensor_correlation"))

@@ -29,7 +29,7 @@ from aceval.data.errors import (
     ZeroGravityError,
     check_samples,
 )
-from aceval.data.rotations import axis_vector
+from aceval.data.rotations import axis_vector, vector_angle_deg
 from aceval.methods.interface import Fit, Method
 from aceval.methods.statistics import Pooled
 
@@ -303,9 +303,7 @@ def fit(pooled: Pooled, fitted: Mapping[str, Fit] | None = None) -> Fit:
         pooled.scatter[:, None], pooled.n_samples[:, None], pooled.z0, pooled.right, strict=False
     )
     R = result.R[:, 0]
-    gyro_angle = np.degrees(
-        np.arccos(np.clip(np.abs(np.einsum("bi,bi->b", R[:, 1], pooled.gyro_axis)), 0.0, 1.0))
-    )
+    gyro_angle = vector_angle_deg(R[:, 1], pooled.gyro_axis, sign_free=True)
     eigenvalues = result.eigenvalues[:, 0]
     columns = {
         "n_samples": result.n_samples[:, 0],

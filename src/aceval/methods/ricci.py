@@ -20,7 +20,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from aceval.data.errors import TooFewSamplesError, check_axes, check_samples
-from aceval.data.rotations import error_angle_deg
+from aceval.data.rotations import error_angle_deg, vector_angle_deg
 from aceval.methods.align_vectors import resample as optimum_resample
 from aceval.methods.align_vectors import wahba_batch, wahba_fit
 from aceval.methods.interface import Fit, Method
@@ -203,8 +203,7 @@ def _sphere_gradient_norm(q: np.ndarray, v_est: np.ndarray, W: np.ndarray, e: np
 
 
 def _residual_angles_deg(v_ref, v_est, R) -> np.ndarray:
-    cos = np.clip(np.sum(v_ref * (v_est @ R.T), axis=1), -1.0, 1.0)
-    return np.degrees(np.arccos(cos))
+    return vector_angle_deg(v_ref, v_est @ R.T)
 
 
 #: the adaptive rule divides lambda by 10 after an accepted step, but not below this: with lambda

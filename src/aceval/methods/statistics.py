@@ -22,6 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from aceval.data.rotations import vector_angle_deg
+
 #: the per-repetition moments of the unit gyroscope samples (Ricci Eq. 1-2): their sum (3), their
 #: scatter (9), their count and the repetition's own axis signed by its first phase (3)
 SUM, SCATTER, COUNT, PHASE = slice(0, 3), slice(3, 12), 12, slice(13, 16)
@@ -263,8 +265,8 @@ def axis_spread_deg(phases: np.ndarray, pooled: np.ndarray, chosen: np.ndarray) 
     (B, R, 3), NaN rows skipped) and the pooled axis (B, 3); NaN with none.
     """
     with np.errstate(invalid="ignore", divide="ignore"):
-        cos = np.abs(np.einsum("bri,bi->br", phases, pooled)) / np.linalg.norm(phases, axis=2)
-        return np.degrees(_median_where(np.arccos(np.clip(cos, 0.0, 1.0)), chosen))
+        phases = phases / np.linalg.norm(phases, axis=2)[..., None]
+    return _median_where(vector_angle_deg(phases, pooled[:, None], sign_free=True), chosen)
 
 
 def _median_where(values: np.ndarray, chosen: np.ndarray) -> np.ndarray:

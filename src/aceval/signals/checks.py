@@ -53,6 +53,7 @@ import numpy as np
 from scipy.ndimage import maximum_filter1d
 
 from aceval.data.contract import GRAVITY
+from aceval.data.rotations import vector_angle_deg
 
 WINDOW_S = 0.25
 SLOW_MAX_DEV_G = 0.1
@@ -109,7 +110,7 @@ def agreement_moments(acc: np.ndarray, gyr: np.ndarray, fs_hz: float) -> dict:
     deviation = maximum_filter1d(np.abs(norm - GRAVITY), k + 1, origin=-(k // 2))[start]
     speed = maximum_filter1d(np.linalg.norm(gyr, axis=1), k + 1, origin=-(k // 2))[start]
     a, b = direction[start], direction[start + k]
-    turn = np.degrees(np.arccos(np.clip(np.sum(a * b, axis=1), -1.0, 1.0)))
+    turn = vector_angle_deg(a, b)
     seen = np.cross(
         b - a, a
     )  # the direction change as a rotation vector (its part perpendicular to a)
@@ -195,9 +196,7 @@ def right_axis_angle_deg(body_y: np.ndarray, right: np.ndarray) -> np.ndarray:
     """The angle (deg) between each calibration's body y in the sensor frame (``R[:, 1]``, (n, 3))
     and the declared right axis ``right`` ((3,) or (n, 3)); NaN where R is undetermined.
     """
-    with np.errstate(invalid="ignore"):
-        cosine = np.sum(np.asarray(body_y, float) * np.asarray(right, float), axis=-1)
-        return np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0)))
+    return vector_angle_deg(body_y, right)
 
 
 def direction_checks(
@@ -275,8 +274,7 @@ def static_posture(z0: np.ndarray, still: dict[str, np.ndarray]) -> dict:
         verticals = np.asarray(verticals, float)
         verticals = verticals[np.isfinite(verticals).all(axis=1)]
         if len(verticals):
-            cosines = np.clip(verticals @ np.asarray(z0, float), -1.0, 1.0)
-            angles.append(float(np.median(np.degrees(np.arccos(cosines)))))
+            angles.append(float(np.median(vector_angle_deg(verticals, z0))))
     smallest = min(angles) if angles else np.nan
     judged = len(angles) >= MIN_STILL_TESTS
     return {
