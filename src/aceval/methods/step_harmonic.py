@@ -24,6 +24,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from aceval.methods.combined import horizontal_right
 from aceval.methods.interface import Fit, Method, combine_flags
 from aceval.methods.statistics import Pooled
 
@@ -181,14 +182,10 @@ def step_harmonic_rotation(H, z0, right) -> tuple[np.ndarray, np.ndarray]:
     finite = np.isfinite(H).all(axis=(-2, -1))
     projected = P @ np.where(finite[..., None, None], H, 0.0) @ P
     eigenvalues, vectors = np.linalg.eigh(projected)  # ascending; the smallest is along z0
-    x = vectors[..., :, 2]
-    x = x - np.sum(x * z0, axis=-1, keepdims=True) * z0
     with np.errstate(invalid="ignore", divide="ignore"):
-        x = x / np.linalg.norm(x, axis=-1, keepdims=True)
         ratio = eigenvalues[..., 1] / eigenvalues[..., 2]
-    y = np.cross(z0, x)
-    sign = np.where(np.sum(y * np.asarray(right, float), axis=-1, keepdims=True) < 0, -1.0, 1.0)
-    R = np.stack([x * sign, y * sign, np.broadcast_to(z0, x.shape)], axis=-2)
+    y = horizontal_right(np.cross(z0, vectors[..., :, 2]), z0, right)  # right of the AP axis
+    R = np.stack([np.cross(y, z0), y, np.broadcast_to(z0, y.shape)], axis=-2)
     valid = finite & (eigenvalues[..., 2] > 0)
     return np.where(valid[..., None, None], R, np.nan), np.where(valid, ratio, np.nan)
 
