@@ -59,7 +59,11 @@ def vertical_share(R1: np.ndarray, R2: np.ndarray) -> np.ndarray:
 
     ``|rotvec_z| / |rotvec|``; NaN where the two calibrations are identical.
     """
-    rotvec = relative_rotvec(R1, R2)
+    return rotvec_vertical_share(relative_rotvec(R1, R2))
+
+
+def rotvec_vertical_share(rotvec: np.ndarray) -> np.ndarray:
+    """Share (0-1) of rotation vectors (..., 3) about z: ``|rotvec_z| / |rotvec|``; NaN for none."""
     norm = np.linalg.norm(rotvec, axis=-1)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(norm > 0, np.abs(rotvec[..., 2]) / norm, np.nan)

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from aceval.data.rotations import relative_rotvec
+from aceval.data.rotations import relative_rotvec, rotvec_vertical_share
 from aceval.methods.interface import Fit, Method
 from aceval.methods.statistics import Units, pool
 
@@ -67,8 +67,7 @@ def cones(resampled: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     rows, draws = np.nonzero(ok)
     rotvec[rows, draws] = relative_rotvec(resampled[rows, draws], R[rows])
     norm = np.linalg.norm(rotvec, axis=-1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        share = np.where(norm > 0, np.abs(rotvec[..., 2]) / norm, np.nan)
+    share = rotvec_vertical_share(rotvec)
     judged = np.isfinite(R).all(axis=(1, 2))
     cone95, median_share = np.full(n_units, np.nan), np.full(n_units, np.nan)
     if judged.any():
@@ -159,16 +158,16 @@ def model_cones(spread95, method, test, segment, model: pd.DataFrame | None):
     cone, source = np.full(n, np.nan), np.full(n, "", dtype=object)
     if model is None or n == 0:
         return cone, source
-    by_cell = model.set_index(["method", "test", "segment"])
-    keys = list(zip(method, test, segment))
-    for k, (m, t, g) in enumerate(keys):
-        if (m, t, g) in by_cell.index:
-            row, source[k] = by_cell.loc[(m, t, g)], "cell"
-        elif (m, "*", "*") in by_cell.index:
-            row, source[k] = by_cell.loc[(m, "*", "*")], "method"
-        else:
-            continue
-        spread_sd = spread95[k] / Z95
-        cone[k] = row["q"] * np.sqrt(spread_sd**2 + TILT_SD_DEG**2 + row["tau_deg"] ** 2)
+    keys = pd.DataFrame({"method": method, "test": test, "segment": segment})
+    learned = ["tau_deg", "q"]
+    cell = keys.merge(model, on=["method", "test", "segment"], how="left")[learned]
+    fallback = model[(model["test"] == "*") & (model["segment"] == "*")]
+    fallback = keys[["method"]].merge(fallback, on="method", how="left")[learned]
+    in_cell = cell["tau_deg"].notna().to_numpy()
+    row = np.where(in_cell[:, None], cell.to_numpy(float), fallback.to_numpy(float))
+    cone = row[:, 1] * np.sqrt((spread95 / Z95) ** 2 + TILT_SD_DEG**2 + row[:, 0] ** 2)
+    source = np.where(in_cell, "cell", np.where(np.isfinite(row[:, 0]), "method", "")).astype(
+        object
+    )
     source[~np.isfinite(cone)] = ""
     return np.minimum(cone, 180.0), source
