@@ -33,8 +33,7 @@ import pandas as pd
 from aceval.calibrate.pipeline import calibrate
 from aceval.calibrate.table import full_set_rows, unflagged
 from aceval.data.dataset import load_dataset
-from aceval.evaluation.methods_comparison import with_truth
-from aceval.evaluation.stats import coverage_interval
+from aceval.evaluation.methods_comparison import uncertainty_table, with_truth
 from aceval.methods.uncertainty import MODEL_PATH, fit_model, model_cones
 from aceval.signals.reduction import reduce_recordings
 from aceval.simulate.common import SimOptions
@@ -54,8 +53,6 @@ VARIANTS = {
     "sensor bias x0.5": SimOptions(sensor_bias=0.5),
     "sensor bias x2": SimOptions(sensor_bias=2.0),
 }
-#: resamples of the subjects behind a coverage's interval
-N_RESAMPLES = 1000
 
 
 def simulated_calibrations(seed: int, options: SimOptions, workdir: Path) -> pd.DataFrame:
@@ -81,32 +78,31 @@ def usable_rows(calibrations: pd.DataFrame) -> pd.DataFrame:
     return full[np.isfinite(full["spread95_deg"]) & np.isfinite(full["error_deg"])]
 
 
-def coverage_rows(rows: pd.DataFrame, label: str, seed: int = 0) -> pd.DataFrame:
-    """Per method (and over all methods): ``n`` calibrations, ``n_subjects``, the pooled
-    ``coverage`` of the cone and its 95 % interval from resampling the subjects
-    (``coverage_low``, ``coverage_high``), the smallest coverage of a test x segment cell with
-    at least 5 calibrations (``worst_cell``, ``worst_cell_coverage``), and the medians of the
-    cone and of the error with their ratio.
+def coverage_rows(rows: pd.DataFrame, label: str) -> pd.DataFrame:
+    """Per method (and over all methods), from :func:`aceval.evaluation.methods_comparison.
+    uncertainty_table`: ``n`` calibrations, ``n_subjects``, the pooled ``coverage`` of the cone
+    and its 95 % interval from resampling the subjects (``coverage_low``, ``coverage_high``), the
+    smallest coverage of a test x segment cell with at least 5 calibrations (``worst_cell``,
+    ``worst_cell_coverage``), and the medians of the cone and of the error with their ratio.
     """
+    table = pd.concat([uncertainty_table(rows), uncertainty_table(rows.assign(method="all"))])
+    pooled = table[table["segment"] == "all"].set_index("method")
+    cells = table[(table["segment"] != "all") & (table["n"] >= 5)].sort_values(["test", "segment"])
     out = []
-    inside = rows["error_deg"] <= rows["cone95_deg"]
-    for method, group in [*rows.groupby("method", sort=False), ("all", rows)]:
-        hit = inside[group.index]
-        low, high, _ = coverage_interval(hit, group["subject"], N_RESAMPLES, seed)
-        cells = group.assign(hit=hit).groupby(["test", "segment"])["hit"].agg(["mean", "count"])
-        cells = cells[cells["count"] >= 5]
-        worst = cells["mean"].idxmin() if len(cells) else ("", "")
+    for method in [*rows["method"].unique(), "all"]:
+        row, mine = pooled.loc[method], cells[cells["method"] == method]
+        worst = mine.loc[mine["coverage"].idxmin()] if len(mine) else None
         out.append(
             {
-                "study": label, "method": method, "n": len(group),
-                "n_subjects": group["subject"].nunique(), "coverage": float(hit.mean()),
-                "coverage_low": low, "coverage_high": high,
-                "worst_cell": " ".join(worst),
-                "worst_cell_coverage": float(cells["mean"].min()) if len(cells) else np.nan,
-                "cone95_median_deg": float(group["cone95_deg"].median()),
-                "spread95_median_deg": float(group["spread95_deg"].median()),
-                "error_median_deg": float(group["error_deg"].median()),
-                "cone_over_error": float(group["cone95_deg"].median() / group["error_deg"].median()),
+                "study": label, "method": method, "n": row["n"], "n_subjects": row["n_subjects"],
+                "coverage": row["coverage"], "coverage_low": row["coverage_low"],
+                "coverage_high": row["coverage_high"],
+                "worst_cell": "" if worst is None else f"{worst['test']} {worst['segment']}",
+                "worst_cell_coverage": np.nan if worst is None else worst["coverage"],
+                "cone95_median_deg": row["cone95_median_deg"],
+                "spread95_median_deg": row["spread95_median_deg"],
+                "error_median_deg": row["error_median_deg"],
+                "cone_over_error": row["cone95_median_deg"] / row["error_median_deg"],
             }
         )  # fmt: skip
     return pd.DataFrame(out)
