@@ -192,9 +192,10 @@ def uncertainty_table(
         return pd.DataFrame(columns=columns)
     truth_sd = np.full(len(data), np.nan)
     if method_sheet is not None and "truth_uncertainty_deg" in method_sheet:
-        sheet = method_sheet.astype({"subject": str}).set_index(["subject", "sensor_set", "imu"])
-        keys = list(zip(data["subject"].astype(str), data["sensor_set"], data["imu"]))
-        truth_sd = np.array([sheet["truth_uncertainty_deg"].get(k, np.nan) for k in keys], float)
+        key = ["subject", "sensor_set", "imu"]
+        sheet = method_sheet.astype({"subject": str})[[*key, "truth_uncertainty_deg"]]
+        truth_sd = data[key].astype({"subject": str}).merge(sheet, on=key, how="left")
+        truth_sd = truth_sd["truth_uncertainty_deg"].to_numpy(float)
     data = data.assign(
         hit=data["error_deg"] <= data["cone95_deg"],
         spread_hit=data["error_deg"] <= data["spread95_deg"],
