@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-from aceval.evaluation import methods_comparison
+from aceval.evaluation import conditioning, methods_comparison
 from aceval.report import outputs, ricci2014, summary
 
 
@@ -133,13 +133,11 @@ def test_a_perfectly_ranked_index_correlates_one_with_the_test_retest_angle():
             "test_retest_deg": [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8],
         }
     )
-    table = methods_comparison.reliability_vs_retest(units).set_index(["index", "test"])
+    table = conditioning.reliability_vs_retest(units).set_index(["index", "test"])
     assert table.loc[("rho_gyro", "all"), "spearman_r"] == pytest.approx(-1.0)
     assert table.loc[("planarity", "T1"), "spearman_r"] == pytest.approx(1.0)
     assert table.loc[("planarity", "all"), "n"] == 8
-    layout = methods_comparison.kong_reliability_table(units).set_index(
-        ["index", "test", "segment"]
-    )
+    layout = conditioning.kong_reliability_table(units).set_index(["index", "test", "segment"])
     assert layout.loc[("rho_gyro", "T1", "chest"), "mean"] == pytest.approx(0.75)
 
 
@@ -307,7 +305,7 @@ def test_conditioning_keeps_flagged_full_sets_and_says_when_the_heading_is_undet
         {**base, "imu": "b", "test": "T6", "n_reps": 3, "method": "triad", "normal_ratio": np.nan,
          "planarity": np.nan, "flag": ""},
     ]  # fmt: skip
-    table = methods_comparison.conditioning_table(pd.DataFrame(rows))
+    table = conditioning.conditioning_table(pd.DataFrame(rows))
     assert list(table["imu"]) == ["a", "b"] and list(table["n_reps"]) == [3, 3]
     assert list(table["heading"]) == ["determined", "undetermined"]
     assert list(table["flag"]) == ["", "not_planar"]

@@ -123,8 +123,10 @@ def check_source(dataset: Dataset, chosen: pd.DataFrame, source: str) -> list[st
     warnings (a file without fingerprints cannot be checked).
     """
     if FINGERPRINT not in chosen.columns:
-        return [f"{source} has no {FINGERPRINT} column (an older aceval): not checked that it was "
-                f"made from this dataset's recordings"]  # fmt: skip
+        return [
+            f"{source} has no {FINGERPRINT} column (an older aceval): not checked that it was "
+            f"made from this dataset's recordings"
+        ]
     for subject, stored in chosen.groupby("subject")[FINGERPRINT].first().items():
         if str(stored) != recordings_fingerprint(dataset, subject):
             raise ApplyError(

@@ -282,9 +282,11 @@ def _add_outputs(commands) -> None:
     )
     _add_table_inputs(outputs)
     outputs.add_argument(
-        "--findings", nargs="*", default=[],
+        "--findings",
+        nargs="*",
+        default=[],
         help="findings of the validation (tab-separated: level, where, cause): validation.txt",
-    )  # fmt: skip
+    )
     outputs.add_argument(
         "--kinds",
         nargs="+",
@@ -297,10 +299,12 @@ def _add_outputs(commands) -> None:
         "--peers", nargs="*", default=[], help="peer tools' calibrations (workflow/peers/, CSV)"
     )
     outputs.add_argument(
-        "--angles", nargs="*", default=[],
+        "--angles",
+        nargs="*",
+        default=[],
         help="Obj 3-5 angles of every subject (calibrate --angles-out; default: computed here); "
         "with --retest-units too, only the calibrations from all repetitions are read",
-    )  # fmt: skip
+    )
     outputs.add_argument(
         "--retest-units",
         nargs="*",

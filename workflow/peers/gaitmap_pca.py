@@ -95,8 +95,18 @@ def calibrate(plan: dict) -> list[dict]:
                 aligned, ratio = pca_rotation(gravity, motion)
             R = frame_from_axes(-aligned[2], aligned[1], entry["right_axis"])
             seconds = gravity_timer.seconds + timer.seconds  # one calibration: both steps
-            rows.append(row(entry, subset, METHOD, R, seconds, note=note, axis=aligned[1],
-                            axis_variance_ratio=ratio))  # fmt: skip
+            rows.append(
+                row(
+                    entry,
+                    subset,
+                    METHOD,
+                    R,
+                    seconds,
+                    note=note,
+                    axis=aligned[1],
+                    axis_variance_ratio=ratio,
+                )
+            )
     return rows
 
 

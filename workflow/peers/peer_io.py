@@ -35,9 +35,21 @@ R_COLUMNS = [f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
 #: method has none): what aceval's gate reads (axis near the vertical, axis undetermined)
 AXIS_COLUMNS = ["axis_x", "axis_y", "axis_z", "axis_variance_ratio"]
 OUT_COLUMNS = [
-    "subject", "sensor_set", "imu", "segment", "side", "test", "repetitions", "n_reps", "method",
-    *R_COLUMNS, *AXIS_COLUMNS, "flag", "note", "seconds",
-]  # fmt: skip
+    "subject",
+    "sensor_set",
+    "imu",
+    "segment",
+    "side",
+    "test",
+    "repetitions",
+    "n_reps",
+    "method",
+    *R_COLUMNS,
+    *AXIS_COLUMNS,
+    "flag",
+    "note",
+    "seconds",
+]
 
 
 def read_plan(path: str) -> dict:
@@ -103,9 +115,16 @@ def subset_label(subset) -> str:
 
 
 def row(
-    entry: dict, subset, method: str, R=None, seconds=float("nan"), flag="", note="",
-    axis=None, axis_variance_ratio=float("nan"),
-) -> dict:  # fmt: skip
+    entry: dict,
+    subset,
+    method: str,
+    R=None,
+    seconds=float("nan"),
+    flag="",
+    note="",
+    axis=None,
+    axis_variance_ratio=float("nan"),
+) -> dict:
     """An output row for one calibration (R None: not calibrated, ``flag`` and ``note`` say why;
     ``axis``: the peer's medial-lateral axis in the sensor frame, see :data:`AXIS_COLUMNS`).
     """

@@ -88,8 +88,10 @@ def calibrate_sagittal(
     kong = _with_direction(plan, plan.every_subset, every, METHODS[0].fit(every, {}))
     kong = flag_unstable(kong, every, retest_k)
     rows = pool(plan.units, plan.methods.unit, plan.methods.weights)
-    fitted = {name: fit if name == "kong" else flag_unstable(fit, rows, retest_k)
-              for name, fit in _method_fits(plan, rows).items()}  # fmt: skip
+    fitted = {
+        name: fit if name == "kong" else flag_unstable(fit, rows, retest_k)
+        for name, fit in _method_fits(plan, rows).items()
+    }
     full_kong = _full_rows(every)
     full_rows = _full_rows(rows)
     R_full = {"kong": kong.R[full_kong]}
@@ -100,9 +102,10 @@ def calibrate_sagittal(
         fit = fitted[method.name]
         chosen = method.applies(rows)
         tables.append(
-            calibration_rows(plan, plan.methods, rows, method.name, fit, order, cones, full_rows,
-                             chosen)
-        )  # fmt: skip
+            calibration_rows(
+                plan, plan.methods, rows, method.name, fit, order, cones, full_rows, chosen
+            )
+        )
     calibrations = pd.concat([t for t in tables if len(t)], ignore_index=True)
     calibrations = calibrations.sort_values(
         ["_unit", "_block", "_subset", "_method"], kind="stable"
@@ -143,8 +146,10 @@ def _with_direction(plan: Plan, subsets: Subsets, pooled: Pooled, kong: Fit) -> 
     """
     direction = _direction(plan, subsets, kong.R)
     sensor = plan.identity["sensor_flag"].to_numpy()[subsets.unit]
-    flag = [combine_flags(s, own, checks)
-            for s, own, checks in zip(sensor, kong.flag, direction["flag"])]  # fmt: skip
+    flag = [
+        combine_flags(s, own, checks)
+        for s, own, checks in zip(sensor, kong.flag, direction["flag"])
+    ]
     columns = kong.columns | {
         "first_phase_agreement": direction["first_phase_agreement"],
         "right_axis_angle_deg": direction["right_axis_angle_deg"],
@@ -165,8 +170,10 @@ def _method_fits(plan: Plan, pooled: Pooled) -> dict[str, Fit]:
     out = {}
     for method in METHODS[1:]:
         fit = fitted[method.name]
-        flag = np.array([f if f == "not_applicable" else combine_flags(s, f)
-                         for s, f in zip(sensor, fit.flag)], dtype=object)  # fmt: skip
+        flag = np.array(
+            [f if f == "not_applicable" else combine_flags(s, f) for s, f in zip(sensor, fit.flag)],
+            dtype=object,
+        )
         columns = dict(fit.columns)
         columns["first_phase_agreement"] = np.full(len(pooled), np.nan)
         columns["right_axis_angle_deg"] = np.full(len(pooled), np.nan)
@@ -205,8 +212,10 @@ def flag_unstable(fit: Fit, pooled: Pooled, retest_k: int | None) -> Fit:
         rows = retest & ok & (pooled.unit == unit)
         if unstable[rows].mean() > 0.5:
             unstable[full[unit]] = True
-    flag = np.array([combine_flags(f, "unstable" if u else "") for f, u in zip(fit.flag, unstable)],
-                    dtype=object)  # fmt: skip
+    flag = np.array(
+        [combine_flags(f, "unstable" if u else "") for f, u in zip(fit.flag, unstable)],
+        dtype=object,
+    )
     return Fit(fit.R, flag, fit.columns | {"full_set_angle_deg": angle})
 
 

@@ -160,8 +160,9 @@ def build_plan(
     motion = motion.sort_values([*KEY, "test", "rep"], kind="stable")
     units, identity = _units(dataset, motion, z0, statics, sensors)
     n_present = units.present.sum(axis=1)
-    every = [all_subsets(list(range(n))) if subsets == "all" else [tuple(range(n))]
-             for n in n_present]  # fmt: skip
+    every = [
+        all_subsets(list(range(n))) if subsets == "all" else [tuple(range(n))] for n in n_present
+    ]
     k = retest_k if subsets == "all" and retest_k else 0
     methods = [
         [tuple(range(n)), *(itertools.combinations(range(n), k) if 0 < k < n else [])]
@@ -259,5 +260,9 @@ def _subsets(units: Units, chosen: list[list[tuple[int, ...]]]) -> Subsets:
             weights.append(row)
             label.append(subset_label(units.rep[u, list(subset)]))
     weights = np.array(weights) if weights else np.zeros((0, units.present.shape[1]))
-    return Subsets(np.array(unit, dtype=int), weights, np.array(label, dtype=object),
-                   weights.sum(axis=1).astype(int))  # fmt: skip
+    return Subsets(
+        np.array(unit, dtype=int),
+        weights,
+        np.array(label, dtype=object),
+        weights.sum(axis=1).astype(int),
+    )

@@ -73,17 +73,54 @@ FIT_COLUMNS = [
 
 #: the calibrations table's columns, in order (those a dataset's methods never fill are left out)
 TABLE_COLUMNS = [
-    "subject", "sensor_set", "imu", "segment", "side", "test", "repetitions", "n_reps", "method",
-    *R_COLUMNS, "n_samples", "eig1", "eig2", "eig3", "planarity", "normal_ratio",
-    "normal_vertical_angle_deg", "rho_static", "rho_motion", "z0_tests", "normal_gyro_angle_deg",
-    "first_phase_agreement", "right_axis_angle_deg", "gyro_acc_agreement",
-    "gyro_acc_evidence_deg", "static_vertical_angle_deg", "flag", "error_deg",
-    "error_vertical_share", "cone95_deg", "cone_model", "spread95_deg", "spread_vertical_share",
+    "subject",
+    "sensor_set",
+    "imu",
+    "segment",
+    "side",
+    "test",
+    "repetitions",
+    "n_reps",
+    "method",
+    *R_COLUMNS,
+    "n_samples",
+    "eig1",
+    "eig2",
+    "eig3",
+    "planarity",
+    "normal_ratio",
+    "normal_vertical_angle_deg",
+    "rho_static",
+    "rho_motion",
+    "z0_tests",
+    "normal_gyro_angle_deg",
+    "first_phase_agreement",
+    "right_axis_angle_deg",
+    "gyro_acc_agreement",
+    "gyro_acc_evidence_deg",
+    "static_vertical_angle_deg",
+    "flag",
+    "error_deg",
+    "error_vertical_share",
+    "cone95_deg",
+    "cone_model",
+    "spread95_deg",
+    "spread_vertical_share",
     "axis_spread_deg",
-    *[c for c in FIT_COLUMNS if c not in ("first_phase_agreement", "right_axis_angle_deg",
-                                           "cone95_deg", "cone_model", "spread95_deg",
-                                           "spread_vertical_share")],
-]  # fmt: skip
+    *[
+        c
+        for c in FIT_COLUMNS
+        if c
+        not in (
+            "first_phase_agreement",
+            "right_axis_angle_deg",
+            "cone95_deg",
+            "cone_model",
+            "spread95_deg",
+            "spread_vertical_share",
+        )
+    ],
+]
 
 
 def calibration_rows(
@@ -119,12 +156,14 @@ def calibration_rows(
         "rho_static": plan.units.rho_static[unit],
         "rho_motion": pooled.gyro_rho,
         "z0_tests": identity["z0_tests"].to_numpy(),
-        **{k: identity[k].to_numpy() for k in ("gyro_acc_agreement", "gyro_acc_evidence_deg",
-                                               "static_vertical_angle_deg")},
+        **{
+            k: identity[k].to_numpy()
+            for k in ("gyro_acc_agreement", "gyro_acc_evidence_deg", "static_vertical_angle_deg")
+        },
         "flag": fit.flag,
         "error_deg": np.full(len(unit), np.nan),
         "error_vertical_share": np.full(len(unit), np.nan),
-    }  # fmt: skip
+    }
     if method != "kong":
         columns["axis_spread_deg"] = pooled.spread_deg
     columns |= fit.columns
@@ -133,13 +172,20 @@ def calibration_rows(
         for name, values in zip(("spread95_deg", "spread_vertical_share"), cones[method]):
             columns[name] = np.where(at, values[unit], np.nan)
         columns["cone95_deg"], columns["cone_model"] = model_cones(
-            columns["spread95_deg"], np.full(len(unit), method), identity["test"].to_numpy(),
-            identity["segment"].to_numpy(), load_model(),
-        )  # fmt: skip
+            columns["spread95_deg"],
+            np.full(len(unit), method),
+            identity["test"].to_numpy(),
+            identity["segment"].to_numpy(),
+            load_model(),
+        )
     first = np.searchsorted(unit, unit)  # the units' rows are contiguous, in unit order
     block = 0 if method == "kong" else np.where(pooled.all_repetitions, 1, 2)
-    columns |= {"_unit": unit, "_block": block, "_subset": np.arange(len(unit)) - first,
-                "_method": order}  # fmt: skip
+    columns |= {
+        "_unit": unit,
+        "_block": block,
+        "_subset": np.arange(len(unit)) - first,
+        "_method": order,
+    }
     table = pd.DataFrame(columns)
     table = table if chosen is None else table[chosen]
     ordered = [c for c in TABLE_COLUMNS if c in table] + [
@@ -155,8 +201,10 @@ def motion_axes(plan: Plan, pooled: Pooled, full: np.ndarray) -> pd.DataFrame:
     identity = plan.identity
     return pd.DataFrame(
         {
-            **{k: identity[k].to_numpy() for k in ["subject", "sensor_set", "imu", "segment",
-                                                   "side", "test"]},
+            **{
+                k: identity[k].to_numpy()
+                for k in ["subject", "sensor_set", "imu", "segment", "side", "test"]
+            },
             "kind": "motion",
             "signal": "gyr",
             "n_recordings": plan.units.present.sum(axis=1),
@@ -169,4 +217,4 @@ def motion_axes(plan: Plan, pooled: Pooled, full: np.ndarray) -> pd.DataFrame:
             "residual_before_deg": np.nan,
             "residual_after_deg": np.nan,
         }
-    )  # fmt: skip
+    )

@@ -78,8 +78,12 @@ def _fit(Q: np.ndarray, f: np.ndarray, K: np.ndarray, w: np.ndarray, iterations:
     for _ in range(iterations):
         v = Qf - np.einsum("nij,j->ni", QK, d)
         previous = psi
-        psi = float(np.arctan2(np.sum(v[:, 0] * w[:, 1] - v[:, 1] * w[:, 0]),
-                               np.sum(v[:, 0] * w[:, 0] + v[:, 1] * w[:, 1])))  # fmt: skip
+        psi = float(
+            np.arctan2(
+                np.sum(v[:, 0] * w[:, 1] - v[:, 1] * w[:, 0]),
+                np.sum(v[:, 0] * w[:, 0] + v[:, 1] * w[:, 1]),
+            )
+        )
         back = Rotation.from_euler("z", -psi).apply(w)  # Rz(psi)^T w
         d, *_ = np.linalg.lstsq(QK.reshape(-1, 3), (Qf - back).reshape(-1), rcond=None)
         if abs(psi - previous) < 1e-10:
@@ -163,8 +167,12 @@ def _heading(Q, f, K, w, lever) -> float:
     lever arm held (the 2-D Procrustes step of :func:`_fit`).
     """
     v = np.einsum("nij,nj->ni", Q, f) - np.einsum("nij,njk,k->ni", Q, K, lever)
-    return float(np.arctan2(np.sum(v[:, 0] * w[:, 1] - v[:, 1] * w[:, 0]),
-                            np.sum(v[:, 0] * w[:, 0] + v[:, 1] * w[:, 1])))  # fmt: skip
+    return float(
+        np.arctan2(
+            np.sum(v[:, 0] * w[:, 1] - v[:, 1] * w[:, 0]),
+            np.sum(v[:, 0] * w[:, 0] + v[:, 1] * w[:, 1]),
+        )
+    )
 
 
 def _stride_spread(Q, f, K, w, lever, psi: float, chunks: list[slice]) -> tuple[float, float, int]:

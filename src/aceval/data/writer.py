@@ -39,8 +39,12 @@ def _write_subject(k: int) -> tuple[str, list]:
 def progress(label: str, done: int, total: int) -> None:
     """One-line progress on stderr for long generations."""
     if label:
-        print(f"\r{label}: {done}/{total}", end="\n" if done == total else "", file=sys.stderr,
-              flush=True)  # fmt: skip
+        print(
+            f"\r{label}: {done}/{total}",
+            end="\n" if done == total else "",
+            file=sys.stderr,
+            flush=True,
+        )
 
 
 def write_sheet(path: Path, columns: list[str], rows: list) -> None:
@@ -208,8 +212,9 @@ def _write_parquet(path: Path, columns: list[str], table: np.ndarray) -> None:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    arrays = [pa.array(table[:, 0])] + [pa.array(table[:, k].astype(np.float32))
-                                         for k in range(1, table.shape[1])]  # fmt: skip
+    arrays = [pa.array(table[:, 0])] + [
+        pa.array(table[:, k].astype(np.float32)) for k in range(1, table.shape[1])
+    ]
     pq.write_table(
         pa.Table.from_arrays(arrays, names=columns),
         path,

@@ -76,20 +76,49 @@ def correlations(
     sensor_sets = list(dataset.meta["sensor_sets"])
     if len(sensor_sets) == 2 and len(full):
         for plan in frontal_lateral_plan(full, sensor_sets).to_dict("records"):
-            base = {"objective": "frontal_lateral", "subject": plan["subject"],
-                    "sensor_set": "|".join(sensor_sets), "imu": plan["imu"],
-                    "segment": plan["segment"], "side": plan["side"], "t_ex": plan["t_ex"]}  # fmt: skip
+            base = {
+                "objective": "frontal_lateral",
+                "subject": plan["subject"],
+                "sensor_set": "|".join(sensor_sets),
+                "imu": plan["imu"],
+                "segment": plan["segment"],
+                "side": plan["side"],
+                "t_ex": plan["t_ex"],
+            }
             for t_ap in motion:
-                moments.correlate(base, plan["imu"], "", t_ap, plan["R_a"], plan["R_b"],
-                                  ("acc", "gyr"), bool(headings_deg))  # fmt: skip
+                moments.correlate(
+                    base,
+                    plan["imu"],
+                    "",
+                    t_ap,
+                    plan["R_a"],
+                    plan["R_b"],
+                    ("acc", "gyr"),
+                    bool(headings_deg),
+                )
     if segment_pairs and len(full):
         for plan in segment_pair_plan(full, segment_pairs).to_dict("records"):
-            base = {"objective": "segment_pair", "subject": plan["subject"],
-                    "sensor_set": plan["sensor_set"], "imu": plan["imu_a"], "imu_b": plan["imu_b"],
-                    "pair": plan["pair"], "side": plan["side"], "t_ex": plan["t_ex"]}  # fmt: skip
+            base = {
+                "objective": "segment_pair",
+                "subject": plan["subject"],
+                "sensor_set": plan["sensor_set"],
+                "imu": plan["imu_a"],
+                "imu_b": plan["imu_b"],
+                "pair": plan["pair"],
+                "side": plan["side"],
+                "t_ex": plan["t_ex"],
+            }
             for t_ap in [t for t in plan["t_ap"] if t in motion]:
-                moments.correlate(base, plan["imu_a"], plan["imu_b"], t_ap, plan["R_a"],
-                                  plan["R_b"], ("acc",), False)  # fmt: skip
+                moments.correlate(
+                    base,
+                    plan["imu_a"],
+                    plan["imu_b"],
+                    t_ap,
+                    plan["R_a"],
+                    plan["R_b"],
+                    ("acc",),
+                    False,
+                )
     return _sensitivity_unit_means(moments.table(pairs))
 
 
@@ -113,8 +142,17 @@ class _PairMoments:
     @classmethod
     def of(cls, pairs: pd.DataFrame, mode: str, headings_deg) -> _PairMoments:
         # the pair moments by (objective, subject, set, IMU, IMU b, test, rep, signal, window)
-        keys = ["objective", "subject", "sensor_set", "imu", "imu_b", "test", "rep", "signal",
-                "window"]  # fmt: skip
+        keys = [
+            "objective",
+            "subject",
+            "sensor_set",
+            "imu",
+            "imu_b",
+            "test",
+            "rep",
+            "signal",
+            "window",
+        ]
         lookup = pairs[keys].assign(imu_b=pairs["imu_b"].fillna(""), rep=pairs["rep"].astype(int))
         return cls(
             index={key: k for k, key in enumerate(lookup.itertuples(index=False, name=None))},
@@ -136,9 +174,18 @@ class _PairMoments:
                 key = (*unit, imu_b, t_ap, rep, signal)
                 k = self.index[(*key, _window(self.mode))]
                 flag = self.flags[k] if isinstance(self.flags[k], str) else ""
-                row = {**base, "t_ap": t_ap, "rep": rep, "signal": signal, "mode": self.mode,
-                       "heading_error_deg": 0.0, "lag_samples": int(self.lags[k]),
-                       "n_samples": int(self.n_overlaps[k]), "correlation": np.nan, "flag": flag}  # fmt: skip
+                row = {
+                    **base,
+                    "t_ap": t_ap,
+                    "rep": rep,
+                    "signal": signal,
+                    "mode": self.mode,
+                    "heading_error_deg": 0.0,
+                    "lag_samples": int(self.lags[k]),
+                    "n_samples": int(self.n_overlaps[k]),
+                    "correlation": np.nan,
+                    "flag": flag,
+                }
                 self.rows.append(row)
                 if flag:
                     continue
@@ -146,8 +193,14 @@ class _PairMoments:
                 if sensitivity and signal == "acc":
                     for heading, turn in self.turns.items():
                         for m in CORRELATION_MODES:
-                            self.rows.append({**row, "objective": "frontal_lateral_sensitivity",
-                                              "mode": m, "heading_error_deg": heading})  # fmt: skip
+                            self.rows.append(
+                                {
+                                    **row,
+                                    "objective": "frontal_lateral_sensitivity",
+                                    "mode": m,
+                                    "heading_error_deg": heading,
+                                }
+                            )
                             at = self.index[(*key, _window(m))]
                             self.wanted.append((len(self.rows) - 1, at, R_a, turn @ R_b, m))
 

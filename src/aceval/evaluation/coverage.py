@@ -94,8 +94,12 @@ def coverage_rows(rows: pd.DataFrame, label: str) -> pd.DataFrame:
         worst = mine.loc[mine["coverage"].idxmin()] if len(mine) else None
         out.append(
             {
-                "study": label, "method": method, "n": row["n"], "n_subjects": row["n_subjects"],
-                "coverage": row["coverage"], "coverage_low": row["coverage_low"],
+                "study": label,
+                "method": method,
+                "n": row["n"],
+                "n_subjects": row["n_subjects"],
+                "coverage": row["coverage"],
+                "coverage_low": row["coverage_low"],
                 "coverage_high": row["coverage_high"],
                 "worst_cell": "" if worst is None else f"{worst['test']} {worst['segment']}",
                 "worst_cell_coverage": np.nan if worst is None else worst["coverage"],
@@ -104,16 +108,19 @@ def coverage_rows(rows: pd.DataFrame, label: str) -> pd.DataFrame:
                 "error_median_deg": row["error_median_deg"],
                 "cone_over_error": row["cone95_median_deg"] / row["error_median_deg"],
             }
-        )  # fmt: skip
+        )
     return pd.DataFrame(out)
 
 
 def with_model_cones(rows: pd.DataFrame, model: pd.DataFrame) -> pd.DataFrame:
     """``rows`` with the model's ``cone95_deg`` (and ``cone_model``) from their spread."""
     cone, source = model_cones(
-        rows["spread95_deg"].to_numpy(float), rows["method"].to_numpy(), rows["test"].to_numpy(),
-        rows["segment"].to_numpy(), model,
-    )  # fmt: skip
+        rows["spread95_deg"].to_numpy(float),
+        rows["method"].to_numpy(),
+        rows["test"].to_numpy(),
+        rows["segment"].to_numpy(),
+        model,
+    )
     return rows.assign(cone95_deg=cone, cone_model=source)
 
 

@@ -12,11 +12,11 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from aceval.calibrate.table import CALIBRATION_KEY, full_set_rows, full_sets, kong_rows, unflagged
+from aceval.calibrate.table import full_set_rows, unflagged
 from aceval.data.contract import R_COLUMNS
 from aceval.data.rotations import error_angle_deg, vector_angle_deg, vertical_share
+from aceval.evaluation.conditioning import heading_status
 from aceval.evaluation.objectives import SEGMENT_ORDER, test_retest_angles
-from aceval.evaluation.stats import holm
 from aceval.methods.kong import KongLimits
 
 #: Kong et al. 2016 Sec. 4: the test recommended for each segment
@@ -24,9 +24,16 @@ KONG_RECOMMENDATION = {"head": "T3", "chest": "T3", "waist": "T3", "thigh": "T6"
 #: aceval's methods (the papers', then the combined heading), then the peers (each run in its own
 #: environment: workflow/peers/)
 METHOD_ORDER = [
-    "kong", "ricci_lm", "align_vectors", "triad", "combined", "step_harmonic",
-    "gaitmap_pca", "qmt_hinge", "opensense_imuplacer",
-]  # fmt: skip
+    "kong",
+    "ricci_lm",
+    "align_vectors",
+    "triad",
+    "combined",
+    "step_harmonic",
+    "gaitmap_pca",
+    "qmt_hinge",
+    "opensense_imuplacer",
+]
 
 
 def full_set_errors(calibrations: pd.DataFrame) -> pd.DataFrame:
@@ -181,9 +188,22 @@ def uncertainty_table(
     """
     from aceval.evaluation.stats import coverage_interval
 
-    columns = ["segment", "test", "method", "n", "n_subjects", "cone95_median_deg",
-               "spread95_median_deg", "error_median_deg", "coverage", "coverage_low",
-               "coverage_high", "interval", "spread_coverage", "coverage_with_truth"]  # fmt: skip
+    columns = [
+        "segment",
+        "test",
+        "method",
+        "n",
+        "n_subjects",
+        "cone95_median_deg",
+        "spread95_median_deg",
+        "error_median_deg",
+        "coverage",
+        "coverage_low",
+        "coverage_high",
+        "interval",
+        "spread_coverage",
+        "coverage_with_truth",
+    ]
     if "cone95_deg" not in calibrations:
         return pd.DataFrame(columns=columns)
     data = full_set_errors(calibrations)
@@ -199,24 +219,35 @@ def uncertainty_table(
     data = data.assign(
         hit=data["error_deg"] <= data["cone95_deg"],
         spread_hit=data["error_deg"] <= data["spread95_deg"],
-        truth_hit=np.where(np.isfinite(truth_sd), data["error_deg"] - truth_sd <= data["cone95_deg"],
-                           np.nan),
-    )  # fmt: skip
+        truth_hit=np.where(
+            np.isfinite(truth_sd), data["error_deg"] - truth_sd <= data["cone95_deg"], np.nan
+        ),
+    )
     rows = []
-    groups = [*data.groupby(["segment", "test", "method"], sort=False),
-              *((("all", "all", m), g) for m, g in data.groupby("method", sort=False))]  # fmt: skip
+    groups = [
+        *data.groupby(["segment", "test", "method"], sort=False),
+        *((("all", "all", m), g) for m, g in data.groupby("method", sort=False)),
+    ]
     for (segment, test, method), group in groups:
         low, high, how = coverage_interval(group["hit"], group["subject"])
-        rows.append({
-            "segment": segment, "test": test, "method": method, "n": len(group),
-            "n_subjects": group["subject"].nunique(),
-            "cone95_median_deg": group["cone95_deg"].median(),
-            "spread95_median_deg": group["spread95_deg"].median(),
-            "error_median_deg": group["error_deg"].median(), "coverage": group["hit"].mean(),
-            "coverage_low": low, "coverage_high": high, "interval": how,
-            "spread_coverage": group["spread_hit"].mean(),
-            "coverage_with_truth": group["truth_hit"].mean(),
-        })  # fmt: skip
+        rows.append(
+            {
+                "segment": segment,
+                "test": test,
+                "method": method,
+                "n": len(group),
+                "n_subjects": group["subject"].nunique(),
+                "cone95_median_deg": group["cone95_deg"].median(),
+                "spread95_median_deg": group["spread95_deg"].median(),
+                "error_median_deg": group["error_deg"].median(),
+                "coverage": group["hit"].mean(),
+                "coverage_low": low,
+                "coverage_high": high,
+                "interval": how,
+                "spread_coverage": group["spread_hit"].mean(),
+                "coverage_with_truth": group["truth_hit"].mean(),
+            }
+        )
     table = pd.DataFrame(rows, columns=columns)
     cells = _method_order(table[table["segment"] != "all"], ["segment", "test"])
     return pd.concat([cells, _method_order(table[table["segment"] == "all"], [])])[columns]
@@ -241,7 +272,6 @@ def gate_peers(peers: pd.DataFrame, right_axis_of) -> pd.DataFrame:
     """
     from aceval.calibrate.table import combine_flags
     from aceval.data.rotations import axis_vector
-    from aceval.methods.kong import KongLimits
     from aceval.methods.sagittal import AxisLimits
     from aceval.signals.checks import MAX_RIGHT_AXIS_ANGLE_DEG, right_axis_angle_deg
 
@@ -398,12 +428,30 @@ def truth_errors(calibrations: pd.DataFrame, method_sheet: pd.DataFrame | None) 
     'undetermined' when the ratio is above Kong's 0.5).
     """
     columns = [
-        "subject", "sensor_set", "imu", "segment", "side", "test", "method", "flag", "error_deg",
-        "truth_uncertainty_deg", "truth_flag", "long_axis_check_deg", "error_marker_frame_deg",
-        "marker_frame_vertical_check_deg", "marker_frame_long_axis_check_deg", "methods_differ_deg",
-        "twist_mean_deg", "lever_arm_m", "pair_heading_deg", "pair_tilt_deg", "normal_ratio",
-        "planarity", "heading",
-    ]  # fmt: skip
+        "subject",
+        "sensor_set",
+        "imu",
+        "segment",
+        "side",
+        "test",
+        "method",
+        "flag",
+        "error_deg",
+        "truth_uncertainty_deg",
+        "truth_flag",
+        "long_axis_check_deg",
+        "error_marker_frame_deg",
+        "marker_frame_vertical_check_deg",
+        "marker_frame_long_axis_check_deg",
+        "methods_differ_deg",
+        "twist_mean_deg",
+        "lever_arm_m",
+        "pair_heading_deg",
+        "pair_tilt_deg",
+        "normal_ratio",
+        "planarity",
+        "heading",
+    ]
     if method_sheet is None or calibrations.empty or "error_deg" not in calibrations:
         return pd.DataFrame(columns=columns)
     from aceval.data.contract import R_COLUMNS
@@ -445,9 +493,18 @@ def loose_reference_angles(
     beside the reference's own standing check (``standing_up_angle_deg``).
     """
     columns = [
-        "subject", "sensor_set", "imu", "segment", "side", "test", "method", "flag",
-        "right_axis_angle_deg", "vertical_angle_deg", "reference_standing_up_angle_deg",
-    ]  # fmt: skip
+        "subject",
+        "sensor_set",
+        "imu",
+        "segment",
+        "side",
+        "test",
+        "method",
+        "flag",
+        "right_axis_angle_deg",
+        "vertical_angle_deg",
+        "reference_standing_up_angle_deg",
+    ]
     if reference is None or calibrations.empty:
         return pd.DataFrame(columns=columns)
     from aceval.data.contract import R_COLUMNS
@@ -466,108 +523,3 @@ def loose_reference_angles(
     return data.sort_values(["sensor_set", "imu", "test", "method_rank"])[columns].reset_index(
         drop=True
     )
-
-
-# --- reliability indices and conditioning of Kong's tests --------------------------------------
-
-
-def kong_units(
-    axes: pd.DataFrame, calibrations: pd.DataFrame, angles: pd.DataFrame | None
-) -> pd.DataFrame:
-    """One row per (subject, set, IMU, motion test): rho of the gyroscope axis (Ricci), Kong's
-    planarity (smallest/largest eigenvalue of the acceleration second moment; 0 = a perfect
-    plane), both from all repetitions, and the mean Obj 4 test-retest angle (deg).
-    """
-    key = ["subject", "sensor_set", "imu", "test"]
-    motion = axes[axes["kind"] == "motion"][key + ["segment", "side", "rho"]]
-    units = motion.merge(full_sets(calibrations)[key + ["planarity"]], on=key, how="left")
-    if angles is not None and len(angles):
-        retest = (
-            angles[angles["comparison"] == "test_retest"]
-            .groupby(key)["error_angle_deg"]
-            .mean()
-            .rename("test_retest_deg")
-            .reset_index()
-        )
-        units = units.merge(retest, on=key, how="left")
-    else:
-        units["test_retest_deg"] = np.nan
-    return units
-
-
-INDICES = {
-    "rho_gyro": "rho of the gyroscope axis (Ricci Eq. 2; 1 = one axis)",
-    "planarity": "Kong planarity (smallest/largest eigenvalue; 0 = one plane)",
-}
-
-
-def kong_reliability_table(units: pd.DataFrame) -> pd.DataFrame:
-    """Both indices in Table 1's layout: mean, SD and n per test and segment."""
-    long = units.rename(columns={"rho": "rho_gyro"}).melt(
-        id_vars=["test", "segment"], value_vars=list(INDICES), var_name="index", value_name="value"
-    )
-    return (
-        long.groupby(["index", "test", "segment"])["value"]
-        .agg(mean="mean", sd="std", n="count")
-        .reset_index()
-    )
-
-
-def heading_status(normal_ratio: pd.Series) -> pd.Series:
-    """'determined' where Kong's smallest/middle eigenvalue ratio is at most
-    :attr:`KongLimits.max_normal_ratio` (0.5), 'undetermined' above (the plane's normal cannot be
-    told from the in-plane axis), '' where there is no ratio.
-    """
-    limit = KongLimits().max_normal_ratio
-    return pd.Series(
-        np.where(
-            normal_ratio > limit,
-            "undetermined",
-            np.where(normal_ratio.notna(), "determined", ""),
-        ),
-        index=normal_ratio.index,
-    )
-
-
-def conditioning_table(calibrations: pd.DataFrame) -> pd.DataFrame:
-    """How well each test determines each IMU's heading by Kong's plane: per (subject, set, IMU,
-    test), from the calibration of all repetitions, flagged ones included, the eigenvalue ratio
-    (smallest/middle; above 0.5 the heading is 'undetermined'), the planarity (smallest/largest)
-    and the calibration's flag.
-    """
-    columns = CALIBRATION_KEY + [
-        "segment", "side", "n_reps", "normal_ratio", "planarity", "heading", "flag",
-    ]  # fmt: skip
-    kong = kong_rows(calibrations)
-    if kong.empty or "normal_ratio" not in kong:
-        return pd.DataFrame(columns=columns)
-    full = full_set_rows(kong).copy()
-    full["heading"] = heading_status(full["normal_ratio"])
-    full["flag"] = full["flag"].astype(object).fillna("")
-    return full.sort_values(CALIBRATION_KEY)[columns].reset_index(drop=True)
-
-
-def reliability_vs_retest(units: pd.DataFrame) -> pd.DataFrame:
-    """Spearman rank correlation of each index with the test-retest angle, over all units and
-    within each test (n = units).
-    """
-    rows = []
-    data = units.rename(columns={"rho": "rho_gyro"})
-    for index in INDICES:
-        for test, group in [("all", data), *data.groupby("test", sort=True)]:
-            pair = group[[index, "test_retest_deg"]].dropna()
-            if (
-                len(pair) >= 3
-                and pair[index].nunique() > 1
-                and pair["test_retest_deg"].nunique() > 1
-            ):
-                from scipy import stats
-
-                result = stats.spearmanr(pair[index], pair["test_retest_deg"])
-                rho_s, p = float(result.statistic), float(result.pvalue)
-            else:
-                rho_s, p = np.nan, np.nan
-            rows.append({"index": index, "test": test, "spearman_r": rho_s, "p": p, "n": len(pair)})
-    table = pd.DataFrame(rows)
-    table["p_holm"] = holm(table["p"])
-    return table

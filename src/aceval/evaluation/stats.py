@@ -127,9 +127,13 @@ def summary_ci(mean: float, sd: float, n: int, level: float = 0.95) -> tuple[flo
 
 
 def cell_means_by_set(
-    table: pd.DataFrame, value: str, pair_on: list[str], cell: list[str], sets: list[str],
+    table: pd.DataFrame,
+    value: str,
+    pair_on: list[str],
+    cell: list[str],
+    sets: list[str],
     set_column: str = "sensor_set",
-) -> pd.DataFrame:  # fmt: skip
+) -> pd.DataFrame:
     """The paired design reduced to its cells: ``value`` paired across the two ``sets`` on
     ``pair_on`` (rows of one set only dropped), then each ``cell``'s (e.g. subject x IMU) mean per
     set, columns ``mean_a`` and ``mean_b`` (an empty table when a set is missing). The cells are
@@ -173,10 +177,16 @@ def mixed_model_of_cells(cells: pd.DataFrame) -> dict:
     out = {
         "mean_a": float(cells["mean_a"].mean()) if len(cells) else np.nan,
         "mean_b": float(cells["mean_b"].mean()) if len(cells) else np.nan,
-        "mean_difference": np.nan, "ci95_low": np.nan, "ci95_high": np.nan, "n": len(cells),
-        "n_groups": int(cells["subject"].nunique()) if len(cells) else 0, "z": np.nan,
-        "p": np.nan, "note": "", "fit_flags": "",
-    }  # fmt: skip
+        "mean_difference": np.nan,
+        "ci95_low": np.nan,
+        "ci95_high": np.nan,
+        "n": len(cells),
+        "n_groups": int(cells["subject"].nunique()) if len(cells) else 0,
+        "z": np.nan,
+        "p": np.nan,
+        "note": "",
+        "fit_flags": "",
+    }
     d = (cells["mean_a"] - cells["mean_b"]).to_numpy(float)
     if out["n_groups"] < 2 or out["n"] <= out["n_groups"] or np.std(d) == 0:
         out["note"] = "not fitted: needs 2 subjects, more cells than subjects and some variation"
@@ -188,11 +198,13 @@ def mixed_model_of_cells(cells: pd.DataFrame) -> dict:
     failed = "not_converged" in flags or "hessian_not_pd" in flags
     low, high = fit.conf_int()[0]
     out.update(
-        mean_difference=float(fit.params[0]), fit_flags=";".join(flags),
-        ci95_low=np.nan if failed else float(low), ci95_high=np.nan if failed else float(high),
+        mean_difference=float(fit.params[0]),
+        fit_flags=";".join(flags),
+        ci95_low=np.nan if failed else float(low),
+        ci95_high=np.nan if failed else float(high),
         z=np.nan if failed else float(fit.tvalues[0]),
         p=np.nan if failed else float(fit.pvalues[0]),
-    )  # fmt: skip
+    )
     return out
 
 
@@ -245,16 +257,29 @@ def variance_shares(
     by_subject = list(data.groupby("subject", sort=True).indices.values())
     if n_resamples and len(by_subject) > 1:
         rng = np.random.default_rng(seed)
-        draws = np.array([
-            _eta_squared(y[rows], [c[rows] for c in codes])[0]
-            for rows in (np.concatenate([by_subject[k] for k in pick])
-                         for pick in rng.integers(0, len(by_subject), (n_resamples, len(by_subject))))
-        ])  # fmt: skip
+        draws = np.array(
+            [
+                _eta_squared(y[rows], [c[rows] for c in codes])[0]
+                for rows in (
+                    np.concatenate([by_subject[k] for k in pick])
+                    for pick in rng.integers(0, len(by_subject), (n_resamples, len(by_subject)))
+                )
+            ]
+        )
         low, high = np.full(len(factors), np.nan), np.full(len(factors), np.nan)
         defined = np.isfinite(shares) & np.isfinite(draws).any(axis=0)
         low[defined], high[defined] = np.nanpercentile(draws[:, defined], [2.5, 97.5], axis=0)
-    return pd.DataFrame({"factor": factors, "eta_squared": shares, "low": low, "high": high,
-                         "aliased": aliased, "n": len(data), "n_subjects": len(by_subject)})  # fmt: skip
+    return pd.DataFrame(
+        {
+            "factor": factors,
+            "eta_squared": shares,
+            "low": low,
+            "high": high,
+            "aliased": aliased,
+            "n": len(data),
+            "n_subjects": len(by_subject),
+        }
+    )
 
 
 def _eta_squared(y: np.ndarray, codes: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:

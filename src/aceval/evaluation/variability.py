@@ -51,8 +51,10 @@ def variability_table(
     """
     parts = []
     if angles is not None and len(angles):
-        for name, comparison, k in (("repetition_heading_deg", "to_last", 1),
-                                    ("test_retest_deg", "test_retest", 3)):  # fmt: skip
+        for name, comparison, k in (
+            ("repetition_heading_deg", "to_last", 1),
+            ("test_retest_deg", "test_retest", 3),
+        ):
             chosen = angles[(angles["comparison"] == comparison) & (angles["k"] == k)]
             units = chosen.groupby(["test", "segment", "subject", "sensor_set", "imu"])[
                 "error_angle_deg"
@@ -64,8 +66,11 @@ def variability_table(
         for name in ("normal_ratio", "planarity"):
             parts.append(_per_subject(full.rename(columns={name: "value"}), name))
     if correlations is not None and len(correlations):
-        chosen = correlations[(correlations["objective"] == "frontal_lateral")
-                              & (correlations["signal"] == "acc") & unflagged(correlations)]  # fmt: skip
+        chosen = correlations[
+            (correlations["objective"] == "frontal_lateral")
+            & (correlations["signal"] == "acc")
+            & unflagged(correlations)
+        ]
         # each set calibrated from the test itself
         chosen = chosen[chosen["t_ex"] == chosen["t_ap"]]
         units = chosen.groupby(["t_ap", "segment", "subject", "imu"])["correlation"].mean()

@@ -107,8 +107,13 @@ def import_gaitmap(
         for test in ("T0", "T6"):
             for rep, (a, b) in enumerate(spans[test], start=1):
                 writer.recording(subject, "main", test, rep, row["imu"], gyr[a:b], acc[a:b])
-        report.add("imu_sample_not_rotated.csv", subject, row["imu"], "imported",
-                   f"T0 x{len(spans['T0'])}; T6 x{len(spans['T6'])}")  # fmt: skip
+        report.add(
+            "imu_sample_not_rotated.csv",
+            subject,
+            row["imu"],
+            "imported",
+            f"T0 x{len(spans['T0'])}; T6 x{len(spans['T6'])}",
+        )
     writer.protocol_sheets(
         {
             "T0": ("static", "quiet standing at the start"),
@@ -167,13 +172,18 @@ def _truth(sheet: pd.DataFrame, signals: dict, markers: dict, spans: dict) -> pd
     B = body_axes(np.array([forward[1], -forward[0], 0.0]))  # right = forward x up, world z up
     sensors = {
         ("main", row["imu"]): dict(
-            segment=row["segment"], side=row["side"], gyr=signals[row["imu"]][0], acc=signals[row["imu"]][1],
-            frame=tuple(f"{row['prefix']}_{m}" for m in FRAME), point=markers[f"{row['prefix']}_{POINT}"],
+            segment=row["segment"],
+            side=row["side"],
+            gyr=signals[row["imu"]][0],
+            acc=signals[row["imu"]][1],
+            frame=tuple(f"{row['prefix']}_{m}" for m in FRAME),
+            point=markers[f"{row['prefix']}_{POINT}"],
             points={m: markers[f"{row['prefix']}_{m}"] for m in FRAME},
-            long_axis=tuple(markers[f"{row['prefix']}_{m}"] for m in LONG_AXIS), sensor_id=row["name"],
+            long_axis=tuple(markers[f"{row['prefix']}_{m}"] for m in LONG_AXIS),
+            sensor_id=row["name"],
         )
         for row in sheet.to_dict("records")
-    }  # fmt: skip
+    }
     return truth_rows(markers, sensors, spans, IMU_RATE_HZ, B)
 
 

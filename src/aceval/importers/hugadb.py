@@ -250,16 +250,9 @@ def protocol_ranges(
     return ranges
 
 
-def import_hugadb(src: str | Path, out: Path) -> ImportReport:
-    """Convert every ``HuGaDB_*.txt`` in ``src`` into a dataset at ``out`` (an empty folder)."""
-    src = Path(src)
-    files = sorted(src.glob("HuGaDB_*.txt"))
-    if not files:
-        raise FormatError(
-            f"{src}: no HuGaDB_*.txt files (get HuGaDB from "
-            "https://github.com/romanchereshnev/HuGaDB and point SRC at its Data folder)"
-        )
-    meta = {
+def dataset_meta() -> dict:
+    """dataset.yaml of an imported HuGaDB dataset."""
+    return {
         "name": "hugadb",
         "description": "HuGaDB (Chereshnev & Kertesz-Farkas 2017), recorded data; "
         "imported by aceval import hugadb; walking sessions use the flagged T0w fallback for z0",
@@ -270,7 +263,18 @@ def import_hugadb(src: str | Path, out: Path) -> ImportReport:
         "acc_range_g": {"lower_body": 2.0},
         "gyr_range_dps": 2000.0,
     }
-    writer = DatasetWriter(out, meta)
+
+
+def import_hugadb(src: str | Path, out: Path) -> ImportReport:
+    """Convert every ``HuGaDB_*.txt`` in ``src`` into a dataset at ``out`` (an empty folder)."""
+    src = Path(src)
+    files = sorted(src.glob("HuGaDB_*.txt"))
+    if not files:
+        raise FormatError(
+            f"{src}: no HuGaDB_*.txt files (get HuGaDB from "
+            "https://github.com/romanchereshnev/HuGaDB and point SRC at its Data folder)"
+        )
+    writer = DatasetWriter(out, dataset_meta())
     report = ImportReport()
     subjects, repetitions = [], {}
     for path in files:
@@ -288,13 +292,25 @@ def import_hugadb(src: str | Path, out: Path) -> ImportReport:
         data = read_hugadb(path)
         ranges = protocol_ranges(data)
         if not any(test in ranges for test in CALIBRATES):
-            report.add(path.name, subject, "", "skipped",
-                       "no standing-up/sitting-down cycle and no walking bout")  # fmt: skip
+            report.add(
+                path.name,
+                subject,
+                "",
+                "skipped",
+                "no standing-up/sitting-down cycle and no walking bout",
+            )
             continue
         written = _write_session(writer, report, path, subject, data, ranges, repetitions)
         if written:
-            subjects.append([subject, match.group(3), data.date, path.name,
-                             "T0" if "T0" in ranges else "T0w (fallback)"])  # fmt: skip
+            subjects.append(
+                [
+                    subject,
+                    match.group(3),
+                    data.date,
+                    path.name,
+                    "T0" if "T0" in ranges else "T0w (fallback)",
+                ]
+            )
             report.add(
                 path.name,
                 subject,
@@ -338,9 +354,14 @@ def _write_session(writer, report, path, subject, data, ranges, repetitions: dic
             continue
         clipped = clipped_fraction(acc_counts)
         if clipped > 0:
-            report.add(path.name, subject, imu, "flagged",
-                       f"{clipped:.1%} of samples clipped at +-2 g "
-                       "(left out of Kong's scatter by aceval calibrate)")  # fmt: skip
+            report.add(
+                path.name,
+                subject,
+                imu,
+                "flagged",
+                f"{clipped:.1%} of samples clipped at +-2 g "
+                "(left out of Kong's scatter by aceval calibrate)",
+            )
         acc, gyr = data.acc(imu), data.gyr(imu)
         for test, spans in ranges.items():
             if test in CALIBRATES and imu not in CALIBRATES[test]:

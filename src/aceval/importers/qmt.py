@@ -253,8 +253,10 @@ def _sheets(writer, out: Path, sheet, spans: dict, subject: str) -> None:
     """tests.tsv (T3 without a first phase: the two transitions turn opposite ways),
     calibrates.tsv, subjects.tsv and imus.tsv.
     """
-    calibrates = {test: [r["imu"] for r in sheet.to_dict("records") if r["segment"] in allowed]
-                  for test, allowed in CALIBRATES.items()}  # fmt: skip
+    calibrates = {
+        test: [r["imu"] for r in sheet.to_dict("records") if r["segment"] in allowed]
+        for test, allowed in CALIBRATES.items()
+    }
     writer.protocol_sheets(TESTS, {test: len(ranges) for test, ranges in spans.items()}, calibrates)
     writer.close()
     tests = pd.read_csv(out / "tests.tsv", sep="\t", dtype=str, keep_default_na=False)

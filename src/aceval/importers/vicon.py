@@ -347,8 +347,9 @@ def truth_rows(
     for (sensor_set, imu), sensor in sensors.items():
         gyr, acc = sensor["gyr"], sensor["acc"]
         old = ground_truth(markers, sensor["frame"], gyr, acc, standing, walk, fs_hz, lag)
-        new = acceleration_truth(acc, gyr, sensor["point"], standing, bout, fs_hz, lag,
-                                 spans.get("strides"))  # fmt: skip
+        new = acceleration_truth(
+            acc, gyr, sensor["point"], standing, bout, fs_hz, lag, spans.get("strides")
+        )
         R, R_marker = B @ new["R_ws0"].as_matrix(), B @ old.pop("R_ws0").as_matrix()
         frames = old.pop("frames")[new["start"] : bout[1]]
         twist = twist_about_axis(frames, new["orientation"], [1.0, 0.0, 0.0], 0)[
@@ -380,8 +381,9 @@ def _uncertainty(sensor: dict, new: dict, standing, bout, fs_hz: float, lag: int
     from aceval.data.truth import acceleration_truth, point_acceleration
 
     def change(point, shift) -> float:
-        other = acceleration_truth(sensor["acc"], sensor["gyr"], point, standing, bout, fs_hz,
-                                   lag + shift)["heading_rad"]  # fmt: skip
+        other = acceleration_truth(
+            sensor["acc"], sensor["gyr"], point, standing, bout, fs_hz, lag + shift
+        )["heading_rad"]
         return float(np.degrees(abs((other - new["heading_rad"] + np.pi) % (2 * np.pi) - np.pi)))
 
     def power(point) -> float:
@@ -418,9 +420,12 @@ def _long_axis_checks(sensor, new, R, R_marker, bout, fs_hz: float, lag: int, st
     start = new["start"]
     bias = sensor["gyr"][standing[0] : standing[1]].mean(axis=0)
     correction = long_axis_heading_deg(
-        new["orientation"][a - start : b - start], sensor["gyr"][a + lag : b + lag] - bias,
-        line[0][a:b], line[1][a:b], fs_hz,
-    )  # fmt: skip
+        new["orientation"][a - start : b - start],
+        sensor["gyr"][a + lag : b + lag] - bias,
+        line[0][a:b],
+        line[1][a:b],
+        fs_hz,
+    )
     # the marker-frame truth differs from this one by a turn about the vertical (both match the
     # accelerometer's vertical exactly): theta about body z (down) is -theta about world z (up),
     # so the marker frame's correction is this one plus theta

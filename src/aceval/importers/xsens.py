@@ -219,8 +219,16 @@ def import_xsens(
         for test, ranges in ((t, r) for t, r in spans.items() if t in ("T0", "T6")):
             for rep, (a, b) in enumerate(ranges, start=1):
                 q = None if quat[sensor_id] is None else quat[sensor_id][a:b]
-                writer.recording(subject, row["sensor_set"], test, rep, row["imu"],
-                                 gyr[sensor_id][a:b], acc[sensor_id][a:b], q)  # fmt: skip
+                writer.recording(
+                    subject,
+                    row["sensor_set"],
+                    test,
+                    rep,
+                    row["imu"],
+                    gyr[sensor_id][a:b],
+                    acc[sensor_id][a:b],
+                    q,
+                )
         report.add(
             files[sensor_id].name,
             subject,

@@ -85,10 +85,14 @@ def _weights(pooled: Pooled, kong: Fit, gyro_usable: np.ndarray) -> tuple[np.nda
     limits = KongLimits()
     w_kong = np.where(
         kong.flag == "",
-        kong_weight(kong.columns["normal_ratio"], kong.columns["planarity"],
-                    limits.max_normal_ratio, limits.max_planarity),
+        kong_weight(
+            kong.columns["normal_ratio"],
+            kong.columns["planarity"],
+            limits.max_normal_ratio,
+            limits.max_planarity,
+        ),
         0.0,
-    )  # fmt: skip
+    )
     w_gyro = np.where(gyro_usable, gyro_weight(pooled.gyro_rho, AxisLimits().min_rho), 0.0)
     return w_kong, w_gyro
 
@@ -101,9 +105,13 @@ def fit(pooled: Pooled, fitted: Mapping[str, Fit]) -> Fit:
     """
     kong, axis_flag = fitted["kong"], fitted["triad"].flag
     w_kong, w_gyro = _weights(pooled, kong, axis_flag == "")
-    R = combined_rotation(pooled.z0, kong.R[:, 1],
-                          horizontal_right(pooled.gyro_axis, pooled.z0, pooled.right), w_kong,
-                          w_gyro)  # fmt: skip
+    R = combined_rotation(
+        pooled.z0,
+        kong.R[:, 1],
+        horizontal_right(pooled.gyro_axis, pooled.z0, pooled.right),
+        w_kong,
+        w_gyro,
+    )
     undetermined = w_kong + w_gyro <= 0
     switches = _weight_switches(pooled.unit, w_kong, w_gyro)
     flag = np.array(
@@ -139,9 +147,13 @@ def resample(pooled: Pooled, fitted: Mapping[str, Fit]) -> Fit:
     """
     kong = fitted["kong"]
     w_kong, w_gyro = _weights(pooled, kong, fitted["triad"].flag == "")
-    R = combined_rotation(pooled.z0, kong.R[:, 1],
-                          horizontal_right(pooled.gyro_axis, pooled.z0, pooled.right), w_kong,
-                          w_gyro)  # fmt: skip
+    R = combined_rotation(
+        pooled.z0,
+        kong.R[:, 1],
+        horizontal_right(pooled.gyro_axis, pooled.z0, pooled.right),
+        w_kong,
+        w_gyro,
+    )
     return Fit(R, np.where(np.isfinite(R).all(axis=(1, 2)), "", "not_planar"))
 
 

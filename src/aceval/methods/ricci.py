@@ -409,12 +409,22 @@ class _State:
         e = _residuals(v_ref, v_est, q)
         cost = np.einsum("bi,bi->b", e, W * e)
         converged = cost < rule.abs_tol
-        return cls(q=q.copy(), e=e, cost=cost, lam=np.full(n, float(rule.damping)),
-                   converged=converged, active=~converged, n_iter=np.zeros(n, int),
-                   n_rejected=np.zeros(n, int), in_a_row=np.zeros(n, int),
-                   last_change=np.full(n, np.inf), stale=np.ones(n, bool),
-                   JtW=np.empty((n, 3, W.shape[1])), JtWJ=np.empty((n, 3, 3)),
-                   gradient=np.empty((n, 3)))  # fmt: skip
+        return cls(
+            q=q.copy(),
+            e=e,
+            cost=cost,
+            lam=np.full(n, float(rule.damping)),
+            converged=converged,
+            active=~converged,
+            n_iter=np.zeros(n, int),
+            n_rejected=np.zeros(n, int),
+            in_a_row=np.zeros(n, int),
+            last_change=np.full(n, np.inf),
+            stale=np.ones(n, bool),
+            JtW=np.empty((n, 3, W.shape[1])),
+            JtWJ=np.empty((n, 3, 3)),
+            gradient=np.empty((n, 3)),
+        )
 
     def renew(self, v_ref, v_est, W, rule: _Rule) -> None:
         """The Jacobian on the sphere of the problems that moved; those at a stationary point

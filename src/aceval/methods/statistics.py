@@ -212,8 +212,9 @@ def pool(units: Units, unit: np.ndarray, weights: np.ndarray, subsets: bool = Tr
     chosen = weights > 0
     spread = axis_spread_deg(units.phases[unit], axis, chosen) if subsets else nan
     with np.errstate(invalid="ignore"):
-        steps = np.einsum("br,brij->bij", weights, np.where(chosen[..., None, None],
-                                                           units.steps[unit], 0.0))  # fmt: skip
+        steps = np.einsum(
+            "br,brij->bij", weights, np.where(chosen[..., None, None], units.steps[unit], 0.0)
+        )
     steps[~units.walking[unit]] = np.nan
     step_hz = _median_where(units.step_hz[unit], chosen) if subsets else nan
     return Pooled(

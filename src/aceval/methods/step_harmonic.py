@@ -214,8 +214,9 @@ def fit(pooled: Pooled, fitted: Mapping[str, Fit] | None = None) -> Fit:
     """
     R, ratio = step_harmonic_rotation(pooled.steps, pooled.z0, pooled.right)
     flag = np.where(ratio <= MAX_STEP_RATIO, "", "no_step_heading").astype(object)
-    flag[pooled.step_disagrees] = [combine_flags(f, "step_frequency_disagrees")
-                                   for f in flag[pooled.step_disagrees]]  # fmt: skip
+    flag[pooled.step_disagrees] = [
+        combine_flags(f, "step_frequency_disagrees") for f in flag[pooled.step_disagrees]
+    ]
     flag[~pooled.walking] = "not_applicable"
     note = np.where(pooled.walking, None, TOO_SHORT).astype(object)
     step_hz = np.where(pooled.walking, pooled.step_hz, np.nan)

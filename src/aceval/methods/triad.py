@@ -83,8 +83,9 @@ def triad_batch(z0: np.ndarray, axes: np.ndarray, rho_static: float, rho: np.nda
 
 
 def _batch(pooled: Pooled, rows: np.ndarray) -> tuple[np.ndarray, dict]:
-    return triad_batch(pooled.z0[rows], pooled.gyro_axis[rows], pooled.rho_static[rows],
-                       pooled.gyro_rho[rows]), {}  # fmt: skip
+    return triad_batch(
+        pooled.z0[rows], pooled.gyro_axis[rows], pooled.rho_static[rows], pooled.gyro_rho[rows]
+    ), {}
 
 
 def _single(pooled: Pooled, row: int) -> tuple[np.ndarray, dict]:

@@ -124,12 +124,24 @@ def fit_model(rows: pd.DataFrame) -> pd.DataFrame:
     data = rows.assign(spread_sd=rows["spread95_deg"] / Z95)
     cells = (
         data.groupby(["method", "test", "segment"], sort=True)
-        .apply(lambda g: pd.Series({
-            "tau_deg": np.sqrt(max(np.mean(g["error_deg"] ** 2) - np.mean(g["spread_sd"] ** 2)
-                                   - TILT_SD_DEG**2, 0.0)),
-            "n": len(g)}), include_groups=False)
+        .apply(
+            lambda g: pd.Series(
+                {
+                    "tau_deg": np.sqrt(
+                        max(
+                            np.mean(g["error_deg"] ** 2)
+                            - np.mean(g["spread_sd"] ** 2)
+                            - TILT_SD_DEG**2,
+                            0.0,
+                        )
+                    ),
+                    "n": len(g),
+                }
+            ),
+            include_groups=False,
+        )
         .reset_index()
-    )  # fmt: skip
+    )
     data = data.merge(cells[["method", "test", "segment", "tau_deg"]])
     rms = np.sqrt(data["spread_sd"] ** 2 + TILT_SD_DEG**2 + data["tau_deg"] ** 2)
     q = (data["error_deg"] / rms).groupby(data["method"]).quantile(LEVEL).rename("q")

@@ -140,8 +140,13 @@ def equivalent_to(estimate, target: float, margin: float) -> str:
     """:func:`equivalent` of an estimate's mean (its ``low90``, ``high90``, ``low``, ``high``)
     and ``target``: the two agree within ``margin``.
     """
-    return equivalent(estimate["low90"] - target, estimate["high90"] - target,
-                      estimate["low"] - target, estimate["high"] - target, margin)  # fmt: skip
+    return equivalent(
+        estimate["low90"] - target,
+        estimate["high90"] - target,
+        estimate["low"] - target,
+        estimate["high"] - target,
+        margin,
+    )
 
 
 def every(verdicts) -> str:

@@ -79,20 +79,46 @@ def plot(
     if x == "t_ap":
         data["t_ap"] = rename_tests(data["t_ap"], names)
     figure = _facets(
-        data, x=x, y=y, hue="t_ex", col=panel, col_order=order_panels, kind="point",
-        hue_order=sorted(data["t_ex"].unique()), order=sorted(data[x].unique()),
+        data,
+        x=x,
+        y=y,
+        hue="t_ex",
+        col=panel,
+        col_order=order_panels,
+        kind="point",
+        hue_order=sorted(data["t_ex"].unique()),
+        order=sorted(data[x].unique()),
         xlabel={
             "t_ap": "T_ap (test the matrix is applied to)",
             "k": "k (repetitions before adding one)" if number == 9 else "k (repetitions used)",
         }[x],
-        ylabel=ylabel, legend_title="T_ex", errorbar="sd",
-    )  # fmt: skip
+        ylabel=ylabel,
+        legend_title="T_ex",
+        errorbar="sd",
+    )
     figure.suptitle(f"Kong Fig. {number} in spirit, {title}", y=1.02, fontsize=9)
     _save(figure, out)
 
 
-def _facets(data, *, x, y, hue, col, col_order, hue_order, order, kind, xlabel, ylabel,
-            legend_title, height=2.6, aspect=1.15, sharex=True, **estimate) -> plt.Figure:  # fmt: skip
+def _facets(
+    data,
+    *,
+    x,
+    y,
+    hue,
+    col,
+    col_order,
+    hue_order,
+    order,
+    kind,
+    xlabel,
+    ylabel,
+    legend_title,
+    height=2.6,
+    aspect=1.15,
+    sharex=True,
+    **estimate,
+) -> plt.Figure:
     """One panel per ``col`` value (three to a row), each seaborn's ``pointplot`` or ``barplot``
     (``kind``) of ``y`` over ``x`` by ``hue`` with the ``estimate`` options (estimator, errorbar),
     the y axis (and with ``sharex`` the x axis) shared, one legend beside them: what
@@ -101,8 +127,14 @@ def _facets(data, *, x, y, hue, col, col_order, hue_order, order, kind, xlabel, 
     """
     ncols = min(3, len(col_order))
     nrows = -(-len(col_order) // ncols)
-    figure, axes = plt.subplots(nrows, ncols, figsize=(height * aspect * ncols, height * nrows),
-                                sharex=sharex, sharey=True, squeeze=False)  # fmt: skip
+    figure, axes = plt.subplots(
+        nrows,
+        ncols,
+        figsize=(height * aspect * ncols, height * nrows),
+        sharex=sharex,
+        sharey=True,
+        squeeze=False,
+    )
     colors = dict(zip(hue_order, sns.color_palette(n_colors=len(hue_order))))
     draw = sns.pointplot if kind == "point" else sns.barplot
     style = (
@@ -111,8 +143,19 @@ def _facets(data, *, x, y, hue, col, col_order, hue_order, order, kind, xlabel, 
         else {}
     )  # seaborn's point dodge is divided by the levels - 1
     for k, (panel, name) in enumerate(zip(axes.flat, col_order)):
-        draw(data=data[data[col] == name], x=x, y=y, hue=hue, hue_order=hue_order, order=order,
-             palette=colors, legend=False, ax=panel, **style, **estimate)  # fmt: skip
+        draw(
+            data=data[data[col] == name],
+            x=x,
+            y=y,
+            hue=hue,
+            hue_order=hue_order,
+            order=order,
+            palette=colors,
+            legend=False,
+            ax=panel,
+            **style,
+            **estimate,
+        )
         panel.set_title(str(name))
         panel.set_xlabel(xlabel if k // ncols == nrows - 1 or k + ncols >= len(col_order) else "")
         panel.set_ylabel(ylabel if k % ncols == 0 else "")
@@ -122,8 +165,14 @@ def _facets(data, *, x, y, hue, col, col_order, hue_order, order, kind, xlabel, 
     if len(hue_order) > 1:  # as catplot: no legend for a single level
         marker = {"marker": "o", "markersize": 4} if kind == "point" else {"linewidth": 6}
         handles = [plt.Line2D([], [], color=c, **marker) for c in colors.values()]
-        figure.legend(handles, list(colors), title=legend_title, loc="center left",
-                      bbox_to_anchor=(1.0, 0.5), frameon=False)  # fmt: skip
+        figure.legend(
+            handles,
+            list(colors),
+            title=legend_title,
+            loc="center left",
+            bbox_to_anchor=(1.0, 0.5),
+            frameon=False,
+        )
     figure.tight_layout()
     return figure
 
@@ -222,10 +271,19 @@ def _sensitivity(data: dict, out: Path, title: str) -> None:
         return _not_testable(out, f"Obj 1 sensitivity, {title}: needs two sensor sets")
     figure, panel = plt.subplots(figsize=(5.5, 3.6))
     for mode, group in curve.groupby("mode", sort=False):
-        panel.errorbar(group["heading_error_deg"], group["mean"], yerr=group["sd"], marker="o", ms=3,
-                       capsize=2, label=mode)  # fmt: skip
-    panel.set(xlabel="heading error imposed on the lateral calibration (deg)",
-              ylabel="acceleration correlation (Obj 1)")  # fmt: skip
+        panel.errorbar(
+            group["heading_error_deg"],
+            group["mean"],
+            yerr=group["sd"],
+            marker="o",
+            ms=3,
+            capsize=2,
+            label=mode,
+        )
+    panel.set(
+        xlabel="heading error imposed on the lateral calibration (deg)",
+        ylabel="acceleration correlation (Obj 1)",
+    )
     panel.legend(title="correlation", fontsize=7)
     figure.suptitle(f"What Kong's Obj 1 can detect, {title}", fontsize=9)
     figure.tight_layout()
@@ -249,21 +307,31 @@ def _ricci_residuals(data: dict, out: Path, title: str) -> None:
         {"residual_before_deg": "before (identity)", "residual_after_deg": "after the fit"}
     )
     figure = _facets(
-        long, x="test", y="residual angle (deg)", hue="when", col="segment",
-        col_order=list(dict.fromkeys(long["segment"])), kind="bar",
-        hue_order=list(dict.fromkeys(long["when"])), order=None, xlabel="test",
-        ylabel="residual angle (deg)", legend_title="when", aspect=1.1, errorbar="sd",
+        long,
+        x="test",
+        y="residual angle (deg)",
+        hue="when",
+        col="segment",
+        col_order=list(dict.fromkeys(long["segment"])),
+        kind="bar",
+        hue_order=list(dict.fromkeys(long["when"])),
+        order=None,
+        xlabel="test",
+        ylabel="residual angle (deg)",
+        legend_title="when",
+        aspect=1.1,
+        errorbar="sd",
         sharex=False,
-    )  # fmt: skip
+    )
     figure.suptitle(f"Ricci Fig. 5 in spirit, {title}", y=1.02, fontsize=9)
     return _save(figure, out)
 
 
 def _reliability(data: dict, out: Path, title: str) -> None:
     """The reliability indices (rho, planarity) against the Obj 4 test-retest angle."""
-    from aceval.evaluation import methods_comparison
+    from aceval.evaluation import conditioning
 
-    units = methods_comparison.kong_units(data["axes"], data["calibrations"], data.get("angles"))
+    units = conditioning.kong_units(data["axes"], data["calibrations"], data.get("angles"))
     units = units.dropna(subset=["test_retest_deg"])
     if units.empty:
         return _not_testable(out, f"Reliability vs test-retest, {title}: no test-retest angles")
@@ -272,9 +340,16 @@ def _reliability(data: dict, out: Path, title: str) -> None:
         panels,
         [("rho", "rho of the gyroscope axis (Ricci)"), ("planarity", "Kong planarity (0 = plane)")],
     ):
-        sns.scatterplot(data=units, x=column, y="test_retest_deg", hue="test",
-                        hue_order=sorted(units["test"].unique()), s=14, ax=panel,
-                        legend=panel is panels[-1])  # fmt: skip
+        sns.scatterplot(
+            data=units,
+            x=column,
+            y="test_retest_deg",
+            hue="test",
+            hue_order=sorted(units["test"].unique()),
+            s=14,
+            ax=panel,
+            legend=panel is panels[-1],
+        )
         panel.set(xlabel=label, ylabel="test-retest angle (deg)", yscale="log")
     figure.suptitle(f"Reliability index vs Obj 4 test-retest angle, {title}", fontsize=9)
     figure.tight_layout()
@@ -290,11 +365,21 @@ def _methods(data: dict, out: Path, title: str) -> None:
         return _not_testable(out, f"Methods vs ground truth, {title}: no ground truth")
     order = [m for m in methods_comparison.METHOD_ORDER if m in set(errors["method"])]
     figure = _facets(
-        errors, x="test", y="error_deg", hue="method", col="segment",
-        col_order=_segments(errors["segment"]), kind="point", hue_order=order,
-        order=sorted(errors["test"].unique()), xlabel="test",
-        ylabel="error to the true mounting (deg)", legend_title="method", estimator="median",
-        errorbar=("pi", 50), sharex=False,
-    )  # fmt: skip
+        errors,
+        x="test",
+        y="error_deg",
+        hue="method",
+        col="segment",
+        col_order=_segments(errors["segment"]),
+        kind="point",
+        hue_order=order,
+        order=sorted(errors["test"].unique()),
+        xlabel="test",
+        ylabel="error to the true mounting (deg)",
+        legend_title="method",
+        estimator="median",
+        errorbar=("pi", 50),
+        sharex=False,
+    )
     figure.suptitle(f"Methods against the ground truth, {title}", y=1.02, fontsize=9)
     return _save(figure, out)

@@ -6,13 +6,10 @@ its tables' values and SDs) or a cited convention, and the rule says which.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from functools import cached_property
-
 import numpy as np
 import pandas as pd
 
-from aceval.calibrate.table import full_set_rows, kong_rows, unflagged
+from aceval.calibrate.table import unflagged
 from aceval.evaluation.stats import smallest_sign_flip_p
 from aceval.report.claims import (
     CODE,
@@ -20,7 +17,6 @@ from aceval.report.claims import (
     GROUND_TRUTH,
     HOLDS,
     INCONCLUSIVE,
-    LOWER,
     UNTESTABLE,
     UPPER,
     Rule,
@@ -32,66 +28,20 @@ from aceval.report.claims import (
     interval,
     resampled,
     subject_cells,
-    tally,
 )
-
-#: the segment of Kong's rigid box (Tables 4-5, ``aceval simulate box``): not a body segment,
-#: so not in the claims about segments
-RIGID_BOX = "box"
-
-
-@dataclass
-class Evidence:
-    """What Kong's rules read: the reproduced tables (by number or name), the Obj 1-2
-    correlations, the Obj 3-5 angles and the calibrations (their errors to a truth, if any).
-    """
-
-    tables: dict
-    correlations: pd.DataFrame | None
-    angles: pd.DataFrame | None
-    calibrations: pd.DataFrame | None
-
-    @cached_property
-    def obj1(self) -> pd.DataFrame:
-        """Each subject's mean frontal-lateral acceleration correlation per (T_ap, segment)."""
-        c = self.correlations
-        if c is None or c.empty:
-            return pd.DataFrame(columns=["subject", "t_ap", "segment", "correlation"])
-        chosen = (c["objective"] == "frontal_lateral") & (c["signal"] == "acc") & unflagged(c)
-        chosen &= c["segment"] != RIGID_BOX  # the box has Tables 4-5 of its own
-        return subject_cells(c[chosen], ["t_ap", "segment"], "correlation")
-
-    def angle_cells(self, comparison: str, keys: list[str]) -> pd.DataFrame:
-        """Each subject's mean error angle of one comparison per cell (``keys``), on the body
-        segments Kong's claims are about (not the rigid box).
-        """
-        a = self.angles
-        chosen = (
-            (a["comparison"] == comparison) & (a["segment"] != RIGID_BOX) if a is not None else None
-        )
-        if chosen is None or not chosen.any():
-            return pd.DataFrame(columns=["subject", *keys, "error_angle_deg"])
-        return subject_cells(a[chosen], keys, "error_angle_deg")
-
-
-def _cells_against(cells: pd.DataFrame, keys, value, limit, side, digits=2) -> tuple[str, str]:
-    """Every cell's subject mean ``side`` ``limit`` (:func:`aceval.report.claims.beyond`): the
-    verdict and the cell farthest on the wrong side, with its interval.
-    """
-    if cells.empty:
-        return UNTESTABLE, "no cell"
-    estimates = cell_estimates(cells, keys, value)
-    verdicts = [beyond(r["low"], r["high"], limit, side) for _, r in estimates.iterrows()]
-    worst = estimates.loc[
-        estimates["mean"].idxmax() if side.startswith("<") else estimates["mean"].idxmin()
-    ]
-    where = " ".join(str(worst[k]) for k in keys)
-    return every(verdicts), (
-        f"{'largest' if side.startswith('<') else 'smallest'} cell {where}: "
-        f"{interval(worst['mean'], worst['low'], worst['high'], digits)} (n {int(worst['n'])} subjects); "
-        f"cells beyond / on the wrong side / undecided: {tally(verdicts)}"
-    )
-
+from aceval.report.kong_angle_claims import (
+    ABOUT_5_DEG,
+    SAME_CALIBRATION_DEG,
+    about_z0,
+    angles_below,
+    cross_large,
+    cross_small,
+    lower_than_upper,
+    recommendation,
+    recommended_most_accurate,
+    t6_faster,
+)
+from aceval.report.kong_evidence import Evidence, cells_against
 
 # --- Obj 1 ------------------------------------------------------------------------------------
 
@@ -155,8 +105,9 @@ def _minimum_feet_t6(e: Evidence) -> tuple[str, str]:
     at = list(wide.columns).index(("T6", "foot"))
     share, low, high = resampled(wide, lambda v: float(np.nanargmin(np.nanmean(v, axis=0)) == at))
     lowest_verdict = HOLDS if low == 1.0 else FAILS if high == 0.0 else INCONCLUSIVE
-    foot = cell_estimates(cells[(cells["t_ap"] == "T6") & (cells["segment"] == "foot")],
-                          ["t_ap"], "correlation").iloc[0]  # fmt: skip
+    foot = cell_estimates(
+        cells[(cells["t_ap"] == "T6") & (cells["segment"] == "foot")], ["t_ap"], "correlation"
+    ).iloc[0]
     about = equivalent_to(foot, *FOOT_T6)
     numbers = (
         f"feet T6 the lowest cell in {share:.0%} of the subjects' resamples; feet T6 "
@@ -183,8 +134,10 @@ def _factors(e: Evidence) -> tuple[str, str]:
     if "aliased" in share and share["aliased"].any():
         return UNTESTABLE, "the design confounds T_ex, T_ap and segment (table correlation_factors)"
     verdicts = [beyond(share.loc["t_ex", "low"], share.loc["t_ex", "high"], SMALL_ETA2, "<")]
-    verdicts += [beyond(share.loc[f, "low"], share.loc[f, "high"], LARGE_ETA2, ">=")
-                 for f in ("t_ap", "segment")]  # fmt: skip
+    verdicts += [
+        beyond(share.loc[f, "low"], share.loc[f, "high"], LARGE_ETA2, ">=")
+        for f in ("t_ap", "segment")
+    ]
     numbers = "; ".join(
         f"{f}: {interval(share.loc[f, 'eta_squared'], share.loc[f, 'low'], share.loc[f, 'high'], 3)}"
         for f in ("t_ex", "t_ap", "segment")
@@ -226,7 +179,7 @@ def _rigid_pairs(e: Evidence) -> tuple[str, str]:
         return UNTESTABLE, "needs head/chest or thigh/shank sensors in the rigid-body tests"
     chosen = (c["objective"] == "segment_pair") & (c["signal"] == "acc") & unflagged(c)
     cells = subject_cells(c[chosen], ["pair", "t_ap"], "correlation")
-    return _cells_against(cells, ["pair", "t_ap"], "correlation", 0.95, ">=", 3)
+    return cells_against(cells, ["pair", "t_ap"], "correlation", 0.95, ">=", 3)
 
 
 def _set_rows(e: Evidence, number: int) -> pd.DataFrame:
@@ -311,240 +264,172 @@ def _set_preference(number: int):
     return judge
 
 
-# --- Obj 3-4 ----------------------------------------------------------------------------------
-
-
-def _angles_below(comparison: str, keys: list[str], limit: float, where=None):
-    def judge(e: Evidence) -> tuple[str, str]:
-        cells = e.angle_cells(comparison, keys)
-        if where is not None and len(cells):
-            cells = cells[where(cells)]
-        if cells.empty:
-            return UNTESTABLE, f"needs repeated motion tests of body segments ({comparison})"
-        return _cells_against(cells, keys, "error_angle_deg", limit, "<")
-
-    return judge
-
-
-def _lower_than_upper(e: Evidence) -> tuple[str, str]:
-    cells = e.angle_cells("to_last", ["segment"])
-    wide = cells.pivot_table(index="subject", columns="segment", values="error_angle_deg")
-    upper, lower = [s for s in UPPER if s in wide], [s for s in LOWER if s in wide]
-    if not upper or not lower:
-        return UNTESTABLE, "needs upper-body and lower-limb segments"
-    from aceval.evaluation.stats import mean_ci
-
-    difference = wide[lower].mean(axis=1) - wide[upper].mean(axis=1)
-    mean, low, high, n = mean_ci(difference)
-    return beyond(low, high, 0.0, ">"), (
-        f"lower limbs - upper body, per subject: {interval(mean, low, high)} deg (n {n} subjects)"
-    )
-
-
-def _t6_faster(e: Evidence) -> tuple[str, str]:
-    from aceval.evaluation.stats import mean_ci
-
-    cells = e.angle_cells("to_last", ["segment", "test"])
-    verdicts, parts = [], []
-    for segment in LOWER:
-        wide = cells[cells["segment"] == segment].pivot_table(
-            index="subject", columns="test", values="error_angle_deg"
-        )
-        if not {"T5", "T6"} <= set(wide.columns):
-            continue
-        mean, low, high, _ = mean_ci(wide["T5"] - wide["T6"])
-        verdicts.append(beyond(low, high, 0.0, ">"))
-        parts.append(f"{segment} T5 - T6 {interval(mean, low, high)}")
-    if not verdicts:
-        return UNTESTABLE, "needs T5 and T6"
-    return every(verdicts), "; ".join(parts) + " deg (per subject)"
-
-
-# --- Obj 5 ------------------------------------------------------------------------------------
-
-
-def _cross(e: Evidence) -> pd.DataFrame:
-    cells = e.angle_cells("cross_test", ["test", "segment"])
-    return cells.rename(columns={"test": "t_ex_pair"})
-
-
-def _special(cells: pd.DataFrame) -> pd.Series:
-    return (cells["segment"] == "foot") | (
-        (cells["segment"] == "thigh") & cells["t_ex_pair"].str.contains("T3")
-    )
-
-
-#: Kong Table 11's largest cell outside the feet and the thighs with T3 (waist T1-T3, 5.39 deg):
-#: what "about 5 deg" reaches in the paper
-ABOUT_5_DEG = 5.39
-
-
-def _cross_small(e: Evidence) -> tuple[str, str]:
-    cells = _cross(e)
-    if cells.empty:
-        return UNTESTABLE, "needs IMUs calibrated by two tests"
-    return _cells_against(cells[~_special(cells)], ["t_ex_pair", "segment"], "error_angle_deg",
-                          ABOUT_5_DEG, "<=")  # fmt: skip
-
-
-def _cross_large(e: Evidence) -> tuple[str, str]:
-    cells = _cross(e)
-    large = cells[_special(cells)] if len(cells) else cells
-    if large.empty:
-        return UNTESTABLE, "needs the feet or the thighs with T3 in two tests"
-    return _cells_against(large, ["t_ex_pair", "segment"], "error_angle_deg", ABOUT_5_DEG, ">")
-
-
-#: Kong's recommendation (Sec. 3.5): the standard test against the tests designed for anatomical
-#: calibration, per segment, as the Table 11 pairs that compare them, and the paper's bound:
-#: "in maximum 5.39 degree" (upper body), "lower than 5.12 degree" (thighs, shanks)
-RECOMMENDED = {"head": ("T3", ["T1-T3", "T2-T3"], 5.39), "chest": ("T3", ["T1-T3", "T2-T3"], 5.39),
-               "waist": ("T3", ["T1-T3", "T2-T3"], 5.39), "thigh": ("T6", ["T5-T6"], 5.12),
-               "shank": ("T6", ["T4-T6", "T5-T6"], 5.12)}  # fmt: skip
-
-
-def _recommendation(e: Evidence) -> tuple[str, str]:
-    cells = _cross(e)
-    verdicts, parts = [], []
-    for segment, (_, pairs, bound) in RECOMMENDED.items():
-        chosen = cells[(cells["segment"] == segment) & cells["t_ex_pair"].isin(pairs)]
-        if chosen.empty:
-            continue
-        for _, r in cell_estimates(chosen, ["t_ex_pair"], "error_angle_deg").iterrows():
-            verdicts.append(beyond(r["low"], r["high"], bound, "<=" if bound == 5.39 else "<"))
-            parts.append(f"{segment} {r['t_ex_pair']}: {interval(r['mean'], r['low'], r['high'])}")
-    if not verdicts:
-        return UNTESTABLE, "needs the recommended test and a designed one for a segment"
-    return every(verdicts), "; ".join(parts)
-
-
-# --- beside the paper -------------------------------------------------------------------------
-
-
-def _about_z0(e: Evidence) -> tuple[str, str]:
-    angles = e.angles
-    moved = angles[angles["error_angle_deg"] > 1e-6] if angles is not None else None
-    if moved is None or moved.empty:
-        return UNTESTABLE, "no error angle"
-    share = moved["vertical_share"].min()
-    return (HOLDS if share > 0.999 else FAILS), (
-        f"smallest share {share:.6f} over {len(moved)} comparisons"
-    )
-
-
-#: two calibrations closer than Kong's test-retest bound (< 1 deg: Obj 4, Table 9 outside T5 and
-#: the feet) are not told apart by the method itself
-SAME_CALIBRATION_DEG = 1.0
-
-
-def _recommended_most_accurate(e: Evidence) -> tuple[str, str]:
-    from aceval.evaluation.stats import mean_ci
-
-    c = e.calibrations
-    if c is None or "error_deg" not in c or c["error_deg"].isna().all():
-        return UNTESTABLE, "no ground truth"
-    full = full_set_rows(kong_rows(c))
-    full = full[unflagged(full)]
-    per_subject = full.groupby(["subject", "segment", "test"])["error_deg"].mean().reset_index()
-    verdicts, parts = [], []
-    for segment, (test, _, _) in RECOMMENDED.items():
-        wide = per_subject[per_subject["segment"] == segment].pivot_table(
-            index="subject", columns="test", values="error_deg"
-        )
-        if test not in wide or wide.shape[1] < 2:
-            continue
-        best = wide.mean().idxmin()
-        mean, low, high, n = mean_ci(wide[test] - wide[best])
-        verdicts.append(HOLDS if test == best else beyond(low, high, SAME_CALIBRATION_DEG, "<"))
-        parts.append(f"{segment}: {test} - best ({best}) {interval(mean, low, high)} deg")
-    if not verdicts:
-        return UNTESTABLE, "needs the recommended test and another one"
-    return every(verdicts), "; ".join(parts)
-
-
 RULES = [
-    Rule("Obj 1", "Frontal vs lateral acceleration correlation is mostly > 0.95",
-         "the share of Table 3 cells (T_ap x segment) whose subject mean is > 0.95 is above 50 % "
-         "(\"mostly\"), its interval from resampling the subjects", _mostly_above),
-    Rule("Obj 1", "The minimum, about 0.8, is the feet in T6",
-         "feet T6 is the lowest Table 3 cell in every resample of the subjects, and its mean is "
-         f"within the paper's SD of the paper's value ({FOOT_T6[0]} +- {FOOT_T6[1]}, Table 3: two "
-         "one-sided tests)", _minimum_feet_t6),
-    Rule("Obj 1-2", "The correlation is not related with T_ex but highly related with T_ap and body segment",
-         f"share of variance (eta squared, type II, additive model of the Obj 1 units) of T_ex below a "
-         f"small effect ({SMALL_ETA2}), of T_ap and of segment each at least a large one "
-         f"({LARGE_ETA2}) (Cohen 1988); intervals from resampling the subjects", _factors),
-    Rule("Obj 1 (box)", "Rigid box: acceleration correlation >= 0.998 for rotation about one edge, "
-         "about 0.95-0.98 for random rotation; gyro >= 0.988",
-         "one box (no subjects: judged on its values): Table 4 'around_one_edge' >= 0.998 for every "
-         "IMU; 'random_rotation' within the paper's range 0.947-0.976 and below the edge value; "
-         "Table 5 >= 0.988 everywhere (the paper's values)", _box),
-    Rule("Obj 2", "Head-chest and thighs-shanks correlations are high, 0.956-0.979 (Table 6)",
-         "every Table 6 cell's subject mean >= 0.95 (the paper's own threshold for a high "
-         "correlation, Sec. 3.1)", _rigid_pairs),
-    Rule("Obj 2", "Paired t-test: lateral set better for head-chest (p < 0.01); thighs-shanks no "
-         "difference (p = 0.682)",
-         "on the subjects (Table 7): head-chest, the interval of frontal - lateral below 0; "
-         f"thighs-shanks, its 90 % interval within +-{NO_DIFFERENCE_MARGIN} (the paper's SD of "
-         "that correlation, Table 7: two one-sided tests)", _segment_pair_sets),
-    Rule("Obj 3", "'Incremental' error angle < 2.5 deg on average for every T_ex and segment",
-         "every (T_ex, segment, k) cell's subject mean < 2.5 deg",
-         _angles_below("incremental", ["test", "segment", "k"], 2.5)),
-    Rule("Obj 3", "< 1 deg once 3 repetitions are included",
-         "every cell with k >= 3: subject mean < 1 deg",
-         _angles_below("incremental", ["test", "segment", "k"], 1.0, lambda c: c["k"] >= 3)),
-    Rule("Obj 3", "'To last' (1 vs all repetitions) < 3 deg",
-         "every (T_ex, segment, k) cell's subject mean < 3 deg",
-         _angles_below("to_last", ["test", "segment", "k"], 3.0)),
-    Rule("Obj 3", "Lower limbs change more than the upper body ('to last')",
-         "per subject, the mean to-last angle of thigh/shank/foot minus head/chest/waist > 0",
-         _lower_than_upper),
-    Rule("Obj 3", "T6 (walking) converges faster than T5 (leg swing)",
-         "per subject and lower-limb segment, the mean to-last angle from T5 minus T6 > 0",
-         _t6_faster),
-    Rule("Obj 3", "Frontal set better for the upper body, lateral for the lower body, all p < 0.001 "
-         "(Table 8)",
-         "on the subjects (Table 8): for every segment the interval of frontal - lateral excludes 0 "
-         "on the paper's side (frontal smaller for head/chest/waist, lateral for thigh/shank/foot)",
-         _set_preference(8)),
-    Rule("Obj 4", "Any-3-of-5 test-retest error angle < 2.1 deg on average",
-         "every Table 9 cell's subject mean < 2.1 deg",
-         _angles_below("test_retest", ["test", "segment"], 2.1)),
-    Rule("Obj 4", "< 1 deg excluding T5 and the feet",
-         "every other Table 9 cell's subject mean < 1 deg",
-         _angles_below("test_retest", ["test", "segment"], 1.0,
-                       lambda c: (c["test"] != "T5") & (c["segment"] != "foot"))),
-    Rule("Obj 4", "Same set preference as Obj 3 (Table 10)",
-         "as Obj 3's, on Table 10", _set_preference(10)),
-    Rule("Obj 5", "Cross-test error angles <= about 5 deg except the feet and the thighs with T3",
-         f"every other Table 11 cell's subject mean <= {ABOUT_5_DEG} deg (the paper's largest such "
-         f"cell, waist T1-T3: what its 'about 5' reaches)", _cross_small),
-    Rule("Obj 5", "Feet (8-10 deg) and thighs with T3 (10-14 deg) are larger",
-         f"every foot and T3-thigh cell's subject mean > {ABOUT_5_DEG} deg (larger than every "
-         f"other cell of the paper)", _cross_large),
-    Rule("Obj 5", "Recommendation: T3 (sit-to-stand) for head/chest/waist, T6 (walking) for "
-         "thighs/shanks: competitive with the designed tests, error angle at most 5.39 / below "
-         "5.12 deg (Table 11)",
-         "every Table 11 cell comparing the recommended test with a designed one (head/chest/"
-         "waist: T1-T3, T2-T3, subject mean <= 5.39; thigh: T5-T6; shank: T4-T6, T5-T6, < 5.12 deg: "
-         "the paper's words)", _recommendation),
-    Rule("Obj 3-5", "Every error angle is a rotation about z0 (all calibrations of an IMU share z0 "
-         "from T0): true by construction, so a check of the code, not a finding",
-         "smallest share of the error rotation about the body vertical > 0.999", _about_z0, CODE),
-    Rule("ground truth", "Kong's recommended test is (nearly) the most accurate one for its segments",
-         f"with ground truth, per segment with two tests or more: the recommended test is the "
-         f"best, or its error minus the best test's (per subject) is below {SAME_CALIBRATION_DEG} "
-         f"deg (Kong's test-retest bound, Obj 4: calibrations closer are not told apart)",
-         _recommended_most_accurate, GROUND_TRUTH),
-]  # fmt: skip
+    Rule(
+        "Obj 1",
+        "Frontal vs lateral acceleration correlation is mostly > 0.95",
+        "the share of Table 3 cells (T_ap x segment) whose subject mean is > 0.95 is above 50 % "
+        '("mostly"), its interval from resampling the subjects',
+        _mostly_above,
+    ),
+    Rule(
+        "Obj 1",
+        "The minimum, about 0.8, is the feet in T6",
+        "feet T6 is the lowest Table 3 cell in every resample of the subjects, and its mean is "
+        f"within the paper's SD of the paper's value ({FOOT_T6[0]} +- {FOOT_T6[1]}, Table 3: two "
+        "one-sided tests)",
+        _minimum_feet_t6,
+    ),
+    Rule(
+        "Obj 1-2",
+        "The correlation is not related with T_ex but highly related with T_ap and body segment",
+        f"share of variance (eta squared, type II, additive model of the Obj 1 units) of T_ex below a "
+        f"small effect ({SMALL_ETA2}), of T_ap and of segment each at least a large one "
+        f"({LARGE_ETA2}) (Cohen 1988); intervals from resampling the subjects",
+        _factors,
+    ),
+    Rule(
+        "Obj 1 (box)",
+        "Rigid box: acceleration correlation >= 0.998 for rotation about one edge, "
+        "about 0.95-0.98 for random rotation; gyro >= 0.988",
+        "one box (no subjects: judged on its values): Table 4 'around_one_edge' >= 0.998 for every "
+        "IMU; 'random_rotation' within the paper's range 0.947-0.976 and below the edge value; "
+        "Table 5 >= 0.988 everywhere (the paper's values)",
+        _box,
+    ),
+    Rule(
+        "Obj 2",
+        "Head-chest and thighs-shanks correlations are high, 0.956-0.979 (Table 6)",
+        "every Table 6 cell's subject mean >= 0.95 (the paper's own threshold for a high "
+        "correlation, Sec. 3.1)",
+        _rigid_pairs,
+    ),
+    Rule(
+        "Obj 2",
+        "Paired t-test: lateral set better for head-chest (p < 0.01); thighs-shanks no "
+        "difference (p = 0.682)",
+        "on the subjects (Table 7): head-chest, the interval of frontal - lateral below 0; "
+        f"thighs-shanks, its 90 % interval within +-{NO_DIFFERENCE_MARGIN} (the paper's SD of "
+        "that correlation, Table 7: two one-sided tests)",
+        _segment_pair_sets,
+    ),
+    Rule(
+        "Obj 3",
+        "'Incremental' error angle < 2.5 deg on average for every T_ex and segment",
+        "every (T_ex, segment, k) cell's subject mean < 2.5 deg",
+        angles_below("incremental", ["test", "segment", "k"], 2.5),
+    ),
+    Rule(
+        "Obj 3",
+        "< 1 deg once 3 repetitions are included",
+        "every cell with k >= 3: subject mean < 1 deg",
+        angles_below("incremental", ["test", "segment", "k"], 1.0, lambda c: c["k"] >= 3),
+    ),
+    Rule(
+        "Obj 3",
+        "'To last' (1 vs all repetitions) < 3 deg",
+        "every (T_ex, segment, k) cell's subject mean < 3 deg",
+        angles_below("to_last", ["test", "segment", "k"], 3.0),
+    ),
+    Rule(
+        "Obj 3",
+        "Lower limbs change more than the upper body ('to last')",
+        "per subject, the mean to-last angle of thigh/shank/foot minus head/chest/waist > 0",
+        lower_than_upper,
+    ),
+    Rule(
+        "Obj 3",
+        "T6 (walking) converges faster than T5 (leg swing)",
+        "per subject and lower-limb segment, the mean to-last angle from T5 minus T6 > 0",
+        t6_faster,
+    ),
+    Rule(
+        "Obj 3",
+        "Frontal set better for the upper body, lateral for the lower body, all p < 0.001 "
+        "(Table 8)",
+        "on the subjects (Table 8): for every segment the interval of frontal - lateral excludes 0 "
+        "on the paper's side (frontal smaller for head/chest/waist, lateral for thigh/shank/foot)",
+        _set_preference(8),
+    ),
+    Rule(
+        "Obj 4",
+        "Any-3-of-5 test-retest error angle < 2.1 deg on average",
+        "every Table 9 cell's subject mean < 2.1 deg",
+        angles_below("test_retest", ["test", "segment"], 2.1),
+    ),
+    Rule(
+        "Obj 4",
+        "< 1 deg excluding T5 and the feet",
+        "every other Table 9 cell's subject mean < 1 deg",
+        angles_below(
+            "test_retest",
+            ["test", "segment"],
+            1.0,
+            lambda c: (c["test"] != "T5") & (c["segment"] != "foot"),
+        ),
+    ),
+    Rule(
+        "Obj 4",
+        "Same set preference as Obj 3 (Table 10)",
+        "as Obj 3's, on Table 10",
+        _set_preference(10),
+    ),
+    Rule(
+        "Obj 5",
+        "Cross-test error angles <= about 5 deg except the feet and the thighs with T3",
+        f"every other Table 11 cell's subject mean <= {ABOUT_5_DEG} deg (the paper's largest such "
+        f"cell, waist T1-T3: what its 'about 5' reaches)",
+        cross_small,
+    ),
+    Rule(
+        "Obj 5",
+        "Feet (8-10 deg) and thighs with T3 (10-14 deg) are larger",
+        f"every foot and T3-thigh cell's subject mean > {ABOUT_5_DEG} deg (larger than every "
+        f"other cell of the paper)",
+        cross_large,
+    ),
+    Rule(
+        "Obj 5",
+        "Recommendation: T3 (sit-to-stand) for head/chest/waist, T6 (walking) for "
+        "thighs/shanks: competitive with the designed tests, error angle at most 5.39 / below "
+        "5.12 deg (Table 11)",
+        "every Table 11 cell comparing the recommended test with a designed one (head/chest/"
+        "waist: T1-T3, T2-T3, subject mean <= 5.39; thigh: T5-T6; shank: T4-T6, T5-T6, < 5.12 deg: "
+        "the paper's words)",
+        recommendation,
+    ),
+    Rule(
+        "Obj 3-5",
+        "Every error angle is a rotation about z0 (all calibrations of an IMU share z0 "
+        "from T0): true by construction, so a check of the code, not a finding",
+        "smallest share of the error rotation about the body vertical > 0.999",
+        about_z0,
+        CODE,
+    ),
+    Rule(
+        "ground truth",
+        "Kong's recommended test is (nearly) the most accurate one for its segments",
+        f"with ground truth, per segment with two tests or more: the recommended test is the "
+        f"best, or its error minus the best test's (per subject) is below {SAME_CALIBRATION_DEG} "
+        f"deg (Kong's test-retest bound, Obj 4: calibrations closer are not told apart)",
+        recommended_most_accurate,
+        GROUND_TRUTH,
+    ),
+]
 
 
 def kong_claims(tables: dict, data: dict) -> list:
     """Every Kong et al. 2016 claim (:data:`RULES`) from the Kong tables and the tidy tables of
     ``data`` (correlations, angles, calibrations); the ground-truth check only with a truth.
     """
-    evidence = Evidence(tables, data.get("correlations"), data.get("angles"),
-                        data.get("calibrations"))  # fmt: skip
+    evidence = Evidence(
+        tables, data.get("correlations"), data.get("angles"), data.get("calibrations")
+    )
     found = [rule.apply(evidence) for rule in RULES]
-    return [c for c in found if not (c.section == GROUND_TRUTH and c.verdict == UNTESTABLE
-                                     and c.numbers == "no ground truth")]  # fmt: skip
+    return [
+        c
+        for c in found
+        if not (
+            c.section == GROUND_TRUTH and c.verdict == UNTESTABLE and c.numbers == "no ground truth"
+        )
+    ]

@@ -96,13 +96,11 @@ def _named(
 
 def _kong_units(function: str) -> Callable:
     def build(data: dict):
-        from aceval.evaluation import methods_comparison
+        from aceval.evaluation import conditioning
         from aceval.report.kong2016 import rounded
 
-        units = methods_comparison.kong_units(
-            data["axes"], data["calibrations"], data.get("angles")
-        )
-        return rounded(getattr(methods_comparison, function)(units).reset_index(drop=True))
+        units = conditioning.kong_units(data["axes"], data["calibrations"], data.get("angles"))
+        return rounded(getattr(conditioning, function)(units).reset_index(drop=True))
 
     return build
 
@@ -131,40 +129,84 @@ def _figure(name: str) -> Callable:
 # --- the registry ------------------------------------------------------------------------------
 
 _KONG_TABLES = {
-    3: ("Obj 1", "Acceleration correlation between the two sensors of one segment (frontal/back vs "
-        "lateral set)", "subject x IMU x T_ex, each averaged over the repetitions of T_ap"),
-    4: ("Obj 1, rigid box", "Acceleration correlation between the two sensors of each IMU position "
-        "on a rigid box", "repetitions of T_ap (per box, averaged)"),
-    5: ("Obj 1, rigid box", "Angular velocity correlation between the two sensors of each IMU "
-        "position on a rigid box", "repetitions of T_ap (per box, averaged)"),
-    6: ("Obj 2", "Acceleration correlation between segments moved as one rigid body (same sensor "
-        "set)", "subject x sensor set x side x T_ex, each averaged over the repetitions of T_ap"),
-    7: ("Obj 2", "Paired t-test, segment-pair correlation, first vs second sensor set",
+    3: (
+        "Obj 1",
+        "Acceleration correlation between the two sensors of one segment (frontal/back vs "
+        "lateral set)",
+        "subject x IMU x T_ex, each averaged over the repetitions of T_ap",
+    ),
+    4: (
+        "Obj 1, rigid box",
+        "Acceleration correlation between the two sensors of each IMU position on a rigid box",
+        "repetitions of T_ap (per box, averaged)",
+    ),
+    5: (
+        "Obj 1, rigid box",
+        "Angular velocity correlation between the two sensors of each IMU position on a rigid box",
+        "repetitions of T_ap (per box, averaged)",
+    ),
+    6: (
+        "Obj 2",
+        "Acceleration correlation between segments moved as one rigid body (same sensor set)",
+        "subject x sensor set x side x T_ex, each averaged over the repetitions of T_ap",
+    ),
+    7: (
+        "Obj 2",
+        "Paired t-test, segment-pair correlation, first vs second sensor set",
         "pairs matched on subject, side, T_ex, T_ap and repetition (paper-style); subjects "
-        "(independent units, sides averaged)"),
-    8: ("Obj 3", "Paired t-test, 'incremental' error angle (deg), first vs second sensor set",
+        "(independent units, sides averaged)",
+    ),
+    8: (
+        "Obj 3",
+        "Paired t-test, 'incremental' error angle (deg), first vs second sensor set",
         "pairs matched on subject, IMU, T_ex and the two subsets compared (paper-style); subjects "
-        "(independent units, IMUs averaged)"),
-    9: ("Obj 4", "Error angle (deg) between different subsets of three repetitions of the same "
-        "test", "subject x set x IMU x pair of 3-repetition subsets"),
-    10: ("Obj 4", "Paired t-test, test-retest error angle (deg), first vs second sensor set",
-         "pairs matched on subject, IMU, T_ex and the two subsets compared (paper-style); "
-         "subjects (independent units, IMUs averaged)"),
-    11: ("Obj 5", "Error angle (deg) between the calibrations from two different tests",
-         "subject x set x IMU"),
-}  # fmt: skip
+        "(independent units, IMUs averaged)",
+    ),
+    9: (
+        "Obj 4",
+        "Error angle (deg) between different subsets of three repetitions of the same test",
+        "subject x set x IMU x pair of 3-repetition subsets",
+    ),
+    10: (
+        "Obj 4",
+        "Paired t-test, test-retest error angle (deg), first vs second sensor set",
+        "pairs matched on subject, IMU, T_ex and the two subsets compared (paper-style); "
+        "subjects (independent units, IMUs averaged)",
+    ),
+    11: (
+        "Obj 5",
+        "Error angle (deg) between the calibrations from two different tests",
+        "subject x set x IMU",
+    ),
+}
 _KONG_FIGURES = {
-    6: ("Obj 1", "correlations", "Acceleration correlation between the frontal/back and lateral "
+    6: (
+        "Obj 1",
+        "correlations",
+        "Acceleration correlation between the frontal/back and lateral "
         "sensor of each segment, by the test the matrices are applied to (T_ap) and the test they "
         "come from (T_ex); mean and SD over subjects and sides, each value averaged over the "
-        "repetitions"),
-    8: ("Obj 2", "correlations", "Acceleration correlation between body segments moved as one "
-        "rigid body (same sensor set), by T_ap and T_ex; mean and SD over subjects, sets and sides"),
-    9: ("Obj 3", "angles", "'Incremental' error angle: the change of the calibration when one "
-        "repetition is added to k repetitions (Kong Eq. 11-12), mean and SD by T_ex and segment"),
-    10: ("Obj 3", "angles", "'To last' error angle: calibration from k repetitions vs from all of "
-         "them (Kong Eq. 13 is k = 1), mean and SD by T_ex and segment"),
-}  # fmt: skip
+        "repetitions",
+    ),
+    8: (
+        "Obj 2",
+        "correlations",
+        "Acceleration correlation between body segments moved as one "
+        "rigid body (same sensor set), by T_ap and T_ex; mean and SD over subjects, sets and sides",
+    ),
+    9: (
+        "Obj 3",
+        "angles",
+        "'Incremental' error angle: the change of the calibration when one "
+        "repetition is added to k repetitions (Kong Eq. 11-12), mean and SD by T_ex and segment",
+    ),
+    10: (
+        "Obj 3",
+        "angles",
+        "'To last' error angle: calibration from k repetitions vs from all of "
+        "them (Kong Eq. 13 is k = 1), mean and SD by T_ex and segment",
+    ),
+}
 
 _ENTRIES = [
     *(
@@ -178,7 +220,7 @@ _ENTRIES = [
             unit,
             _kong_table(n),
             _kong_markdown,
-        )  # fmt: skip
+        )
         for n, (objective, title, unit) in _KONG_TABLES.items()
     ),
     Output(
@@ -198,7 +240,7 @@ _ENTRIES = [
             exact=True,
         ),
         _named_markdown,
-    ),  # fmt: skip
+    ),
     Output(
         "correlation_factors",
         "table",
@@ -214,7 +256,7 @@ _ENTRIES = [
         "a factor wholly confounded has no share of its own, shown empty)",
         _named("report.kong2016.correlation_factors", "correlations"),
         _named_markdown,
-    ),  # fmt: skip
+    ),
     Output(
         "obj1_sensitivity",
         "table",
@@ -226,7 +268,7 @@ _ENTRIES = [
         "subject x IMU x T_ex x T_ap (Table 3's units), each averaged over the repetitions",
         _named("report.kong2016.correlation_sensitivity", "correlations"),
         _named_markdown,
-    ),  # fmt: skip
+    ),
     Output(
         "reliability",
         "table",
@@ -238,7 +280,7 @@ _ENTRIES = [
         "subject x sensor set x IMU (both from all repetitions of the test)",
         _kong_units("kong_reliability_table"),
         _named_markdown,
-    ),  # fmt: skip
+    ),
     Output(
         "reliability_retest",
         "table",
@@ -250,7 +292,7 @@ _ENTRIES = [
         "pairs of 3-repetition subsets)",
         _kong_units("reliability_vs_retest"),
         _named_markdown,
-    ),  # fmt: skip
+    ),
     Output(
         "variability",
         "table",
@@ -266,7 +308,7 @@ _ENTRIES = [
             "evaluation.variability.variability_table", "calibrations", "angles", "correlations"
         ),
         _named_markdown,
-    ),  # fmt: skip
+    ),
     Output(
         "conditioning",
         "table",
@@ -276,9 +318,9 @@ _ENTRIES = [
         "How well each test determines each IMU's heading by Kong's plane: eigenvalue ratio "
         "(smallest/middle; above 0.5 undetermined) and planarity, flagged calibrations included",
         "subject x sensor set x IMU x test (the calibration from all repetitions)",
-        _named("evaluation.methods_comparison.conditioning_table", "calibrations"),
+        _named("evaluation.conditioning.conditioning_table", "calibrations"),
         _named_markdown,
-    ),  # fmt: skip
+    ),
     *(
         Output(
             f"figure{n}",
@@ -288,7 +330,7 @@ _ENTRIES = [
             (source,),
             caption,
             build=_kong_figure(n),
-        )  # fmt: skip
+        )
         for n, (objective, source, caption) in _KONG_FIGURES.items()
     ),
     Output(
@@ -301,7 +343,7 @@ _ENTRIES = [
         "heading error imposed on the lateral calibration, per correlation mode (mean and SD over "
         "Table 3's units)",
         build=_figure("obj1_sensitivity"),
-    ),  # fmt: skip
+    ),
     Output(
         "reliability",
         "figure",
@@ -311,7 +353,7 @@ _ENTRIES = [
         "Reliability index of each Kong test (rho of the gyroscope axis; Kong planarity) against "
         "the Obj 4 test-retest angle, one point per subject x set x IMU x test",
         build=_figure("reliability"),
-    ),  # fmt: skip
+    ),
     Output(
         "ricci_table1",
         "table",
@@ -322,7 +364,7 @@ _ENTRIES = [
         "subjects (each child's rho pooled over its 3 trials, as Ricci: 9-12 repetitions)",
         _named("report.ricci2014.rho_table", "axes", "paper_names"),
         _named_markdown,
-    ),  # fmt: skip
+    ),
     Output(
         "ricci_ttest",
         "table",
@@ -335,7 +377,7 @@ _ENTRIES = [
         "0.05 for each frame",
         _named("report.ricci2014.supported_ttest", "axes"),
         _named_markdown,
-    ),  # fmt: skip
+    ),
     Output(
         "ricci_lm",
         "table",
@@ -351,7 +393,7 @@ _ENTRIES = [
         "random_starts), counted as reaching the optimum when within 0.1 deg of it",
         _named("report.ricci2014.lm_table", "calibrations"),
         _named_markdown,
-    ),  # fmt: skip
+    ),
     Output(
         "ricci_residuals",
         "table",
@@ -363,7 +405,7 @@ _ENTRIES = [
         "IMUs (subject x side)",
         _named("report.ricci2014.residual_table", "axes", "paper_names"),
         _named_markdown,
-    ),  # fmt: skip
+    ),
     Output(
         "ricci_figure4",
         "figure",
@@ -373,7 +415,7 @@ _ENTRIES = [
         "Ricci Fig. 4 in spirit: the LM fit of one thorax frame per iteration (quaternion, "
         "roll/pitch/yaw, residual vector, cost), and the cost from 10 random starts",
         build=_figure("ricci_figure4"),
-    ),  # fmt: skip
+    ),
     Output(
         "ricci_figure5",
         "figure",
@@ -383,7 +425,7 @@ _ENTRIES = [
         "Ricci Fig. 5 in spirit: residual angle between each reference axis and its estimate "
         "before (identity) and after the LM fit, mean and SD over children",
         build=_figure("ricci_figure5"),
-    ),  # fmt: skip
+    ),
     Output(
         "methods",
         "table",
@@ -400,7 +442,7 @@ _ENTRIES = [
             optional=("retest_units",),
         ),
         _named_markdown,
-    ),  # fmt: skip
+    ),
     Output(
         "methods_retest",
         "table",
@@ -417,7 +459,7 @@ _ENTRIES = [
             optional=("retest_units",),
         ),
         _named_markdown,
-    ),  # fmt: skip
+    ),
     Output(
         "uncertainty",
         "table",
@@ -433,7 +475,7 @@ _ENTRIES = [
         "'all': the method over every segment and test",
         _named("evaluation.methods_comparison.uncertainty_table", "calibrations", "truth_method"),
         _named_markdown,
-    ),  # fmt: skip
+    ),
     Output(
         "methods_best",
         "table",
@@ -445,7 +487,7 @@ _ENTRIES = [
         "calibrations of both sensor sets",
         _named("evaluation.methods_comparison.best_tests", "calibrations"),
         _named_markdown,
-    ),  # fmt: skip
+    ),
     Output(
         "methods",
         "figure",
@@ -455,7 +497,7 @@ _ENTRIES = [
         "Error angle to the true mounting by method and test, per segment: median and "
         "interquartile range",
         build=_figure("methods"),
-    ),  # fmt: skip
+    ),
     Output(
         "truth_errors",
         "table",
@@ -468,7 +510,7 @@ _ENTRIES = [
         "in the dataset's ground_truth_method.tsv",
         _named("evaluation.methods_comparison.truth_errors", "calibrations", "truth_method"),
         _named_markdown,
-    ),  # fmt: skip
+    ),
     Output(
         "loose_reference",
         "table",
@@ -486,7 +528,7 @@ _ENTRIES = [
             "loose_reference",
         ),
         _named_markdown,
-    ),  # fmt: skip
+    ),
 ]
 #: every output by (kind, name)
 OUTPUTS: dict[tuple[str, str], Output] = {(o.kind, o.name): o for o in _ENTRIES}

@@ -76,9 +76,15 @@ def _static(e: Evidence) -> tuple[str, str]:
         return UNTESTABLE, "no static posture"
     rows = _with_intervals(rows)
     low, high = STATIC_RANGE
-    verdicts = [every([beyond(r["low"], r["high"], low - r["published_sd"], ">="),
-                       beyond(r["low"], r["high"], high + r["published_sd"], "<=")])
-                for _, r in rows.iterrows()]  # fmt: skip
+    verdicts = [
+        every(
+            [
+                beyond(r["low"], r["high"], low - r["published_sd"], ">="),
+                beyond(r["low"], r["high"], high + r["published_sd"], "<="),
+            ]
+        )
+        for _, r in rows.iterrows()
+    ]
     return every(verdicts), "; ".join(
         f"{r['segment']} {interval(r['mean'], r['low'], r['high'], 3)}" for _, r in rows.iterrows()
     ) + f" (n {int(rows['n'].max())} children)"
@@ -176,41 +182,70 @@ def _residuals_after(e: Evidence) -> tuple[str, str]:
     published = residuals.dropna(subset=["published_mean"]) if len(residuals) else residuals
     if published.empty:
         return UNTESTABLE, "no LM fit on the paper's axes"
-    return _equal_to_published(published.assign(margin=published["sd"]), "margin",
-                               lambda r: f"{r['segment']} {r['test']}")  # fmt: skip
+    return _equal_to_published(
+        published.assign(margin=published["sd"]), "margin", lambda r: f"{r['segment']} {r['test']}"
+    )
 
 
 RULES = [
-    Rule("Ricci Table 1", "Static postures have rho about 0.97-0.99 (Table 1)",
-         "every static cell's 95 % interval over the children inside the paper's range 0.97-0.99 "
-         "widened by the paper's SD of that cell (its 'about', Table 1)", _static),
-    Rule("Ricci Table 1", "Movement rho values of Table 1 are reproduced",
-         "every movement cell's mean over the children equivalent to the paper's within the "
-         "paper's SD of that cell (Table 1: two one-sided tests)", _movements),
-    Rule("Ricci t-test", "Supported movements (bar) have higher rho than unsupported ones, p < 0.05 "
-         "for upper arms and forearms",
-         "the paper's reading, the same movement with and without the bar (shoulder flexion-"
-         "extension FEB vs FE) at the upper-arm and forearm sensors: every row's 95 % interval of "
-         "supported - unsupported (over the children) above 0; elbow FFEB vs FE, a different "
-         "movement, is listed as a second reading", _supported),
-    Rule("Ricci LM", "LM converges in thorax 6.34, upper arm 8.36, forearm 7.30 iterations (mean)",
-         "each frame's mean iterations over the children (a child's two sides averaged) "
-         "equivalent to the paper's within the paper's SD (Sec. 3: 0.561 / 0.767 / 0.863; two "
-         "one-sided tests)", _iterations),
-    Rule("Ricci LM", "LM converges from random initial quaternions too",
-         f"every random start ends within {SAME_SOLUTION_DEG} deg of the closed-form optimum (a "
-         "tenth of Kong's 1 deg test-retest bound: closer solutions are the same calibration for "
-         "either paper)",
-         _random_starts),
-    Rule("Ricci residuals", "Residuals after the fit: thorax 5.39/2.56/2.86 deg (TR/TFE/supine), "
-         "forearms 4.68/4.72 deg",
-         "each published residual's cell, its mean over the children equivalent to the paper's "
-         "within this run's SD between children (the paper gives no SD for its residuals; Table "
-         "1's rule uses the SD between children as its margin too)", _residuals_after),
-    Rule("Ricci residuals", "Residual angles shrink from the identity start to the fit: true of any "
-         "least-squares fit from an arbitrary start, so a check of the code, not a finding",
-         "every segment x test: mean residual after < before", _residuals_shrink, CODE),
-]  # fmt: skip
+    Rule(
+        "Ricci Table 1",
+        "Static postures have rho about 0.97-0.99 (Table 1)",
+        "every static cell's 95 % interval over the children inside the paper's range 0.97-0.99 "
+        "widened by the paper's SD of that cell (its 'about', Table 1)",
+        _static,
+    ),
+    Rule(
+        "Ricci Table 1",
+        "Movement rho values of Table 1 are reproduced",
+        "every movement cell's mean over the children equivalent to the paper's within the "
+        "paper's SD of that cell (Table 1: two one-sided tests)",
+        _movements,
+    ),
+    Rule(
+        "Ricci t-test",
+        "Supported movements (bar) have higher rho than unsupported ones, p < 0.05 "
+        "for upper arms and forearms",
+        "the paper's reading, the same movement with and without the bar (shoulder flexion-"
+        "extension FEB vs FE) at the upper-arm and forearm sensors: every row's 95 % interval of "
+        "supported - unsupported (over the children) above 0; elbow FFEB vs FE, a different "
+        "movement, is listed as a second reading",
+        _supported,
+    ),
+    Rule(
+        "Ricci LM",
+        "LM converges in thorax 6.34, upper arm 8.36, forearm 7.30 iterations (mean)",
+        "each frame's mean iterations over the children (a child's two sides averaged) "
+        "equivalent to the paper's within the paper's SD (Sec. 3: 0.561 / 0.767 / 0.863; two "
+        "one-sided tests)",
+        _iterations,
+    ),
+    Rule(
+        "Ricci LM",
+        "LM converges from random initial quaternions too",
+        f"every random start ends within {SAME_SOLUTION_DEG} deg of the closed-form optimum (a "
+        "tenth of Kong's 1 deg test-retest bound: closer solutions are the same calibration for "
+        "either paper)",
+        _random_starts,
+    ),
+    Rule(
+        "Ricci residuals",
+        "Residuals after the fit: thorax 5.39/2.56/2.86 deg (TR/TFE/supine), "
+        "forearms 4.68/4.72 deg",
+        "each published residual's cell, its mean over the children equivalent to the paper's "
+        "within this run's SD between children (the paper gives no SD for its residuals; Table "
+        "1's rule uses the SD between children as its margin too)",
+        _residuals_after,
+    ),
+    Rule(
+        "Ricci residuals",
+        "Residual angles shrink from the identity start to the fit: true of any "
+        "least-squares fit from an arbitrary start, so a check of the code, not a finding",
+        "every segment x test: mean residual after < before",
+        _residuals_shrink,
+        CODE,
+    ),
+]
 
 
 def ricci_claims(tables: dict, data: dict) -> list[Claim]:

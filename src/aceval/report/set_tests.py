@@ -21,9 +21,24 @@ SET_TESTS = {
 #: the test on which set-preference claims are judged
 DEFENSIBLE_TEST = "units"
 TTEST_TABLE_COLUMNS = [
-    "test", "mean_a", "sd_a", "mean_b", "sd_b", "mean_difference", "ci95_low", "ci95_high",
-    "cohens_dz", "n", "n_groups", "t", "z", "p", "smallest_p", "note", "fit_flags",
-]  # fmt: skip
+    "test",
+    "mean_a",
+    "sd_a",
+    "mean_b",
+    "sd_b",
+    "mean_difference",
+    "ci95_low",
+    "ci95_high",
+    "cohens_dz",
+    "n",
+    "n_groups",
+    "t",
+    "z",
+    "p",
+    "smallest_p",
+    "note",
+    "fit_flags",
+]
 
 
 def _compared(number: int, correlations, angles) -> tuple:
@@ -56,8 +71,11 @@ def set_test_units(
         data, rows, value, cell, pair_on = _compared(number, correlations, angles)
         for key, group in data.groupby(rows, sort=False):
             cells = cell_means_by_set(group, value, pair_on, ["subject", cell], sets)
-            out.append(cells.rename(columns={cell: "cell"}).assign(table=number, row=key,
-                                                                   set_a=sets[0], set_b=sets[1]))  # fmt: skip
+            out.append(
+                cells.rename(columns={cell: "cell"}).assign(
+                    table=number, row=key, set_a=sets[0], set_b=sets[1]
+                )
+            )
     if not out:
         return pd.DataFrame(columns=columns)
     # 10 decimals: enough to recompute each p to its third digit, and stable across machines

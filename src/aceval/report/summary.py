@@ -104,12 +104,16 @@ def methods_section(tables: dict) -> list[str]:
     lines += ["", _shared_cells_line(methods, moving), *_design_notes(methods)]
     if "note" in methods:
         never = methods[~methods["method"].isin(overall.index)].groupby("method")["note"].first()
-        lines += [
-            "",
-            "Not applicable on this dataset: "
-            + "; ".join(f"{m} ({note})" for m, note in never.items())
-            + ".",
-        ] if len(never) else []  # fmt: skip
+        lines += (
+            [
+                "",
+                "Not applicable on this dataset: "
+                + "; ".join(f"{m} ({note})" for m, note in never.items())
+                + ".",
+            ]
+            if len(never)
+            else []
+        )
     lines.append("")
     for segment, group in best.groupby("segment", sort=False):
         parts = [
@@ -219,10 +223,13 @@ def uncertainty_section(tables: dict) -> list[str]:
             + f"; median cone "
             f"{r['cone95_median_deg']:.2f} deg against median error {r['error_median_deg']:.2f} "
             f"deg; the repetitions' spread alone covers {r['spread_coverage']:.0%}"
-            + (f"; with the truth's own uncertainty {r['coverage_with_truth']:.0%}"
-               if pd.notna(r["coverage_with_truth"]) else "")
+            + (
+                f"; with the truth's own uncertainty {r['coverage_with_truth']:.0%}"
+                if pd.notna(r["coverage_with_truth"])
+                else ""
+            )
             + f". {_cone_verdict(r, worst)}"
-        )  # fmt: skip
+        )
     lines += [
         "",
         f"A method's cone is a 95 % cone where it covers {CONE_COVERAGE[0]:.0%}-"
@@ -242,11 +249,12 @@ def _cone_verdict(pooled: pd.Series, worst_cell: float) -> str:
     ratio = pooled["cone95_median_deg"] / pooled["error_median_deg"]
     misses = [
         f"pooled {pooled['coverage']:.0%} outside {CONE_COVERAGE[0]:.0%}-{CONE_COVERAGE[1]:.0%}"
-        if not CONE_COVERAGE[0] <= pooled["coverage"] <= CONE_COVERAGE[1] else "",
+        if not CONE_COVERAGE[0] <= pooled["coverage"] <= CONE_COVERAGE[1]
+        else "",
         f"a cell at {worst_cell:.0%}" if worst_cell < MIN_CELL_COVERAGE else "",
         "no test x segment cell with 5 calibrations to judge" if pd.isna(worst_cell) else "",
         f"cone {ratio:.1f} times the error" if ratio > MAX_CONE_OVER_ERROR else "",
-    ]  # fmt: skip
+    ]
     misses = [m for m in misses if m]
     if not misses:
         return "A 95 % cone here."

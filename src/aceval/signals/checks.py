@@ -247,10 +247,12 @@ def direction_checks(
     angle = right_axis_angle_deg(body_y, right)
     mismatch = angle > MAX_RIGHT_AXIS_ANGLE_DEG
     flag = np.array(
-        [";".join(f for f, on in (("backward", b), ("right_axis_mismatch", m)) if on)
-         for b, m in zip(backward, mismatch)],
+        [
+            ";".join(f for f, on in (("backward", b), ("right_axis_mismatch", m)) if on)
+            for b, m in zip(backward, mismatch)
+        ],
         dtype=object,
-    )  # fmt: skip
+    )
     return {
         "flag": flag,
         "mismatch": mismatch,

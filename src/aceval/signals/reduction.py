@@ -179,8 +179,9 @@ def add_step_scatters(dataset: Dataset, recordings: list, summaries: dict) -> No
             start, stop = map(int, part.split(":"))
             kept[start:stop] = True
         scatter = step_scatter(acc, fs, kept, harmonic(segment) * step_hz[rep])
-        summaries[index].update(step_hz=step_hz[rep], step_hz_own=own_hz,
-                                step_disagrees=float(disagree))  # fmt: skip
+        summaries[index].update(
+            step_hz=step_hz[rep], step_hz_own=own_hz, step_disagrees=float(disagree)
+        )
         summaries[index].update(zip(STEP_COLUMNS, scatter.ravel()))
 
 
@@ -331,12 +332,17 @@ def _pair_rows(
             rows += pair_moments(
                 first,
                 second,
-                {**base, "objective": "frontal_lateral", "sensor_set": "|".join(sets),
-                 "imu": imu, "imu_b": ""},
+                {
+                    **base,
+                    "objective": "frontal_lateral",
+                    "sensor_set": "|".join(sets),
+                    "imu": imu,
+                    "imu_b": "",
+                },
                 ("acc", "gyr"),
                 lag,
                 "lag_at_bound" if at_bound else "",
-            )  # fmt: skip
+            )
     return rows + _segment_pair_rows(loaded, pair_imus, base)
 
 
@@ -373,7 +379,7 @@ def _segment_pair_rows(loaded, pair_imus: dict, base) -> list[dict]:
                     "sensor_set": sensor_set,
                     "imu": imu_a,
                     "imu_b": imu_b,
-                },  # fmt: skip
+                },
                 ("acc",),
                 0,  # one set, one clock: no offset
             )

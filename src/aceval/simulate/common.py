@@ -66,5 +66,12 @@ def sensor_signals(
         R_ws = R_ws @ small_rotations(amplitude * envelope[:, None] * rotvec)
     p_w = origin + R_seg @ np.asarray(position, dtype=float)
     gyr, acc = measure(R_ws, p_w, options.fs_hz)
-    return error_model.apply(rng, gyr, acc, options.fs_hz, acc_range_g, enabled=options.noise,
-                             bias_scale=options.sensor_bias)  # fmt: skip
+    return error_model.apply(
+        rng,
+        gyr,
+        acc,
+        options.fs_hz,
+        acc_range_g,
+        enabled=options.noise,
+        bias_scale=options.sensor_bias,
+    )

@@ -79,9 +79,15 @@ class ImuErrorModel:
     gyr_range_dps: float = 400.0
 
     def apply(
-        self, rng, gyr, acc, fs_hz: float, acc_range_g: float, enabled: bool = True,
+        self,
+        rng,
+        gyr,
+        acc,
+        fs_hz: float,
+        acc_range_g: float,
+        enabled: bool = True,
         bias_scale: float = 1.0,
-    ):  # fmt: skip
+    ):
         """Noisy, biased and saturated copies of ideal (gyr rad/s, acc m/s^2) samples; the
         biases scaled by ``bias_scale`` (the same draws: a halved bias is the same sensor's).
         """

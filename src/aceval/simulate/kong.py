@@ -125,12 +125,18 @@ def _imus_sheet(out: Path, meta: dict) -> None:
         out / "imus.tsv",
         ["imu", "sensor_set", "segment", "side", "region", "right_axis"],
         [
-            [imu, sensor_set, segment.split("_")[0], side, region,
-             probe[sensor_set][segment].right_axis()]
+            [
+                imu,
+                sensor_set,
+                segment.split("_")[0],
+                side,
+                region,
+                probe[sensor_set][segment].right_axis(),
+            ]
             for sensor_set in meta["sensor_sets"]
             for imu, segment, side, region in IMUS
         ],
-    )  # fmt: skip
+    )
 
 
 def _write_subject(seed, subjects, runs, meta, options, k: int, writer: DatasetWriter) -> None:
@@ -161,8 +167,14 @@ def _write_subject(seed, subjects, runs, meta, options, k: int, writer: DatasetW
             for imu, segment, _, region in IMUS:
                 wobble = WOBBLE_DEG[segment.split("_")[0]][sensor_set == "lateral"]
                 gyr, acc = sensor_signals(
-                    run_rng, R_seg[segment], origin[segment], mounts[sensor_set, imu],
-                    placements[sensor_set][segment].position, posture.envelope, wobble, options,
+                    run_rng,
+                    R_seg[segment],
+                    origin[segment],
+                    mounts[sensor_set, imu],
+                    placements[sensor_set][segment].position,
+                    posture.envelope,
+                    wobble,
+                    options,
                     ACC_RANGE_G[region],
-                )  # fmt: skip
+                )
                 writer.recording(subject, sensor_set, test, rep, imu, gyr, acc)
