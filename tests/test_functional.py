@@ -10,17 +10,14 @@ from aceval.calibrate.pipeline import calibrate
 from aceval.data.dataset import load_dataset, validate
 from aceval.data.rotations import error_angle_deg
 from aceval.evaluation.methods_comparison import with_truth
-from aceval.methods.functional import (
-    AXIS_METHODS,
+from aceval.methods.functional import AXIS_METHODS, fit_axes, pool, sagittal_fits, triad_pair
+from aceval.methods.moments import (
     MOMENT_COLUMNS,
-    fit_axes,
-    pool,
+    first_phase_sign,
+    functional_axis,
     recording_moments,
-    sagittal_fits,
-    triad_pair,
 )
-from aceval.methods.ricci import first_phase_sign, functional_axis
-from aceval.methods.statistics import gyroscope_axis
+from aceval.methods.sufficient import gyroscope_axis
 from aceval.signals.reduction import summarise_recordings
 from aceval.simulate import SimOptions
 from aceval.simulate.ricci import simulate_ricci
@@ -37,7 +34,12 @@ def test_pooled_moments_equal_the_axis_of_the_joined_samples():
     assert pooled.rho == pytest.approx(joined.rho, abs=1e-12)
     np.testing.assert_allclose(pooled.axis, joined.axis, atol=1e-12)
     summed = np.array([[1, 0], [0, 1], [1, 1]]) @ np.nan_to_num(rows[MOMENT_COLUMNS].to_numpy())
-    axes, rho = gyroscope_axis(summed, np.tile(joined.axis, (3, 1)))
+    axes, rho = gyroscope_axis(
+        summed[:, 0:3],
+        summed[:, 3:12].reshape(-1, 3, 3),
+        summed[:, 12],
+        np.tile(joined.axis, (3, 1)),
+    )
     assert rho[2] == pytest.approx(joined.rho, abs=1e-12)
     np.testing.assert_allclose(axes[2], joined.axis, atol=1e-12)
     assert rho[0] == pytest.approx(functional_axis(first).rho, abs=1e-12)
@@ -159,10 +161,10 @@ def test_the_axis_methods_fit_many_rows_as_the_single_problem_fits():
     z0 fitted alone (TRIAD refuses: aligned_axes), and the flags beyond AxisLimits (low rho, near
     vertical, disagreeing repetitions), in that order of precedence."""
     from aceval.methods.align_vectors import wahba_fit
-    from aceval.methods.registry import method
+    from aceval.methods.registry import classes
     from aceval.methods.ricci import lm_fit
     from aceval.methods.sagittal import SAGITTAL_REFERENCE, AxisLimits
-    from aceval.methods.statistics import Pooled
+    from aceval.methods.sufficient import Pooled
     from aceval.methods.triad import triad
 
     rng = np.random.default_rng(11)
@@ -175,10 +177,8 @@ def test_the_axis_methods_fit_many_rows_as_the_single_problem_fits():
     rho = rng.uniform(0.3, 0.9, 40)  # some below min_rho: flagged low_rho
     spread = rng.uniform(0.0, 50.0, 40)  # some above max_spread_deg: flagged axes_disagree
     rows = [Pooled.of_axes(z0, 0.95, axes[k], rho[k], spread[k]) for k in range(40)]
-    pooled = Pooled(
-        **{f: np.concatenate([getattr(r, f) for r in rows]) for f in Pooled.__dataclass_fields__}
-    )
-    fits = {name: method(name).fit(pooled, {}) for name in AXIS_METHODS}
+    pooled = Pooled.concat(rows)
+    fits = {name: cls().fit(pooled, {}).result for name, cls in classes(AXIS_METHODS).items()}
     limits = AxisLimits()
     flags = set()
     for k in range(40):

@@ -3,7 +3,8 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from aceval.data.errors import AlignedAxesError, NonFiniteError, TooFewAxesError, TooFewSamplesError
-from aceval.methods import functional_axis, lm_fit, triad, wahba_fit
+from aceval.methods import functional_axis, lm_fit, wahba_fit
+from aceval.methods.triad import triad
 from aceval.methods.ricci import _residual_jacobian, quaternion_matrix
 
 

@@ -14,8 +14,7 @@ from aceval.methods.combined import (
     kong_weight,
 )
 from aceval.methods.kong import kong_from_scatters
-from aceval.methods.registry import METHODS
-from aceval.methods.statistics import Units
+from aceval.methods.sufficient import Units
 from aceval.methods.uncertainty import bootstrap_cones, cones, resample_weights
 from aceval.report import summary
 
@@ -100,9 +99,7 @@ def _cones(scatters, counts, unit_scatters, R_full, seed, rho_static=1.0):
     """bootstrap_cones of one unit (its right axis and z0 the true ones)."""
     z0, right = _in_sensor([0, 0, 1]), _in_sensor([0, 1, 0])
     units = Units.of_repetitions(z0, right, scatters, counts, unit_scatters, rho_static)
-    found = bootstrap_cones(
-        units, np.array([seed]), {m: R[None] for m, R in R_full.items()}, METHODS
-    )
+    found = bootstrap_cones(units, np.array([seed]), {m: R[None] for m, R in R_full.items()})
     return {method: (float(c[0]), float(s[0])) for method, (c, s) in found.items()}
 
 
@@ -280,7 +277,7 @@ def test_an_undetermined_calibration_has_no_error_to_the_truth_rather_than_a_cra
 
 def test_the_axis_methods_cones_follow_the_spread_of_the_repetitions_gyroscope_axes():
     from aceval.methods.functional import sagittal_fits
-    from aceval.methods.statistics import gyroscope_axis
+    from aceval.methods.sufficient import gyroscope_axis
 
     z0, right = _in_sensor([0, 0, 1]), _in_sensor([0, 1, 0])
     scatters, counts = _scatters([0, 0, 0, 0, 0])
@@ -290,9 +287,9 @@ def test_the_axis_methods_cones_follow_the_spread_of_the_repetitions_gyroscope_a
 
     def axis_cones(headings_deg):
         units = unit(headings_deg)
-        moments = np.zeros((1, 16))
-        moments[0, 3:12], moments[0, 12] = units.sum(axis=0).ravel(), 500.0
-        axis, rho = gyroscope_axis(moments, right[None])
+        axis, rho = gyroscope_axis(
+            np.zeros((1, 3)), units.sum(axis=0)[None], np.array([500.0]), right[None]
+        )
         fits = sagittal_fits(z0, 1.0, axis[0], float(rho[0]))
         R_full = {m: fits[m]["R"] for m in ("ricci_lm", "align_vectors", "triad")}
         R_full["kong"] = kong_from_scatters(scatters, counts, z0, right).R[0]

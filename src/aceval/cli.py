@@ -8,6 +8,8 @@ import argparse
 import sys
 
 from aceval import commands as work
+from aceval.methods import registry
+from aceval.report.outputs import ANALYSES
 
 
 def _add_table_inputs(command) -> None:
@@ -213,7 +215,10 @@ def _add_apply(commands) -> None:
     apply.add_argument("dataset")
     apply.add_argument("--calibrations", required=True, help="CSV of `aceval calibrate`")
     apply.add_argument("--out", required=True, help="new folder (never the dataset itself)")
-    apply.add_argument("--method", default="kong", help="method whose calibrations to apply (kong)")
+    kong = registry.paper_method("kong2016")
+    apply.add_argument(
+        "--method", default=kong, help=f"method whose calibrations to apply ({kong})"
+    )
     apply.add_argument(
         "--test",
         help="calibration test (default: per IMU, the first test of calibrates.tsv "
@@ -278,7 +283,8 @@ def _add_outputs(commands) -> None:
         "--analyses",
         nargs="+",
         required=True,
-        help="kong, box, ricci, methods, truth, loose_reference",
+        choices=ANALYSES,
+        help=", ".join(ANALYSES),
     )
     _add_table_inputs(outputs)
     outputs.add_argument(

@@ -114,22 +114,20 @@ def _read_csvs(paths) -> pd.DataFrame:
 
 
 def method_choices() -> dict[str, str]:
-    """``--method`` of ``aceval calibrate``: each registered method (:mod:`aceval.methods.registry`)
-    with its one-line summary, ``ricci`` for ``ricci_lm``, and ``all``.
+    """``--method`` of ``aceval calibrate``: each of aceval's own methods in the registry
+    (:mod:`aceval.methods.registry`) with its one-line summary, and ``all``.
     """
-    from aceval.methods.registry import METHODS
+    from aceval.methods import registry
 
-    return {m.name: m.summary for m in METHODS} | {
-        "ricci": "ricci_lm (its name before the registry)",
-        "all": "every method (default)",
-    }
+    own = {name: registry.method(name).summary for name in registry.own()}
+    return own | {"all": "every method (default)"}
 
 
 def chosen_methods(choice: str) -> list[str]:
     """The ``method`` values of the calibrations table that ``--method choice`` keeps."""
-    from aceval.methods.registry import NAMES
+    from aceval.methods import registry
 
-    return list(NAMES) if choice == "all" else ["ricci_lm" if choice == "ricci" else choice]
+    return registry.own() if choice == "all" else [choice]
 
 
 def _progress(done: int, total: int, what: str) -> None:

@@ -6,6 +6,7 @@ import hashlib
 import json
 import os
 
+from aceval.methods import registry
 from aceval.report.outputs import outputs_of
 from snakemake.logging import logger
 from aceval.data.safety import path_problem
@@ -16,14 +17,11 @@ SIMULATED = [name for name, spec in DATASETS.items() if "simulate" in spec]
 IMPORTED = [name for name, spec in DATASETS.items() if "import" in spec]
 GENERATED = SIMULATED + IMPORTED  # written by the workflow into resources/{dataset}
 DATA_ROOT = config.get("data_root", "../shared/data")
-#: the peer tools (workflow/peers/): method -> (environment, adapter); each environment is built by
-#: the workflow itself (rule peer_env) the first time a peer job needs it, from the pinned
+#: the peer tools (workflow/peers/), from aceval's registry of methods: method -> its environment
+#: and adapter (aceval.methods.registry.Peer); each environment is built by the workflow itself
+#: (rule peer_env) the first time a peer job needs it, from the pinned
 #: workflow/peers/<environment>.txt, never in aceval's own
-PEER_METHODS = {
-    "gaitmap_pca": ("gaitmap", "gaitmap_pca.py"),
-    "qmt_hinge": ("qmt", "qmt_hinge.py"),
-    "opensense_imuplacer": ("opensim", "opensense_imuplacer.py"),
-}
+PEER_METHODS = registry.peers()
 PEERS_DIR = os.path.join(workflow.basedir, "workflow", "peers")
 PEERS_ROOT = os.path.abspath(
     config.get("peers_root", os.path.join(workflow.basedir, ".venv-peers"))
@@ -32,7 +30,7 @@ PEERS_ROOT = os.path.abspath(
 
 def peer_python(method):
     """The interpreter of a peer's own environment."""
-    return os.path.join(PEERS_ROOT, PEER_METHODS[method][0], "bin", "python")
+    return os.path.join(PEERS_ROOT, PEER_METHODS[method].environment, "bin", "python")
 
 
 def peer_env_stamp(env):

@@ -10,7 +10,7 @@
 
 rule peer_envs:
     input:
-        [peer_env_stamp(env) for env, _ in PEER_METHODS.values()],
+        [peer_env_stamp(peer.environment) for peer in PEER_METHODS.values()],
 
 
 rule peer_env:
@@ -21,7 +21,7 @@ rule peer_env:
     log:
         "logs/peers/{env}_env.log",
     wildcard_constraints:
-        env="|".join(env for env, _ in PEER_METHODS.values()),
+        env="|".join(peer.environment for peer in PEER_METHODS.values()),
     conda:
         "../envs/aceval.yaml"
     params:
@@ -35,7 +35,7 @@ rule peer_env:
 rule peer_calibrate:
     input:
         plan="results/{dataset}/calibrations/{subject}_plan.json",
-        env=lambda w: peer_env_stamp(PEER_METHODS[w.peer][0]),
+        env=lambda w: peer_env_stamp(PEER_METHODS[w.peer].environment),
     output:
         "results/{dataset}/peers/{peer}/{subject}.csv",
     log:
@@ -45,9 +45,9 @@ rule peer_calibrate:
     wildcard_constraints:
         peer="|".join(PEER_METHODS),
     conda:
-        lambda w: f"../envs/peer_{PEER_METHODS[w.peer][0]}.yaml"
+        lambda w: f"../envs/peer_{PEER_METHODS[w.peer].environment}.yaml"
     params:
         python=lambda w: peer_python(w.peer),
-        adapter=lambda w: os.path.join(PEERS_DIR, PEER_METHODS[w.peer][1]),
+        adapter=lambda w: os.path.join(PEERS_DIR, PEER_METHODS[w.peer].adapter),
     shell:
         "{params.python:q} {params.adapter:q} {input.plan:q} {output:q} > {log:q} 2>&1"

@@ -15,6 +15,7 @@ from aceval.calibrate.table import (
     imu_identity,
 )
 from aceval.data.dataset import Dataset
+from aceval.methods import registry
 from aceval.methods.functional import (
     MOMENT_COLUMNS,
     functional_fits,
@@ -63,7 +64,7 @@ def calibrate_functional(
         used = table[table["reference"] != ""]
         if len(used) >= 2:
             fits = functional_fits(used, seed_key=(subject, sensor_set, imu))
-            lm = fits["ricci_lm"]
+            lm = fits[registry.paper_method("ricci2014")]
             if lm.get("R") is not None:
                 table.loc[used.index, "residual_before_deg"] = lm["residual_before_deg"]
                 table.loc[used.index, "residual_after_deg"] = lm["residual_after_deg"]

@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 
 from aceval.calibrate.functional_design import calibrate_functional
-from aceval.calibrate.plan import Plan, Subsets, build_plan
+from aceval.calibrate.plan import EVERY_SUBSET, RETEST, Plan, Subsets, build_plan
 from aceval.calibrate.rows import calibration_rows, motion_axes
 from aceval.calibrate.table import (
     AXES_COLUMNS,
@@ -25,14 +25,15 @@ from aceval.calibrate.table import (
     combine_flags,
     full_set_rows,
     has_flag,
+    kong_rows,
     unflagged,
 )
 from aceval.data.contract import R_COLUMNS
 from aceval.data.dataset import Dataset
 from aceval.data.rotations import error_angle_deg
-from aceval.methods.interface import Fit
-from aceval.methods.registry import METHODS
-from aceval.methods.statistics import Pooled, pool
+from aceval.methods import registry
+from aceval.methods.interface import CalibrationMethod, Fit
+from aceval.methods.sufficient import Pooled, pool
 from aceval.methods.uncertainty import bootstrap_cones
 from aceval.signals.checks import direction_checks
 
@@ -67,10 +68,12 @@ def calibrate_sagittal(
     subsets: str = "all",
     retest_k: int | None = 3,
     sensors: dict | None = None,
+    methods: list[str] | None = None,
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Every method's calibrations of every (subject, set, IMU, motion test) in ``summaries``:
-    Kong's on every subset of its usable repetitions (``subsets='all'``) or all of them together
-    (``'full'``), the other methods of the registry on all of them and, with ``retest_k``, on
+    """Every method's calibrations of every (subject, set, IMU, motion test) in ``summaries``
+    (``methods``: these of the registry's, default all): a method fitted on every subset
+    (``every_subset``: Kong's) on every subset of its usable repetitions (``subsets='all'``) or
+    all of them together (``'full'``), the others on all of them and, with ``retest_k``, on
     every subset of that many (Obj 4's test-retest for every method).
 
     One row per calibration: key columns, ``repetitions`` ('R1+R3+R4'), ``n_reps``, ``method``,
@@ -84,34 +87,61 @@ def calibrate_sagittal(
     plan = build_plan(dataset, summaries, subsets, retest_k, sensors)
     if not len(plan.units):
         return pd.DataFrame(columns=CALIBRATION_COLUMNS), plan.static_axes
-    every = pool(plan.units, plan.every_subset.unit, plan.every_subset.weights)
-    kong = _with_direction(plan, plan.every_subset, every, METHODS[0].fit(every, {}))
-    kong = flag_unstable(kong, every, retest_k)
-    rows = pool(plan.units, plan.methods.unit, plan.methods.weights)
+    names = methods or registry.own()
+    classes = registry.classes(names)
+    policy_of = {name: EVERY_SUBSET if classes[name].every_subset else RETEST for name in names}
+    pooled = {policy: pool(plan.units, s.unit, s.weights) for policy, s in plan.subsets.items()}
     fitted = {
-        name: fit if name == "kong" else flag_unstable(fit, rows, retest_k)
-        for name, fit in _method_fits(plan, rows).items()
+        policy: _fits([n for n in names if policy_of[n] == policy], pooled[policy])
+        for policy in plan.subsets
     }
-    full_kong = _full_rows(every)
-    full_rows = _full_rows(rows)
-    R_full = {"kong": kong.R[full_kong]}
-    R_full |= {name: fit.R[full_rows] for name, fit in fitted.items() if name != "kong"}
-    cones = bootstrap_cones(plan.units, plan.identity["seed"].to_numpy(), R_full, METHODS)
-    tables = [calibration_rows(plan, plan.every_subset, every, "kong", kong, 0, cones, full_kong)]
-    for order, method in enumerate(METHODS[1:], start=1):
-        fit = fitted[method.name]
-        chosen = method.applies(rows)
+    tables, R_full = [], {}
+    checked: dict[str, Fit] = {}
+    for name in names:
+        policy = policy_of[name]
+        rows = pooled[policy]
+        fit = _checked(plan, plan.subsets[policy], fitted[policy][name].result)
+        checked[name] = flag_unstable(fit, rows, retest_k)
+        R_full[name] = checked[name].R[_full_rows(rows)]
+    cones = bootstrap_cones(plan.units, plan.identity["seed"].to_numpy(), R_full)
+    for order, name in enumerate(checked):
+        policy = policy_of[name]
+        rows = pooled[policy]
+        chosen = None if classes[name].every_subset else classes[name]().applies(rows)
         tables.append(
             calibration_rows(
-                plan, plan.methods, rows, method.name, fit, order, cones, full_rows, chosen
+                plan,
+                plan.subsets[policy],
+                rows,
+                name,
+                checked[name],
+                order,
+                cones,
+                _full_rows(rows),
+                chosen,
+                block=policy == RETEST,
             )
         )
     calibrations = pd.concat([t for t in tables if len(t)], ignore_index=True)
     calibrations = calibrations.sort_values(
         ["_unit", "_block", "_subset", "_method"], kind="stable"
     ).drop(columns=["_unit", "_block", "_subset", "_method"])
-    axes = pd.concat([plan.static_axes, motion_axes(plan, rows, full_rows)], ignore_index=True)
+    retest = pooled[RETEST]
+    axes = pd.concat(
+        [plan.static_axes, motion_axes(plan, retest, _full_rows(retest))], ignore_index=True
+    )
     return propagate_backward(calibrations.reset_index(drop=True)), axes[AXES_COLUMNS]
+
+
+def _fits(names: list[str], pooled: Pooled) -> dict[str, CalibrationMethod]:
+    """The methods ``names`` fitted on the rows of ``pooled``, each after the methods it needs,
+    fitted on the same rows (what it reads: the combined heading reads Kong's plane).
+    """
+    classes = registry.classes(names) if names else {}
+    fitted: dict[str, CalibrationMethod] = {}
+    for name in registry.fit_order(classes):
+        fitted[name] = classes[name]().fit(pooled, fitted)
+    return fitted
 
 
 def _full_rows(pooled: Pooled) -> np.ndarray:
@@ -122,71 +152,37 @@ def _full_rows(pooled: Pooled) -> np.ndarray:
     return full
 
 
-def _direction(plan: Plan, subsets: Subsets, R: np.ndarray, rows=slice(None)) -> dict:
-    """:func:`aceval.signals.checks.direction_checks` of rotations ``R`` of the ``rows`` of
-    ``subsets``.
+def _checked(plan: Plan, subsets: Subsets, fit: Fit) -> Fit:
+    """A method's calibrations of ``subsets`` with the sensor checks' flags and the direction
+    checks' (:func:`aceval.signals.checks.direction_checks`: the declared right axis on the
+    calibration's own y, forward or backward on its own repetitions; nothing inherited from the
+    calibration of all of them), and their evidence, on every row it calibrated. A method's own
+    ``not_applicable`` stays alone.
     """
+    sensor = plan.identity["sensor_flag"].to_numpy()[subsets.unit]
+    flag = np.array(
+        [f if f == "not_applicable" else combine_flags(s, f) for s, f in zip(sensor, fit.flag)],
+        dtype=object,
+    )
+    columns = dict(fit.columns)
+    columns["first_phase_agreement"] = np.full(len(fit), np.nan)
+    columns["right_axis_angle_deg"] = np.full(len(fit), np.nan)
+    checked = np.flatnonzero(np.isfinite(fit.R).all(axis=(1, 2)))
     units = plan.units
-    unit = subsets.unit[rows]
-    return direction_checks(
+    unit = subsets.unit[checked]
+    direction = direction_checks(
         units.first_phase[unit],
         units.segment[unit],
         units.phases[unit],
-        None if units.third is None else units.third[unit],
-        subsets.weights[rows],
-        R,
+        None if units.get("third") is None else units.get("third")[unit],
+        subsets.weights[checked],
+        fit.R[checked],
         units.right[unit],
     )
-
-
-def _with_direction(plan: Plan, subsets: Subsets, pooled: Pooled, kong: Fit) -> Fit:
-    """Kong's calibrations of every subset with the direction checks' flags and evidence, each
-    judged on its own: the declared right axis on the subset's own y0, forward or backward on the
-    subset's own repetitions (a subset inherits no flag from the calibration of all of them).
-    """
-    direction = _direction(plan, subsets, kong.R)
-    sensor = plan.identity["sensor_flag"].to_numpy()[subsets.unit]
-    flag = [
-        combine_flags(s, own, checks)
-        for s, own, checks in zip(sensor, kong.flag, direction["flag"])
-    ]
-    columns = kong.columns | {
-        "first_phase_agreement": direction["first_phase_agreement"],
-        "right_axis_angle_deg": direction["right_axis_angle_deg"],
-    }
-    return Fit(kong.R, np.array(flag, dtype=object), columns)
-
-
-def _method_fits(plan: Plan, pooled: Pooled) -> dict[str, Fit]:
-    """Every registered method's calibrations of the all-repetitions and test-retest rows, each
-    flagged by the sensor checks and by its own direction checks (the subset's own repetitions
-    and y0: nothing inherited from the calibration of all of them). A method's own
-    ``not_applicable`` stays alone.
-    """
-    fitted: dict[str, Fit] = {}
-    for method in METHODS:
-        fitted[method.name] = method.fit(pooled, fitted)
-    sensor = plan.identity["sensor_flag"].to_numpy()[pooled.unit]
-    out = {}
-    for method in METHODS[1:]:
-        fit = fitted[method.name]
-        flag = np.array(
-            [f if f == "not_applicable" else combine_flags(s, f) for s, f in zip(sensor, fit.flag)],
-            dtype=object,
-        )
-        columns = dict(fit.columns)
-        columns["first_phase_agreement"] = np.full(len(pooled), np.nan)
-        columns["right_axis_angle_deg"] = np.full(len(pooled), np.nan)
-        checked = np.flatnonzero(np.isfinite(fit.R).all(axis=(1, 2)))
-        direction = _direction(plan, plan.methods, fit.R[checked], checked)
-        for key in ("first_phase_agreement", "right_axis_angle_deg"):
-            columns[key][checked] = direction[key]
-        flag[checked] = [
-            combine_flags(f, checks) for f, checks in zip(flag[checked], direction["flag"])
-        ]
-        out[method.name] = Fit(fit.R, flag, columns)
-    out["kong"] = fitted["kong"]
-    return out
+    for key in ("first_phase_agreement", "right_axis_angle_deg"):
+        columns[key][checked] = direction[key]
+    flag[checked] = [combine_flags(f, found) for f, found in zip(flag[checked], direction["flag"])]
+    return Fit(fit.R, flag, columns)
 
 
 def flag_unstable(fit: Fit, pooled: Pooled, retest_k: int | None) -> Fit:
@@ -227,8 +223,7 @@ def propagate_backward(calibrations: pd.DataFrame) -> pd.DataFrame:
     """
     if calibrations.empty or "first_phase_agreement" not in calibrations:
         return calibrations
-    kong = calibrations[calibrations["method"] == "kong"]
-    full = full_set_rows(kong)
+    full = full_set_rows(kong_rows(calibrations))
     flags = np.where(unflagged(calibrations), "", calibrations["flag"].astype(str)).astype(object)
     for _, imu in full.groupby(KEY, sort=False):
         backward = imu[has_flag(imu["flag"], "backward")]

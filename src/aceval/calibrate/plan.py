@@ -4,7 +4,7 @@
 From the one pass's summaries (:mod:`aceval.signals.reduction`): each IMU's z0 and static axis
 (Kong Eq. 2, several static recordings averaged), what the checks say about the sensor itself
 (:func:`imu_checks`), and for each calibration unit (one IMU in one motion test that calibrates
-it) the statistics of its usable repetitions (:class:`aceval.methods.statistics.Units`), its
+it) the statistics of its usable repetitions (:class:`aceval.methods.sufficient.Units`), its
 place, its declared right axis, and the subsets of repetitions each method is fitted on: Kong's
 method on every subset (Obj 3-5), the others on all repetitions and on every subset of ``k``
 (Obj 4's test-retest for every method).
@@ -29,21 +29,23 @@ from aceval.calibrate.table import (
 )
 from aceval.data.dataset import Dataset
 from aceval.data.rotations import axis_vector
-from aceval.methods.functional import MOMENT_COLUMNS, pool, stable_seed
-from aceval.methods.statistics import PHASE, Units
-from aceval.methods.step_harmonic import SCATTER_COLUMNS as STEP_COLUMNS
+from aceval.methods import registry
+from aceval.methods.functional import pool, stable_seed
+from aceval.methods.sufficient import Units
 from aceval.signals.checks import (
     AGREEMENT_COLUMNS,
+    GYRO_THIRD,
     MAX_STATIC_ANGLE_DEG,
     STILL_COLUMNS,
-    THIRD_MOMENT_COLUMNS,
     best_test_agreement,
     sensor_problem,
     static_posture,
 )
-from aceval.signals.reduction import SCATTER_COLUMNS
 from aceval.signals.signatures import SIGNATURE_COLUMNS, signature_verdicts
 
+#: the two subset policies of a method (its ``every_subset``): every subset of a unit's
+#: repetitions (Kong's Obj 3-5), or all of them and the Obj 4 test-retest subsets of ``k``
+EVERY_SUBSET, RETEST = "every_subset", "retest"
 #: what the checks measured about each sensor, beside every calibration of it
 SENSOR_COLUMNS = ["gyro_acc_agreement", "gyro_acc_evidence_deg", "static_vertical_angle_deg"]
 
@@ -67,17 +69,20 @@ class Subsets:
 class Plan:
     """A job's calibration plan: ``units`` (their statistics), ``identity`` (one row per unit:
     subject, set, IMU, segment, side, test, ``z0_tests``, the sensor's ``sensor_flag`` for this
-    test, :data:`SENSOR_COLUMNS` and the unit's bootstrap ``seed``), ``every_subset`` (Kong's
-    calibrations: every subset of each unit's repetitions, or all of them together), ``methods``
-    (the other methods' calibrations: all repetitions, then every subset of ``k``), and
-    ``static_axes`` (the axes table's rows of the static tests).
+    test, :data:`SENSOR_COLUMNS` and the unit's bootstrap ``seed``), ``subsets`` (the calibrations
+    to make under each subset policy: :data:`EVERY_SUBSET`, every subset of each unit's
+    repetitions, or all of them together; :data:`RETEST`, all repetitions, then every subset of
+    ``k``), and ``static_axes`` (the axes table's rows of the static tests).
     """
 
     units: Units
     identity: pd.DataFrame
-    every_subset: Subsets
-    methods: Subsets
+    subsets: dict[str, Subsets]
     static_axes: pd.DataFrame
+
+    def policy_subsets(self, every_subset: bool) -> Subsets:
+        """The calibrations a method with this subset policy is fitted on."""
+        return self.subsets[EVERY_SUBSET if every_subset else RETEST]
 
 
 def static_axes(summaries: pd.DataFrame) -> tuple[pd.DataFrame, dict]:
@@ -175,36 +180,40 @@ def build_plan(
     return Plan(
         units=units,
         identity=identity,
-        every_subset=_subsets(units, every),
-        methods=_subsets(units, methods),
+        subsets={EVERY_SUBSET: _subsets(units, every), RETEST: _subsets(units, methods)},
         static_axes=pd.DataFrame(static_rows, columns=AXES_COLUMNS),
     )
 
 
 def _units(dataset, motion, z0, statics, sensors) -> tuple[Units, pd.DataFrame]:
-    """The :class:`Units` of the usable motion recordings (sorted by unit and repetition) and
-    their identity table.
+    """The :class:`Units` of the usable motion recordings (sorted by unit and repetition), with
+    every statistic the registry's methods and the direction checks declare, and their identity
+    table.
     """
     unit_key = [*KEY, "test"]
     code = motion.groupby(unit_key, sort=False).ngroup().to_numpy()
     position = motion.groupby(unit_key, sort=False).cumcount().to_numpy()
     first = motion.drop_duplicates(unit_key)
     n_units, width = len(first), int(position.max()) + 1 if len(position) else 0
-
-    def padded(columns, fill, shape=()):
-        out = np.full((n_units, width, *shape), fill, dtype=float)
-        if columns[0] in motion:
-            out[code, position] = motion[columns].to_numpy(float).reshape(-1, *shape)
-        return out
-
     present = np.zeros((n_units, width), dtype=bool)
     present[code, position] = True
-    moments = padded(MOMENT_COLUMNS, 0.0, (len(MOMENT_COLUMNS),))
-    moments[..., PHASE][~present] = np.nan  # an absent repetition has no axis of its own
+
+    def padded(columns, shape=(), absent=0.0, missing=0.0):
+        out = np.full((n_units, width, *shape), missing, dtype=float)
+        if columns[0] in motion:
+            out[code, position] = motion[list(columns)].to_numpy(float).reshape(-1, *shape)
+        out[~present] = absent
+        return out
+
+    statistics = (*registry.statistics(), GYRO_THIRD)
+    values = {
+        name: padded(part.columns, part.shape, part.absent, part.missing)
+        for statistic in statistics
+        for name, part in statistic.parts.items()
+        if part.missing is not None or part.columns[0] in motion
+    }
     rep = np.zeros((n_units, width), dtype=int)
     rep[code, position] = motion["rep"].to_numpy(int)
-    steps = padded(STEP_COLUMNS, np.nan, (3, 3))
-    steps[~present] = 0.0
     keys = list(first[KEY].itertuples(index=False, name=None))
     tests = first["test"].tolist()
     identity = _identity(dataset, keys, tests, statics, sensors)
@@ -216,15 +225,9 @@ def _units(dataset, motion, z0, statics, sensors) -> tuple[Units, pd.DataFrame]:
         segment=identity["segment"].to_numpy(object),
         rep=rep,
         present=present,
-        scatters=padded(SCATTER_COLUMNS, 0.0, (3, 3)),
-        n_samples=padded(["n_samples"], 0.0),
-        moments=moments,
-        third=padded(THIRD_MOMENT_COLUMNS, 0.0, (len(THIRD_MOMENT_COLUMNS),))
-        if THIRD_MOMENT_COLUMNS[0] in motion
-        else None,
-        steps=steps,
-        step_hz=padded(["step_hz"], np.nan),
-        step_disagrees=np.nan_to_num(padded(["step_disagrees"], 0.0)),
+        n_samples=padded(["n_samples"]),
+        statistics=statistics,
+        values=values,
     )
     return units, identity
 

@@ -11,7 +11,7 @@ import pandas as pd
 from aceval.calibrate.plan import Plan, Subsets
 from aceval.data.contract import R_COLUMNS
 from aceval.methods.interface import Fit
-from aceval.methods.statistics import Pooled
+from aceval.methods.sufficient import Pooled
 from aceval.methods.uncertainty import load_model, model_cones
 
 
@@ -133,6 +133,7 @@ def calibration_rows(
     cones: dict,
     full: np.ndarray,
     chosen: np.ndarray | None = None,
+    block: bool = True,
 ) -> pd.DataFrame:
     """The calibrations table's rows of one method's ``fit`` of ``subsets`` (pooled as ``pooled``),
     those ``chosen`` (default all): identity, R, flag, the method's diagnostics, the statistics
@@ -140,8 +141,9 @@ def calibration_rows(
     spread between its repetitions (``cones``: method -> (spread95_deg, spread_vertical_share),
     one per unit, :func:`aceval.methods.uncertainty.bootstrap_cones`) and the model's 95 % cone
     from it (``cone95_deg``, ``cone_model``: :func:`aceval.methods.uncertainty.model_cones`). The
-    columns ``_unit``, ``_block`` (0: every subset, 1: all repetitions, 2: a test-retest subset),
-    ``_subset`` and ``_method`` (``order``) sort the table.
+    columns ``_unit``, ``_block`` (0: a method fitted on every subset, ``block`` False; else 1:
+    all repetitions, 2: a test-retest subset), ``_subset`` and ``_method`` (``order``) sort the
+    table.
     """
     unit = subsets.unit
     identity = plan.identity.iloc[unit].reset_index(drop=True)
@@ -164,8 +166,7 @@ def calibration_rows(
         "error_deg": np.full(len(unit), np.nan),
         "error_vertical_share": np.full(len(unit), np.nan),
     }
-    if method != "kong":
-        columns["axis_spread_deg"] = pooled.spread_deg
+    columns["axis_spread_deg"] = pooled.spread_deg
     columns |= fit.columns
     if method in cones:
         at = full[unit] == np.arange(len(unit))
@@ -179,10 +180,9 @@ def calibration_rows(
             load_model(),
         )
     first = np.searchsorted(unit, unit)  # the units' rows are contiguous, in unit order
-    block = 0 if method == "kong" else np.where(pooled.all_repetitions, 1, 2)
     columns |= {
         "_unit": unit,
-        "_block": block,
+        "_block": np.where(pooled.all_repetitions, 1, 2) if block else 0,
         "_subset": np.arange(len(unit)) - first,
         "_method": order,
     }

@@ -13,6 +13,7 @@ import pandas as pd
 
 from aceval.data.contract import R_COLUMNS
 from aceval.data.dataset import Dataset
+from aceval.methods import registry
 from aceval.methods.interface import combine_flags as combine_flags  # the table's flags
 
 CALIBRATION_KEY = ["subject", "sensor_set", "imu", "test"]
@@ -68,7 +69,7 @@ def unflagged(table: pd.DataFrame) -> pd.Series:
     return flag.isna() | (flag.astype(str) == "")
 
 
-def usable(calibrations: pd.DataFrame, method: str = "kong") -> pd.DataFrame:
+def usable(calibrations: pd.DataFrame, method: str | None = None) -> pd.DataFrame:
     """A method's calibrations that are not flagged (Objectives 1-5 are about Kong's method; the
     other methods are compared in :mod:`aceval.evaluation.methods_comparison`).
     """
@@ -81,7 +82,7 @@ def usable(calibrations: pd.DataFrame, method: str = "kong") -> pd.DataFrame:
 SPREAD_FLAGS = ("unstable",)
 
 
-def spread_usable(calibrations: pd.DataFrame, method: str = "kong") -> pd.DataFrame:
+def spread_usable(calibrations: pd.DataFrame, method: str | None = None) -> pd.DataFrame:
     """A method's calibrations that are unflagged or flagged only by :data:`SPREAD_FLAGS`: what
     the spread between subsets (Kong Obj 3-4, every method's test-retest) is measured on (leaving
     the unstable subsets out would hide the spread those objectives measure).
@@ -92,8 +93,11 @@ def spread_usable(calibrations: pd.DataFrame, method: str = "kong") -> pd.DataFr
     return calibrations[unflagged(calibrations) | spread_only]
 
 
-def kong_rows(calibrations: pd.DataFrame, method: str = "kong") -> pd.DataFrame:
-    """The rows of Kong's method, or of ``method`` (all rows of a table without ``method``)."""
+def kong_rows(calibrations: pd.DataFrame, method: str | None = None) -> pd.DataFrame:
+    """The rows of Kong's method (the registry's method of Kong et al. 2016), or of ``method``
+    (all rows of a table without ``method``).
+    """
+    method = method or registry.paper_method("kong2016")
     return (
         calibrations[calibrations["method"] == method]
         if "method" in calibrations.columns

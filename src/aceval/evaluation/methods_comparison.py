@@ -17,23 +17,11 @@ from aceval.data.contract import R_COLUMNS
 from aceval.data.rotations import error_angle_deg, vector_angle_deg, vertical_share
 from aceval.evaluation.conditioning import heading_status
 from aceval.evaluation.objectives import SEGMENT_ORDER, test_retest_angles
+from aceval.methods import registry
 from aceval.methods.kong import KongLimits
 
 #: Kong et al. 2016 Sec. 4: the test recommended for each segment
 KONG_RECOMMENDATION = {"head": "T3", "chest": "T3", "waist": "T3", "thigh": "T6", "shank": "T6"}
-#: aceval's methods (the papers', then the combined heading), then the peers (each run in its own
-#: environment: workflow/peers/)
-METHOD_ORDER = [
-    "kong",
-    "ricci_lm",
-    "align_vectors",
-    "triad",
-    "combined",
-    "step_harmonic",
-    "gaitmap_pca",
-    "qmt_hinge",
-    "opensense_imuplacer",
-]
 
 
 def full_set_errors(calibrations: pd.DataFrame) -> pd.DataFrame:
@@ -49,7 +37,7 @@ def _p95(values: pd.Series) -> float:
 
 
 def _method_order(table: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
-    rank = table["method"].map({m: i for i, m in enumerate(METHOD_ORDER)}).fillna(len(METHOD_ORDER))
+    rank = table["method"].map(registry.rank)
     return (
         table.assign(method_rank=rank)
         .sort_values([*keys, "method_rank", "method"])
@@ -374,9 +362,9 @@ def best_tests(calibrations: pd.DataFrame) -> pd.DataFrame:
     rank = table["segment"].map(
         lambda s: SEGMENT_ORDER.index(s) if s in SEGMENT_ORDER else len(SEGMENT_ORDER)
     )
-    method_rank = table["method"].map({m: i for i, m in enumerate(METHOD_ORDER)})
+    method_rank = table["method"].map(registry.rank)
     return (
-        table.assign(segment_rank=rank, method_rank=method_rank.fillna(len(METHOD_ORDER)))
+        table.assign(segment_rank=rank, method_rank=method_rank)
         .sort_values(["segment_rank", "segment", "method_rank", "method"])
         .drop(columns=["segment_rank", "method_rank"])
     )
@@ -477,7 +465,7 @@ def truth_errors(calibrations: pd.DataFrame, method_sheet: pd.DataFrame | None) 
     for column in columns:
         if column not in data:
             data[column] = np.nan
-    data["method_rank"] = data["method"].map({m: i for i, m in enumerate(METHOD_ORDER)})
+    data["method_rank"] = data["method"].map(registry.rank)
     return data.sort_values(["sensor_set", "imu", "test", "method_rank"])[columns].reset_index(
         drop=True
     )
@@ -519,7 +507,7 @@ def loose_reference_angles(
     data["vertical_angle_deg"] = vector_angle_deg(R[:, 2], -up)
     data["reference_standing_up_angle_deg"] = data["standing_up_angle_deg"]
     data["flag"] = data["flag"].astype(object).fillna("")
-    data["method_rank"] = data["method"].map({m: i for i, m in enumerate(METHOD_ORDER)})
+    data["method_rank"] = data["method"].map(registry.rank)
     return data.sort_values(["sensor_set", "imu", "test", "method_rank"])[columns].reset_index(
         drop=True
     )

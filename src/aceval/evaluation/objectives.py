@@ -171,8 +171,8 @@ def _angle_rows(
     return out[ANGLE_COLUMNS]
 
 
-def _subset_groups(calibrations: pd.DataFrame, method: str = "kong"):
-    """The calibrations of ``method`` that the spread between subsets is measured on
+def _subset_groups(calibrations: pd.DataFrame, method: str | None = None):
+    """The calibrations of ``method`` (default Kong's) that the spread between subsets is measured on
     (:func:`aceval.calibrate.table.spread_usable`; positional index) and, per (subject, set, IMU,
     test), ``({subset: position}, all repetitions)``.
     """
@@ -217,7 +217,7 @@ def to_last_angles(calibrations: pd.DataFrame) -> pd.DataFrame:
 
 
 def test_retest_angles(
-    calibrations: pd.DataFrame, k: int = 3, method: str = "kong"
+    calibrations: pd.DataFrame, k: int = 3, method: str | None = None
 ) -> pd.DataFrame:
     """Obj 4 (Kong Eq. 15): the angle between R(A) and R(A') for every pair of distinct subsets of
     ``k`` repetitions (45 pairs for 3 of 5), of Kong's calibrations or another ``method``'s.

@@ -6,20 +6,12 @@ a method of its own in the comparisons.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from aceval.data.errors import check_axes
-from aceval.methods.interface import Fit, Method
-from aceval.methods.sagittal import (
-    SAGITTAL_REFERENCE,
-    axis_method_fit,
-    sagittal_axes,
-    usable_axes,
-)
-from aceval.methods.statistics import Pooled
+from aceval.methods.sagittal import SAGITTAL_REFERENCE, AxisMethod, sagittal_axes, usable_axes
+from aceval.methods.sufficient import Pooled
 
 
 def wahba_fit(v_ref, v_est, weights=None) -> Rotation:
@@ -41,32 +33,29 @@ def wahba_batch(v_ref: np.ndarray, v_est: np.ndarray, weights: np.ndarray) -> np
     return U @ (scale[:, :, None] * Vt)
 
 
-def _batch(pooled: Pooled, rows: np.ndarray) -> tuple[np.ndarray, dict]:
-    v_est, weights = sagittal_axes(pooled)
-    return wahba_batch(SAGITTAL_REFERENCE, v_est[rows], weights[rows]), {}
+class AlignVectors(AxisMethod):
+    """The weighted Wahba optimum (``Rotation.align_vectors``) of each pooled row, flagged as the
+    axis methods are (:class:`aceval.methods.sagittal.AxisMethod`).
+    """
+
+    def _batch(self, pooled: Pooled, rows: np.ndarray) -> tuple[np.ndarray, dict]:
+        v_est, weights = sagittal_axes(pooled)
+        return wahba_batch(SAGITTAL_REFERENCE, v_est[rows], weights[rows]), {}
+
+    def _single(self, pooled: Pooled, row: int) -> tuple[np.ndarray, dict]:
+        v_est, weights = sagittal_axes(pooled)
+        return wahba_fit(SAGITTAL_REFERENCE, v_est[row], weights[row]).as_matrix(), {}
+
+    def resample(self, pooled: Pooled, fitted=None) -> AlignVectors:
+        """The optimum of each bootstrap resample, NaN where its axis would be flagged."""
+        return self._set(*optimum_resample(pooled))
 
 
-def _single(pooled: Pooled, row: int) -> tuple[np.ndarray, dict]:
-    v_est, weights = sagittal_axes(pooled)
-    return wahba_fit(SAGITTAL_REFERENCE, v_est[row], weights[row]).as_matrix(), {}
-
-
-def fit(pooled: Pooled, fitted: Mapping[str, Fit] | None = None) -> Fit:
-    """The weighted Wahba optimum of each pooled row, flagged as the axis methods are."""
-    return Fit(*axis_method_fit(pooled, _batch, _single))
-
-
-def resample(pooled: Pooled, fitted: Mapping[str, Fit] | None = None) -> Fit:
-    """The optimum of each bootstrap resample, NaN where its axis would be flagged."""
+def optimum_resample(pooled: Pooled) -> tuple[np.ndarray, np.ndarray]:
+    """``(R, flag)``: the weighted Wahba optimum of each bootstrap resample, NaN (and ``low_rho``)
+    where its axis would be flagged (the resample of Ricci's LM too, which reaches this optimum).
+    """
     v_est, weights = sagittal_axes(pooled)
     usable = usable_axes(pooled)
     R = np.where(usable[:, None, None], wahba_batch(SAGITTAL_REFERENCE, v_est, weights), np.nan)
-    return Fit(R, np.where(usable, "", "low_rho"))
-
-
-METHOD = Method(
-    name="align_vectors",
-    fit=fit,
-    resample=resample,
-    summary="the closed-form optimum of Ricci's weighted cost (SciPy's Rotation.align_vectors)",
-)
+    return R, np.where(usable, "", "low_rho")

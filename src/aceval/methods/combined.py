@@ -22,10 +22,10 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from aceval.methods.interface import Fit, Method, combine_flags
+from aceval.methods.interface import CalibrationMethod, combine_flags
 from aceval.methods.kong import KongLimits
 from aceval.methods.sagittal import AxisLimits
-from aceval.methods.statistics import Pooled
+from aceval.methods.sufficient import ACC_SCATTER, GYRO_MOMENTS, Pooled
 
 
 def kong_weight(normal_ratio, planarity, max_normal_ratio: float, max_planarity: float):
@@ -78,16 +78,18 @@ def combined_rotation(z0, y_kong, y_gyro, w_kong, w_gyro) -> np.ndarray:
 # --- the method's interface in Kong's protocol (aceval.methods.interface) -----------------------
 
 
-def _weights(pooled: Pooled, kong: Fit, gyro_usable: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _weights(
+    pooled: Pooled, kong: CalibrationMethod, gyro_usable: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Kong's and the gyroscope's weights of each row: 0 where Kong's calibration is flagged or the
     gyroscope axis is not ``gyro_usable``.
     """
     limits = KongLimits()
     w_kong = np.where(
-        kong.flag == "",
+        kong.flag_ == "",
         kong_weight(
-            kong.columns["normal_ratio"],
-            kong.columns["planarity"],
+            kong.diagnostics_["normal_ratio"],
+            kong.diagnostics_["planarity"],
             limits.max_normal_ratio,
             limits.max_planarity,
         ),
@@ -97,31 +99,50 @@ def _weights(pooled: Pooled, kong: Fit, gyro_usable: np.ndarray) -> tuple[np.nda
     return w_kong, w_gyro
 
 
-def fit(pooled: Pooled, fitted: Mapping[str, Fit]) -> Fit:
-    """The combined heading of each row from Kong's calibration of the same repetitions
-    (``fitted['kong']``) and their gyroscope axis, unless the axis methods flag it (TRIAD's flag,
-    ``fitted['triad']``); both weights 0: no calibration, flagged with both estimates' flags
-    (``not_planar`` when neither has one).
-    """
-    kong, axis_flag = fitted["kong"], fitted["triad"].flag
-    w_kong, w_gyro = _weights(pooled, kong, axis_flag == "")
-    R = combined_rotation(
+def _rotation(pooled: Pooled, kong: CalibrationMethod, w_kong, w_gyro) -> np.ndarray:
+    """The combined heading's R of each row (:func:`combined_rotation`)."""
+    return combined_rotation(
         pooled.z0,
-        kong.R[:, 1],
+        kong.rotation_[:, 1],
         horizontal_right(pooled.gyro_axis, pooled.z0, pooled.right),
         w_kong,
         w_gyro,
     )
-    undetermined = w_kong + w_gyro <= 0
-    switches = _weight_switches(pooled.unit, w_kong, w_gyro)
-    flag = np.array(
-        [
+
+
+class Combined(CalibrationMethod):
+    """The combined heading of each row from Kong's calibration of the same repetitions
+    (``fitted['kong']``) and their gyroscope axis, unless the axis methods flag it (TRIAD's flag,
+    ``fitted['triad']``); both weights 0: no calibration, flagged with both estimates' flags
+    (``not_planar`` when neither has one), and ``weight_switch`` where a unit's calibrations do
+    not all use the same estimates. Diagnostics: ``weight_kong``, ``weight_gyro``.
+    """
+
+    statistics = (ACC_SCATTER, GYRO_MOMENTS)
+    needs = ("kong", "triad")
+
+    def fit(self, pooled: Pooled, fitted: Mapping[str, CalibrationMethod]) -> Combined:
+        """The combined heading of each row (class docstring)."""
+        kong, axis_flag = fitted["kong"], fitted["triad"].flag_
+        w_kong, w_gyro = _weights(pooled, kong, axis_flag == "")
+        R = _rotation(pooled, kong, w_kong, w_gyro)
+        undetermined = w_kong + w_gyro <= 0
+        switches = _weight_switches(pooled.unit, w_kong, w_gyro)
+        flag = [
             combine_flags(k, a) or "not_planar" if none else ("weight_switch" if switch else "")
-            for k, a, none, switch in zip(kong.flag, axis_flag, undetermined, switches)
-        ],
-        dtype=object,
-    )
-    return Fit(R, flag, {"weight_kong": w_kong, "weight_gyro": w_gyro})
+            for k, a, none, switch in zip(kong.flag_, axis_flag, undetermined, switches)
+        ]
+        return self._set(R, flag, {"weight_kong": w_kong, "weight_gyro": w_gyro})
+
+    def resample(self, pooled: Pooled, fitted: Mapping[str, CalibrationMethod]) -> Combined:
+        """The combined heading of bootstrap resamples, as :meth:`fit` weighs it: Kong's resampled
+        calibrations (``fitted['kong']``, weight 0 where flagged) and the resampled gyroscope axis
+        (weight 0 where the axis methods flag it, ``fitted['triad']``).
+        """
+        kong = fitted["kong"]
+        w_kong, w_gyro = _weights(pooled, kong, fitted["triad"].flag_ == "")
+        R = _rotation(pooled, kong, w_kong, w_gyro)
+        return self._set(R, np.where(np.isfinite(R).all(axis=(1, 2)), "", "not_planar"))
 
 
 def _weight_switches(unit: np.ndarray, w_kong: np.ndarray, w_gyro: np.ndarray) -> np.ndarray:
@@ -138,29 +159,3 @@ def _weight_switches(unit: np.ndarray, w_kong: np.ndarray, w_gyro: np.ndarray) -
         mixed = (some > 0) & (some < count)
         switch |= mixed[unit]
     return switch
-
-
-def resample(pooled: Pooled, fitted: Mapping[str, Fit]) -> Fit:
-    """The combined heading of bootstrap resamples, as :func:`fit` weighs it: Kong's resampled
-    calibrations (``fitted['kong']``, weight 0 where flagged) and the resampled gyroscope axis
-    (weight 0 where the axis methods flag it, ``fitted['triad']``).
-    """
-    kong = fitted["kong"]
-    w_kong, w_gyro = _weights(pooled, kong, fitted["triad"].flag == "")
-    R = combined_rotation(
-        pooled.z0,
-        kong.R[:, 1],
-        horizontal_right(pooled.gyro_axis, pooled.z0, pooled.right),
-        w_kong,
-        w_gyro,
-    )
-    return Fit(R, np.where(np.isfinite(R).all(axis=(1, 2)), "", "not_planar"))
-
-
-METHOD = Method(
-    name="combined",
-    fit=fit,
-    resample=resample,
-    summary="Kong's plane normal and the gyroscope's principal axis, weighted by their "
-    "conditioning (beyond the papers)",
-)

@@ -30,49 +30,25 @@ from scipy.spatial.transform import Rotation
 from aceval.data.errors import CalibrationError
 from aceval.data.rotations import axis_vector, error_angle_deg
 from aceval.methods.align_vectors import wahba_fit
-from aceval.methods.ricci import (
+from aceval.methods.moments import (
+    MOMENT_COLUMNS,
     AxisEstimate,
     axis_from_moments,
-    first_phase_sign,
-    lm_fit,
-    lm_fit_batch,
-    unit_moments,
 )
+from aceval.methods.registry import classes, functional_design
+from aceval.methods.ricci import lm_fit, lm_fit_batch
 from aceval.methods.sagittal import AxisLimits
-from aceval.methods.statistics import Pooled
+from aceval.methods.sufficient import Pooled
 from aceval.methods.triad import triad
 
-SUM_COLUMNS = ["m_x", "m_y", "m_z"]
-SCATTER_COLUMNS = [f"u{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
-PHASE_COLUMNS = ["phase_x", "phase_y", "phase_z"]
-MOMENT_COLUMNS = SUM_COLUMNS + SCATTER_COLUMNS + ["n_unit"] + PHASE_COLUMNS
 #: the axis methods (Ricci's LM, the closed-form optimum, TRIAD): Ricci's functional design fits them
-AXIS_METHODS = ["ricci_lm", "align_vectors", "triad"]
+AXIS_METHODS = functional_design()
+
 #: random starting quaternions per LM fit (Ricci Sec. 3: "converges from random initial values")
 RANDOM_STARTS = 5
 #: a start "reaches the optimum" when its result is within this angle of the closed-form optimum:
 #: a tenth of Kong's 1 deg test-retest bound (Obj 4), closer calibrations are the same for either paper
 SAME_SOLUTION_DEG = 0.1
-
-
-def recording_moments(samples, fs_hz: float, motion: bool) -> dict:
-    """Moments of one recording's unit samples (columns ``MOMENT_COLUMNS``).
-
-    ``samples``: accelerometer (static test) or the trimmed gyroscope samples (motion test).
-    For a motion test, ``phase_*`` is the recording's own axis signed by the direction of its
-    first movement phase (:func:`first_phase_sign`); NaN for a static test.
-    """
-    unit_sum, scatter, n = unit_moments(samples)
-    row = (
-        dict(zip(SUM_COLUMNS, unit_sum))
-        | dict(zip(SCATTER_COLUMNS, scatter.ravel()))
-        | {"n_unit": n}
-    )
-    phase = np.full(3, np.nan)
-    if motion and n >= 3:
-        axis = axis_from_moments(unit_sum, scatter, n).axis
-        phase = axis * first_phase_sign(samples, axis, fs_hz)
-    return row | dict(zip(PHASE_COLUMNS, phase))
 
 
 def pool(recordings: pd.DataFrame, orient: str | np.ndarray = "mean") -> AxisEstimate:
@@ -210,15 +186,13 @@ def sagittal_fits(
     calibration from all repetitions). Each method's entry: ``R`` (None where it failed),
     ``flag`` and its diagnostics.
     """
-    from aceval.methods.registry import method
-
     pooled = Pooled.of_axes(z0, rho_static, motion_axis, rho_motion, spread_deg, diagnostics)
     out = {}
-    for name in AXIS_METHODS:
-        fit = method(name).fit(pooled, {})
-        R = fit.R[0] if np.isfinite(fit.R[0]).all() else None
-        values = {k: v[0] for k, v in fit.columns.items()}
-        out[name] = {"R": R, "flag": fit.flag[0]} | {
+    for name, cls in classes(AXIS_METHODS).items():
+        fit = cls().fit(pooled, {})
+        R = fit.rotation_[0] if np.isfinite(fit.rotation_[0]).all() else None
+        values = {k: v[0] for k, v in fit.diagnostics_.items()}
+        out[name] = {"R": R, "flag": fit.flag_[0]} | {
             k: v
             for k, v in values.items()
             if v is not None and not (isinstance(v, float) and np.isnan(v))

@@ -1,31 +1,45 @@
 """The one small interface every calibration method of Kong's protocol exposes (the registry:
-:mod:`aceval.methods.registry`).
+:mod:`aceval.methods.registry`), in gaitmap's style: parameters in ``__init__``, one action
+``fit(pooled, fitted) -> self``, results in attributes with a trailing underscore.
 
-A method is a pure function of pooled statistics (:class:`aceval.methods.statistics.Pooled`, one
-row per calibration: a unit and the repetitions it uses) to a :class:`Fit`: a rotation per row
-(sensor -> body, Kong Eq. 6: ``d_body = R @ d_sensor``), the method's own flag ('' when valid) and
-its diagnostics, by the column names of the calibrations table. ``resample`` gives the rotations of
-bootstrap resamples of the same statistics, NaN where the method would not calibrate, for its
-uncertainty (:mod:`aceval.methods.uncertainty`). Nothing here reads a file or knows a dataset:
-calibration (:mod:`aceval.calibrate.pipeline`) pools the statistics, calls each method in the
-registry's order, adds the checks' flags and writes the rows.
+A method is a class that reads pooled statistics (:class:`aceval.methods.sufficient.Pooled`, one
+row per calibration: a unit and the repetitions it uses) and sets ``rotation_`` (B, 3, 3; sensor
+-> body, Kong Eq. 6: ``d_body = R @ d_sensor``; NaN where it has none), ``flag_`` (B,; '' when
+valid, else the reason, error codes joined by ';') and ``diagnostics_`` (name -> (B,) values, by
+the column names of the calibrations table). It declares what the rest of aceval needs to know:
+
+* ``statistics``: the sufficient statistics it reads (:class:`aceval.methods.sufficient.Statistic`:
+  the one pass computes what the registry's methods declare, and nothing imports a method to know
+  it);
+* ``needs``: the methods whose fits of the same rows it reads (``fitted[name]``, a fitted instance:
+  the combined heading reads Kong's plane); calibration fits them first, whatever the registry's
+  order;
+* ``every_subset``: fitted on every subset of a unit's repetitions (Kong's Obj 3-5), rather than
+  on all of them and the Obj 4 test-retest subsets;
+* ``resample``: the same from bootstrap resamples, ``rotation_`` NaN where it would flag one (its
+  uncertainty, :mod:`aceval.methods.uncertainty`); a method without it has no bootstrap cone.
+
+Its name, order, paper and summary are its line in the registry. Nothing here reads a file or
+knows a dataset: calibration (:mod:`aceval.calibrate.pipeline`) pools the statistics, fits every
+method, adds the checks' flags and writes the rows.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
-from aceval.methods.statistics import Pooled
+from aceval.methods.sufficient import Pooled, Statistic
 
 
 @dataclass
 class Fit:
-    """A method's calibrations of a batch of rows: ``R`` (B, 3, 3), NaN where there is none;
-    ``flag`` (B,) object, '' where valid, else the reason (error codes joined by ';');
-    ``columns``: diagnostics, name -> (B,) values, for the calibrations table.
+    """A method's calibrations of a batch of rows, as calibration carries them on (its flags
+    joined with the checks'): ``R`` (B, 3, 3), NaN where there is none; ``flag`` (B,) object, ''
+    where valid; ``columns``: diagnostics, name -> (B,) values, for the calibrations table.
     """
 
     R: np.ndarray
@@ -40,11 +54,6 @@ class Fit:
         return Fit(self.R[rows], self.flag[rows], {k: v[rows] for k, v in self.columns.items()})
 
 
-#: ``fit(pooled, fitted) -> Fit``: ``fitted`` holds the fits of the methods listed before it, on
-#: the same rows (a method may build on another: the combined heading on Kong's plane)
-FitFunction = Callable[[Pooled, Mapping[str, Fit]], Fit]
-
-
 def combine_flags(*flags: str) -> str:
     """Every flag of a row, each once, in the order given, joined by ';' ('' when none): a check
     adds its flag beside the others' and never replaces them.
@@ -53,27 +62,61 @@ def combine_flags(*flags: str) -> str:
     return ";".join(dict.fromkeys(names))
 
 
-def all_rows(pooled: Pooled) -> np.ndarray:
-    """Every row: a method that calibrates every unit."""
-    return np.ones(len(pooled), dtype=bool)
+class CalibrationMethod:
+    """One calibration method of Kong's protocol (module docstring).
 
+    Subclasses set the class attributes ``statistics``, ``needs`` and ``every_subset``, take
+    their parameters in ``__init__`` and implement :meth:`fit` (and :meth:`resample` for an
+    uncertainty); :meth:`applies` when they calibrate only some rows.
 
-@dataclass(frozen=True)
-class Method:
-    """One calibration method of Kong's protocol.
-
-    ``name``: its ``method`` in the calibrations table. ``fit``: :data:`FitFunction`.
-    ``resample``: the same from bootstrap resamples (``fitted`` their fits by the methods before
-    it), R NaN where the method would flag a resample; None: no uncertainty. ``every_subset``:
-    fitted on every subset of repetitions (Kong's method, Obj 3-5) rather than on all of them and
-    the Obj 4 test-retest subsets. ``applies``: the rows (pooled) it calibrates at all; a row it
-    applies to but cannot calibrate has R NaN and a flag (e.g. ``not_applicable``).
-    ``summary``: one line on what it does, for the command line and the docs.
+    Attributes
+    ----------
+    rotation_ : (B, 3, 3) array
+        Sensor -> body rotations, NaN where there is none.
+    flag_ : (B,) object array
+        '' where valid, else the reason.
+    diagnostics_ : dict
+        Name -> (B,) values, columns of the calibrations table.
     """
 
-    name: str
-    fit: FitFunction
-    resample: FitFunction | None = None
-    every_subset: bool = False
-    applies: Callable[[Pooled], np.ndarray] = all_rows
-    summary: str = ""
+    statistics: ClassVar[tuple[Statistic, ...]] = ()
+    needs: ClassVar[tuple[str, ...]] = ()
+    every_subset: ClassVar[bool] = False
+
+    rotation_: np.ndarray
+    flag_: np.ndarray
+    diagnostics_: dict[str, np.ndarray]
+
+    def fit(self, pooled: Pooled, fitted: Mapping[str, CalibrationMethod]) -> CalibrationMethod:
+        """Calibrate every row of ``pooled``; ``fitted``: the fits of :attr:`needs`."""
+        raise NotImplementedError
+
+    def resample(
+        self, pooled: Pooled, fitted: Mapping[str, CalibrationMethod]
+    ) -> CalibrationMethod:
+        """Calibrate bootstrap resamples (``pooled`` from resampled weights), ``rotation_`` NaN
+        where the method would flag one; ``fitted``: the resamples' fits of :attr:`needs`.
+        """
+        raise NotImplementedError
+
+    def applies(self, pooled: Pooled) -> np.ndarray:
+        """(B,) the rows it calibrates at all (a row it applies to but cannot calibrate has a NaN
+        rotation and a flag, e.g. ``not_applicable``). Default: every row.
+        """
+        return np.ones(len(pooled), dtype=bool)
+
+    @classmethod
+    def has_resample(cls) -> bool:
+        """Whether the method resamples (has a bootstrap uncertainty)."""
+        return cls.resample is not CalibrationMethod.resample
+
+    def _set(self, R, flag, diagnostics: dict | None = None) -> CalibrationMethod:
+        self.rotation_ = np.asarray(R, float)
+        self.flag_ = np.asarray(flag, dtype=object)
+        self.diagnostics_ = dict(diagnostics or {})
+        return self
+
+    @property
+    def result(self) -> Fit:
+        """The fit as calibration carries it on (:class:`Fit`)."""
+        return Fit(self.rotation_, self.flag_, dict(self.diagnostics_))

@@ -22,16 +22,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from aceval.data.errors import (
-    NormalParallelToVerticalError,
-    NotPlanarError,
-    TooFewSamplesError,
-    ZeroGravityError,
-    check_samples,
-)
+from aceval.data.errors import NormalParallelToVerticalError, NotPlanarError, TooFewSamplesError
 from aceval.data.rotations import axis_vector, vector_angle_deg
-from aceval.methods.interface import Fit, Method
-from aceval.methods.statistics import Pooled
+from aceval.methods.interface import CalibrationMethod
+from aceval.methods.moments import MIN_GRAVITY, MIN_SAMPLES, scatter, vertical_axis
+from aceval.methods.sufficient import ACC_SCATTER, GYRO_MOMENTS, Pooled
 
 
 @dataclass(frozen=True)
@@ -49,8 +44,8 @@ class KongLimits:
       closer, the motion plane is more horizontal than vertical.
     """
 
-    min_samples: int = 10
-    min_gravity: float = 0.5
+    min_samples: int = MIN_SAMPLES
+    min_gravity: float = MIN_GRAVITY
     max_planarity: float = 0.1
     max_normal_ratio: float = 0.5
     min_normal_vertical_angle_deg: float = 45.0
@@ -76,30 +71,6 @@ class KongResult:
     def valid(self) -> np.ndarray:
         """True where the calibration is not flagged."""
         return self.flag == ""
-
-
-def vertical_axis(acc_static, limits: KongLimits = KongLimits()) -> np.ndarray:
-    """Downward vertical z0 (unit, sensor frame) from quiet-stance specific force (Kong Eq. 2).
-
-    ``acc_static`` (N, 3) in m/s^2. The median makes z0 robust to brief movements.
-    """
-    acc = check_samples(
-        acc_static, name="quiet-stance acceleration", min_samples=limits.min_samples
-    )
-    median = np.median(acc, axis=0)
-    norm = float(np.linalg.norm(median))
-    if norm < limits.min_gravity:
-        raise ZeroGravityError(
-            f"quiet-stance acceleration has median length {norm:.3g} m/s^2 "
-            f"(< {limits.min_gravity}): no gravity direction can be found"
-        )
-    return -median / norm
-
-
-def scatter(acc) -> np.ndarray:
-    """Scatter matrix ``sum_k a_k a_k^T`` (3x3, m^2/s^4) of accelerations (N, 3)."""
-    acc = check_samples(acc, name="motion acceleration", min_samples=1)
-    return acc.T @ acc
 
 
 def _subset_membership(subsets: Sequence[Sequence[int]], n_rep: int) -> np.ndarray:
@@ -269,7 +240,7 @@ def kong_calibrate(
     ``acc_motion`` is an (N, 3) array or a list of per-repetition arrays, all joined (Section
     2.4.1). Returns a :class:`KongResult` with ``R`` of shape (3, 3); raises on bad input.
     """
-    z0 = vertical_axis(acc_static, limits)
+    z0 = vertical_axis(acc_static, limits.min_samples, limits.min_gravity)
     # a list or tuple holds repetitions (of any lengths); anything else is one (N, 3) array
     repetitions = list(acc_motion) if isinstance(acc_motion, (list, tuple)) else [acc_motion]
     scatters = np.stack([scatter(rep) for rep in repetitions])
@@ -293,41 +264,72 @@ def kong_calibrate(
 DIAGNOSTICS = ["eig1", "eig2", "eig3", "planarity", "normal_ratio", "normal_vertical_angle_deg"]
 
 
-def fit(pooled: Pooled, fitted: Mapping[str, Fit] | None = None) -> Fit:
-    """Kong's calibration of each pooled row (Eq. 1-6) with :class:`KongLimits`' flags, and its
-    diagnostics: samples, the eigenvalues of the second moment (descending), planarity, normal
-    ratio and the normal's angle to z0; ``rho_motion`` and ``normal_gyro_angle_deg``: the
-    gyroscope axis of the same repetitions (Ricci Eq. 2) and its angle to Kong's body y.
+class Kong(CalibrationMethod):
+    """Kong's calibration (Eq. 1-6) of each pooled row, on every subset of a unit's repetitions.
+
+    Parameters
+    ----------
+    limits
+        :class:`KongLimits`: the planarity, normal-ratio and normal-vertical limits beyond which
+        a calibration is flagged.
+
+    Attributes
+    ----------
+    rotation_, flag_
+        R (B, 3, 3) and its flag beyond ``limits``.
+    diagnostics_
+        ``n_samples``, the eigenvalues of the second moment (``eig1..3``, m^2/s^4, descending),
+        ``planarity``, ``normal_ratio``, ``normal_vertical_angle_deg``; ``rho_motion`` and
+        ``normal_gyro_angle_deg``: the gyroscope axis of the same repetitions (Ricci Eq. 2) and
+        its angle (deg) to Kong's body y.
+
+    Examples
+    --------
+    >>> from aceval.methods.sufficient import Units, pool
+    >>> import numpy as np
+    >>> hinge = np.diag([1.0, 0.0, 1.0]) * 100.0  # accelerations in the x-z plane
+    >>> units = Units.of_repetitions([0, 0, 1], [0, 1, 0], [hinge] * 3, [100] * 3, [np.eye(3)] * 3)
+    >>> pooled = pool(units, [0], [[1.0, 1.0, 1.0]])
+    >>> np.round(Kong().fit(pooled, {}).rotation_[0], 6) + 0.0
+    array([[1., 0., 0.],
+           [0., 1., 0.],
+           [0., 0., 1.]])
     """
-    result = kong_from_scatters(
-        pooled.scatter[:, None], pooled.n_samples[:, None], pooled.z0, pooled.right, strict=False
-    )
-    R = result.R[:, 0]
-    gyro_angle = vector_angle_deg(R[:, 1], pooled.gyro_axis, sign_free=True)
-    eigenvalues = result.eigenvalues[:, 0]
-    columns = {
-        "n_samples": result.n_samples[:, 0],
-        **{f"eig{k + 1}": eigenvalues[:, k] for k in range(3)},
-        "planarity": result.planarity[:, 0],
-        "normal_ratio": result.normal_ratio[:, 0],
-        "normal_vertical_angle_deg": result.normal_vertical_angle_deg[:, 0],
-        "rho_motion": pooled.gyro_rho,
-        "normal_gyro_angle_deg": gyro_angle,
-    }
-    return Fit(R, result.flag[:, 0], columns)
 
+    statistics = (ACC_SCATTER, GYRO_MOMENTS)
+    every_subset = True
 
-def resample(pooled: Pooled, fitted: Mapping[str, Fit] | None = None) -> Fit:
-    """:func:`fit` of bootstrap resamples, R NaN where a resample is flagged."""
-    kong = fit(pooled)
-    return Fit(np.where((kong.flag == "")[:, None, None], kong.R, np.nan), kong.flag, kong.columns)
+    def __init__(self, limits: KongLimits = KongLimits()):
+        self.limits = limits
 
+    def fit(self, pooled: Pooled, fitted: Mapping[str, CalibrationMethod] | None = None) -> Kong:
+        """Kong's calibration of each row of ``pooled`` (class docstring)."""
+        result = kong_from_scatters(
+            pooled.scatter[:, None],
+            pooled.n_samples[:, None],
+            pooled.z0,
+            pooled.right,
+            limits=self.limits,
+            strict=False,
+        )
+        R = result.R[:, 0]
+        gyro_angle = vector_angle_deg(R[:, 1], pooled.gyro_axis, sign_free=True)
+        eigenvalues = result.eigenvalues[:, 0]
+        columns = {
+            "n_samples": result.n_samples[:, 0],
+            **{f"eig{k + 1}": eigenvalues[:, k] for k in range(3)},
+            "planarity": result.planarity[:, 0],
+            "normal_ratio": result.normal_ratio[:, 0],
+            "normal_vertical_angle_deg": result.normal_vertical_angle_deg[:, 0],
+            "rho_motion": pooled.gyro_rho,
+            "normal_gyro_angle_deg": gyro_angle,
+        }
+        return self._set(R, result.flag[:, 0], columns)
 
-METHOD = Method(
-    name="kong",
-    fit=fit,
-    resample=resample,
-    every_subset=True,
-    summary="Kong et al. 2016: z0 from quiet standing, body y from the normal of the plane of the "
-    "motion test's accelerations (every subset of repetitions)",
-)
+    def resample(
+        self, pooled: Pooled, fitted: Mapping[str, CalibrationMethod] | None = None
+    ) -> Kong:
+        """:meth:`fit` of bootstrap resamples, R NaN where a resample is flagged."""
+        self.fit(pooled)
+        valid = (self.flag_ == "")[:, None, None]
+        return self._set(np.where(valid, self.rotation_, np.nan), self.flag_, self.diagnostics_)

@@ -13,98 +13,16 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from aceval.data.errors import TooFewSamplesError, check_axes, check_samples
+from aceval.data.errors import check_axes
 from aceval.data.rotations import error_angle_deg, vector_angle_deg
-from aceval.methods.align_vectors import resample as optimum_resample
-from aceval.methods.align_vectors import wahba_batch, wahba_fit
-from aceval.methods.interface import Fit, Method
-from aceval.methods.sagittal import SAGITTAL_REFERENCE, axis_method_fit, sagittal_axes
-from aceval.methods.statistics import Pooled
-
-
-@dataclass(frozen=True)
-class AxisEstimate:
-    """A functional axis (unit, sensor frame), its reliability rho and the singular values."""
-
-    axis: np.ndarray
-    rho: float
-    singular_values: np.ndarray
-    n_samples: int
-
-
-def unit_moments(samples, min_norm: float = 1e-9) -> tuple[np.ndarray, np.ndarray, int]:
-    """Sum (3,) and scatter ``sum u u^T`` (3, 3) of the unit-normalised samples (Ricci Sec. 2.2.2).
-
-    Samples with norm below ``min_norm`` cannot be normalised and are left out; the count of the
-    others is returned. The singular values of the (N, 3) matrix of unit samples are the square
-    roots of the scatter's eigenvalues, so the axis and rho of any union of recordings follow from
-    the sum of their moments (:func:`axis_from_moments`) without reading the samples again.
-    """
-    samples = check_samples(samples, name="functional-axis samples", min_samples=1)
-    norms = np.linalg.norm(samples, axis=1)
-    keep = norms >= min_norm
-    unit = samples[keep] / norms[keep, None]
-    return unit.sum(axis=0), unit.T @ unit, int(keep.sum())
-
-
-def axis_from_moments(unit_sum, unit_scatter, n_samples: int, min_samples: int = 3) -> AxisEstimate:
-    """Axis (first right singular vector) and ``rho = s1 / (s1 + s2 + s3)`` (Ricci Eq. 1-2) from
-    the moments of :func:`unit_moments`.
-
-    Sign (SVD leaves it arbitrary): the axis points to the side where the samples' mean projection
-    is positive - for a static posture, along the measured vector. For a back-and-forth rotation
-    that mean is near zero, so callers orient movement axes themselves (by the declared right
-    axis, or by the first movement phase: :func:`first_phase_sign`). On an exact tie the largest
-    component is made positive.
-    """
-    if n_samples < min_samples:
-        raise TooFewSamplesError(
-            f"functional axis: {n_samples} samples with a non-zero norm, at least {min_samples} are needed"
-        )
-    eigenvalues, vectors = np.linalg.eigh(np.asarray(unit_scatter, dtype=float))
-    singular_values = np.sqrt(np.clip(eigenvalues[::-1], 0.0, None))
-    axis = vectors[:, -1]
-    projection = float(np.asarray(unit_sum, dtype=float) @ axis) / n_samples
-    if abs(projection) > 1e-12:
-        axis = axis * np.sign(projection)
-    elif axis[np.argmax(np.abs(axis))] < 0:
-        axis = -axis
-    rho = float(singular_values[0] / singular_values.sum())
-    return AxisEstimate(
-        axis=axis, rho=rho, singular_values=singular_values, n_samples=int(n_samples)
-    )
-
-
-def functional_axis(samples, min_samples: int = 3, min_norm: float = 1e-9) -> AxisEstimate:
-    """Axis and reliability index of gyroscope or accelerometer samples (Ricci Eq. 1-2).
-
-    Samples with norm below ``min_norm`` cannot be unit-normalised and are dropped (trim rest
-    periods first). The sign rule is that of :func:`axis_from_moments`.
-    """
-    return axis_from_moments(*unit_moments(samples, min_norm), min_samples=min_samples)
-
-
-def first_phase_sign(gyr, axis, fs_hz: float) -> float:
-    """+1 when the first half-movement about ``axis`` is a positive (right-hand) rotation, -1 when
-    negative, 0 when there is no rotation about it.
-
-    ``gyr`` (N, 3, rad/s) are the movement samples of one recording. The rotation angle about the
-    axis, ``theta = cumsum(gyr . axis) / fs``, is followed until ``|theta|`` first reaches half
-    its largest value; its sign there is the direction of the first phase (a flexion-first
-    protocol gives the flexion direction even when each repetition returns to the start).
-    """
-    theta = np.cumsum(np.asarray(gyr, dtype=float) @ np.asarray(axis, dtype=float)) / fs_hz
-    peak = float(np.max(np.abs(theta))) if len(theta) else 0.0
-    if peak == 0.0:
-        return 0.0
-    first = int(np.argmax(np.abs(theta) >= 0.5 * peak))
-    return float(np.sign(theta[first]))
+from aceval.methods.align_vectors import optimum_resample, wahba_batch, wahba_fit
+from aceval.methods.sagittal import SAGITTAL_REFERENCE, AxisMethod, sagittal_axes
+from aceval.methods.sufficient import Pooled
 
 
 @dataclass
@@ -484,77 +402,72 @@ def _optimum_distance_deg(R: np.ndarray, optimum: np.ndarray) -> np.ndarray:
     return np.asarray(error_angle_deg(R, optimum), float)
 
 
-def _lm_batch(pooled: Pooled, rows: np.ndarray) -> tuple[np.ndarray, dict]:
-    """The LM of the regular rows at once (:func:`lm_fit_batch`), its convergence and distance to
-    the closed-form optimum; for the calibrations from all repetitions also the LM with lambda
-    fixed (Eq. 9-10 read literally: ``fixed_*``), which table ``ricci_lm`` sets beside it.
-    """
-    v_est, weights = sagittal_axes(pooled)
-    v_est, weights = v_est[rows], weights[rows]
-    optimum = wahba_batch(SAGITTAL_REFERENCE, v_est, weights)
-    lm = lm_fit_batch(SAGITTAL_REFERENCE, v_est, weights)
-    columns = {
-        "n_iterations": lm.n_iterations.astype(float),
-        "n_rejected": lm.n_rejected.astype(float),
-        "converged": lm.converged.astype(object),
-        "cost": lm.cost,
-        "optimum_distance_deg": _optimum_distance_deg(lm.R, optimum),
-    }
-    full = np.flatnonzero(pooled.all_repetitions[rows])
-    fixed_columns = {
-        "fixed_n_iterations": np.full(len(rows), np.nan),
-        "fixed_cost": np.full(len(rows), np.nan),
-        "fixed_converged": np.full(len(rows), None, dtype=object),
-        "fixed_optimum_distance_deg": np.full(len(rows), np.nan),
-    }
-    if len(full):
-        fixed = lm_fit_batch(SAGITTAL_REFERENCE, v_est[full], weights[full], adaptive=False)
-        fixed_columns["fixed_n_iterations"][full] = fixed.n_iterations
-        fixed_columns["fixed_cost"][full] = fixed.cost
-        fixed_columns["fixed_converged"][full] = fixed.converged
-        fixed_columns["fixed_optimum_distance_deg"][full] = _optimum_distance_deg(
-            fixed.R, optimum[full]
-        )
-    return lm.R, columns | fixed_columns
-
-
-def _lm_single(pooled: Pooled, row: int) -> tuple[np.ndarray, dict]:
-    """:func:`_lm_batch` of one irregular row by :func:`lm_fit` (raises on axes it cannot fit)."""
-    v_est, weights = sagittal_axes(pooled)
-    fit = lm_fit(SAGITTAL_REFERENCE, v_est[row], weights[row])
-    optimum = wahba_fit(SAGITTAL_REFERENCE, v_est[row], weights[row]).as_matrix()
-    columns = {
-        "n_iterations": float(fit.n_iterations),
-        "n_rejected": float(fit.n_rejected),
-        "converged": fit.converged,
-        "cost": fit.cost,
-        "optimum_distance_deg": float(error_angle_deg(fit.R, optimum)),
-    }
-    if pooled.all_repetitions[row]:
-        fixed = lm_fit(SAGITTAL_REFERENCE, v_est[row], weights[row], adaptive=False)
-        columns |= {
-            "fixed_n_iterations": float(fixed.n_iterations),
-            "fixed_cost": fixed.cost,
-            "fixed_converged": fixed.converged,
-            "fixed_optimum_distance_deg": float(error_angle_deg(fixed.R, optimum)),
-        }
-    return fit.R, columns
-
-
-def fit(pooled: Pooled, fitted: Mapping[str, Fit] | None = None) -> Fit:
+class RicciLM(AxisMethod):
     """Ricci's rho-weighted LM (Eq. 3-11) in Kong's protocol: z0 and the motion test's gyroscope
     axis mapped onto body z and y (:mod:`aceval.methods.sagittal`), with its steps, convergence
-    and distance to the closed-form optimum.
+    and distance to the closed-form optimum (``n_iterations``, ``n_rejected``, ``converged``,
+    ``cost``, ``optimum_distance_deg``; ``fixed_*`` the same with lambda fixed, on the
+    calibrations from all repetitions).
     """
-    return Fit(*axis_method_fit(pooled, _lm_batch, _lm_single))
 
+    def _batch(self, pooled: Pooled, rows: np.ndarray) -> tuple[np.ndarray, dict]:
+        """The LM of the regular rows at once (:func:`lm_fit_batch`), its convergence and distance to
+        the closed-form optimum; for the calibrations from all repetitions also the LM with lambda
+        fixed (Eq. 9-10 read literally: ``fixed_*``), which table ``ricci_lm`` sets beside it.
+        """
+        v_est, weights = sagittal_axes(pooled)
+        v_est, weights = v_est[rows], weights[rows]
+        optimum = wahba_batch(SAGITTAL_REFERENCE, v_est, weights)
+        lm = lm_fit_batch(SAGITTAL_REFERENCE, v_est, weights)
+        columns = {
+            "n_iterations": lm.n_iterations.astype(float),
+            "n_rejected": lm.n_rejected.astype(float),
+            "converged": lm.converged.astype(object),
+            "cost": lm.cost,
+            "optimum_distance_deg": _optimum_distance_deg(lm.R, optimum),
+        }
+        full = np.flatnonzero(pooled.all_repetitions[rows])
+        fixed_columns = {
+            "fixed_n_iterations": np.full(len(rows), np.nan),
+            "fixed_cost": np.full(len(rows), np.nan),
+            "fixed_converged": np.full(len(rows), None, dtype=object),
+            "fixed_optimum_distance_deg": np.full(len(rows), np.nan),
+        }
+        if len(full):
+            fixed = lm_fit_batch(SAGITTAL_REFERENCE, v_est[full], weights[full], adaptive=False)
+            fixed_columns["fixed_n_iterations"][full] = fixed.n_iterations
+            fixed_columns["fixed_cost"][full] = fixed.cost
+            fixed_columns["fixed_converged"][full] = fixed.converged
+            fixed_columns["fixed_optimum_distance_deg"][full] = _optimum_distance_deg(
+                fixed.R, optimum[full]
+            )
+        return lm.R, columns | fixed_columns
 
-METHOD = Method(
-    name="ricci_lm",
-    fit=fit,
-    # the LM minimises the closed-form optimum's cost and reaches it (optimum_distance_deg): a
-    # bootstrap resample's calibration is that optimum, not 200 LM runs
-    resample=optimum_resample,
-    summary="Ricci et al. 2014: the rho-weighted Levenberg-Marquardt fit of z0 and the gyroscope's "
-    "principal axis onto body z and y",
-)
+    def _single(self, pooled: Pooled, row: int) -> tuple[np.ndarray, dict]:
+        """:meth:`_batch` of one irregular row by :func:`lm_fit` (raises on axes it cannot fit)."""
+        v_est, weights = sagittal_axes(pooled)
+        fit = lm_fit(SAGITTAL_REFERENCE, v_est[row], weights[row])
+        optimum = wahba_fit(SAGITTAL_REFERENCE, v_est[row], weights[row]).as_matrix()
+        columns = {
+            "n_iterations": float(fit.n_iterations),
+            "n_rejected": float(fit.n_rejected),
+            "converged": fit.converged,
+            "cost": fit.cost,
+            "optimum_distance_deg": float(error_angle_deg(fit.R, optimum)),
+        }
+        if pooled.all_repetitions[row]:
+            fixed = lm_fit(SAGITTAL_REFERENCE, v_est[row], weights[row], adaptive=False)
+            columns |= {
+                "fixed_n_iterations": float(fixed.n_iterations),
+                "fixed_cost": fixed.cost,
+                "fixed_converged": fixed.converged,
+                "fixed_optimum_distance_deg": float(error_angle_deg(fixed.R, optimum)),
+            }
+        return fit.R, columns
+
+    def resample(self, pooled: Pooled, fitted=None) -> RicciLM:
+        """The LM minimises the closed-form optimum's cost and reaches it
+        (``optimum_distance_deg``): a bootstrap resample's calibration is that optimum, not 200
+        LM runs (:func:`aceval.methods.align_vectors.optimum_resample`).
+        """
+        return self._set(*optimum_resample(pooled))

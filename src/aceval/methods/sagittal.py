@@ -13,7 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from aceval.data.errors import CalibrationError
-from aceval.methods.statistics import Pooled
+from aceval.methods.interface import CalibrationMethod
+from aceval.methods.sufficient import GYRO_MOMENTS, Pooled
 
 #: body z (down) and y (right): the references of Kong's protocol for the axis methods
 SAGITTAL_REFERENCE = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
@@ -132,3 +133,23 @@ def _column(n: int, parts: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
     for rows, values in parts:
         column[rows] = values
     return column
+
+
+class AxisMethod(CalibrationMethod):
+    """An axis method of Kong's protocol (Ricci's LM, ``align_vectors``, TRIAD): z0 and the motion
+    test's gyroscope axis onto body z and y (:data:`SAGITTAL_REFERENCE`), flagged beyond
+    :class:`AxisLimits` (:func:`axis_method_fit`). Subclasses give ``_batch(pooled, rows)`` (the
+    :func:`regular_axes` rows at once) and ``_single(pooled, row)`` (one other row).
+    """
+
+    statistics = (GYRO_MOMENTS,)
+
+    def _batch(self, pooled: Pooled, rows: np.ndarray) -> tuple[np.ndarray, dict]:
+        raise NotImplementedError
+
+    def _single(self, pooled: Pooled, row: int) -> tuple[np.ndarray, dict]:
+        raise NotImplementedError
+
+    def fit(self, pooled: Pooled, fitted=None) -> AxisMethod:
+        """Every row's calibration, flagged as the axis methods are (:func:`axis_method_fit`)."""
+        return self._set(*axis_method_fit(pooled, self._batch, self._single))

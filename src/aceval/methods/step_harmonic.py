@@ -25,8 +25,8 @@ from collections.abc import Mapping
 import numpy as np
 
 from aceval.methods.combined import horizontal_right
-from aceval.methods.interface import Fit, Method, combine_flags
-from aceval.methods.statistics import Pooled
+from aceval.methods.interface import CalibrationMethod, combine_flags
+from aceval.methods.sufficient import Part, Pooled, Statistic, median_where
 
 #: walking step frequencies searched (Hz): 36-210 steps/min, beyond slow and fast walking
 STEP_BAND_HZ = (0.6, 3.5)
@@ -199,42 +199,109 @@ TOO_SHORT = (
 )
 
 
-def applies(pooled: Pooled) -> np.ndarray:
-    """Walking rows: those with a step-band scatter, and (flagged ``not_applicable``) the
-    calibration from all repetitions of a walking test whose repetitions are too short.
+def reduce_walking(recordings: list, fs_hz: float, summaries: dict) -> None:
+    """The step-harmonic columns of one subject's walking test (``recordings``: (summary index or
+    None, acceleration, moving mask, segment, repetition) of every recording read, every
+    repetition and IMU, those not calibrated in this test too: they tell the step frequency,
+    :func:`pooled_steps`), added to ``summaries`` (index -> the recording's summary row):
+    ``step_hz``, the repetition's step frequency, ``step_hz_own``, the recording's own,
+    ``step_disagrees`` (1 where the test's repetitions disagree on it) and ``h11..h33``, the
+    scatter of the acceleration band-passed at the segment's harmonic of the step over the kept
+    samples (the row's ``kept`` ranges).
     """
-    return pooled.walking | ((pooled.first_phase == "gait") & pooled.all_repetitions)
+    step_hz, _, own, disagree = pooled_steps([r[1:] for r in recordings], fs_hz)
+    for (index, acc, _, segment, rep), own_hz in zip(recordings, own):
+        if index is None:
+            continue
+        kept = np.zeros(len(acc), dtype=bool)
+        for part in filter(None, str(summaries[index].get("kept", "")).split(";")):
+            start, stop = map(int, part.split(":"))
+            kept[start:stop] = True
+        scatter = step_scatter(acc, fs_hz, kept, harmonic(segment) * step_hz[rep])
+        summaries[index].update(
+            step_hz=step_hz[rep], step_hz_own=own_hz, step_disagrees=float(disagree)
+        )
+        summaries[index].update(zip(SCATTER_COLUMNS, scatter.ravel()))
 
 
-def fit(pooled: Pooled, fitted: Mapping[str, Fit] | None = None) -> Fit:
-    """The step-harmonic calibration of each row from its summed step-band scatter, flagged
-    ``no_step_heading`` when no horizontal direction dominates (:data:`MAX_STEP_RATIO`),
-    ``step_frequency_disagrees`` when the test's recordings disagree on the step frequency, and
-    ``not_applicable`` (with a ``note``) when the test's walking is too short.
+def _pooled_steps(units, unit, weights, sums, subsets) -> dict:
+    """The step-band scatter of each row's chosen repetitions (NaN where the unit is not a
+    walking test with every repetition's scatter), their median step frequency (a subset's) and
+    whether the test's recordings disagree on it.
     """
-    R, ratio = step_harmonic_rotation(pooled.steps, pooled.z0, pooled.right)
-    flag = np.where(ratio <= MAX_STEP_RATIO, "", "no_step_heading").astype(object)
-    flag[pooled.step_disagrees] = [
-        combine_flags(f, "step_frequency_disagrees") for f in flag[pooled.step_disagrees]
-    ]
-    flag[~pooled.walking] = "not_applicable"
-    note = np.where(pooled.walking, None, TOO_SHORT).astype(object)
-    step_hz = np.where(pooled.walking, pooled.step_hz, np.nan)
-    return Fit(R, flag, {"step_ratio": ratio, "step_hz": step_hz, "note": note})
+    steps_per_rep = units.get("steps")
+    walking = np.isfinite(steps_per_rep).all(axis=(1, 2, 3))[unit]
+    chosen = weights > 0
+    with np.errstate(invalid="ignore"):
+        steps = np.einsum(
+            "br,brij->bij", weights, np.where(chosen[..., None, None], steps_per_rep[unit], 0.0)
+        )
+    steps[~walking] = np.nan
+    nan = np.full(len(unit), np.nan)
+    return {
+        "steps": steps,
+        "walking": walking,
+        "step_hz": median_where(units.get("step_hz")[unit], chosen) if subsets else nan,
+        "step_disagrees": (np.where(chosen, units.get("step_disagrees")[unit], 0.0) > 0).any(
+            axis=1
+        ),
+    }
 
 
-def resample(pooled: Pooled, fitted: Mapping[str, Fit] | None = None) -> Fit:
-    """The step-harmonic calibration of bootstrap resamples, NaN where flagged."""
-    R, ratio = step_harmonic_rotation(pooled.steps, pooled.z0, pooled.right)
-    ok = ratio <= MAX_STEP_RATIO
-    return Fit(np.where(ok[:, None, None], R, np.nan), np.where(ok, "", "no_step_heading"))
-
-
-METHOD = Method(
-    name="step_harmonic",
-    fit=fit,
-    resample=resample,
-    applies=applies,
-    summary="walking: body x from the horizontal acceleration at the step frequency (beyond the "
-    "papers)",
+#: the scatter of the acceleration band-passed at the segment's harmonic of the step, per
+#: repetition of a walking test (:func:`reduce_walking`: after the subject's whole test is read),
+#: with the repetition's step frequency and whether the test's recordings disagree on it
+STEP_SCATTER = Statistic(
+    "step_scatter",
+    {
+        "steps": Part(tuple(SCATTER_COLUMNS), (3, 3), absent=0.0, missing=np.nan, summed=False),
+        "step_hz": Part(("step_hz",), absent=np.nan, missing=np.nan, summed=False),
+        "step_disagrees": Part(("step_disagrees",), summed=False),
+    },
+    reduce_test=reduce_walking,
+    test_phase="gait",
+    derive=_pooled_steps,
 )
+
+#: why a walking test has no step-harmonic calibration
+TOO_SHORT = (
+    "needs walking of at least two cycles of the slowest step (3.3 s, all repetitions of the "
+    "test together) to find the step frequency; this test's recordings are shorter"
+)
+
+
+class StepHarmonic(CalibrationMethod):
+    """The step-harmonic calibration of each walking row from its summed step-band scatter,
+    flagged ``no_step_heading`` when no horizontal direction dominates (:data:`MAX_STEP_RATIO`),
+    ``step_frequency_disagrees`` when the test's recordings disagree on the step frequency, and
+    ``not_applicable`` (with a ``note``) when the test's walking is too short. Diagnostics:
+    ``step_ratio`` (middle / largest horizontal eigenvalue), ``step_hz`` (Hz), ``note``.
+    """
+
+    statistics = (STEP_SCATTER,)
+
+    def applies(self, pooled: Pooled) -> np.ndarray:
+        """Walking rows: those with a step-band scatter, and (flagged ``not_applicable``) the
+        calibration from all repetitions of a walking test whose repetitions are too short.
+        """
+        return pooled.walking | ((pooled.first_phase == "gait") & pooled.all_repetitions)
+
+    def fit(self, pooled: Pooled, fitted: Mapping[str, CalibrationMethod] | None = None):
+        """The step-harmonic calibration of each row (class docstring)."""
+        R, ratio = step_harmonic_rotation(pooled.steps, pooled.z0, pooled.right)
+        flag = np.where(ratio <= MAX_STEP_RATIO, "", "no_step_heading").astype(object)
+        flag[pooled.step_disagrees] = [
+            combine_flags(f, "step_frequency_disagrees") for f in flag[pooled.step_disagrees]
+        ]
+        flag[~pooled.walking] = "not_applicable"
+        note = np.where(pooled.walking, None, TOO_SHORT).astype(object)
+        step_hz = np.where(pooled.walking, pooled.step_hz, np.nan)
+        return self._set(R, flag, {"step_ratio": ratio, "step_hz": step_hz, "note": note})
+
+    def resample(self, pooled: Pooled, fitted: Mapping[str, CalibrationMethod] | None = None):
+        """The step-harmonic calibration of bootstrap resamples, NaN where flagged."""
+        R, ratio = step_harmonic_rotation(pooled.steps, pooled.z0, pooled.right)
+        ok = ratio <= MAX_STEP_RATIO
+        return self._set(
+            np.where(ok[:, None, None], R, np.nan), np.where(ok, "", "no_step_heading")
+        )

@@ -2,20 +2,17 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-
 import numpy as np
 
 from aceval.data.errors import AlignedAxesError, TooFewAxesError
-from aceval.methods.interface import Fit, Method
 from aceval.methods.sagittal import (
     SAGITTAL_REFERENCE,
     TRIAD_MIN_ANGLE_DEG,
-    axis_method_fit,
+    AxisMethod,
     sagittal_axes,
     usable_axes,
 )
-from aceval.methods.statistics import Pooled
+from aceval.methods.sufficient import Pooled
 
 
 def _frame(primary: np.ndarray, secondary: np.ndarray, min_sin: float, name: str) -> np.ndarray:
@@ -82,34 +79,25 @@ def triad_batch(z0: np.ndarray, axes: np.ndarray, rho_static: float, rho: np.nda
 # --- the method's interface in Kong's protocol (aceval.methods.interface) -----------------------
 
 
-def _batch(pooled: Pooled, rows: np.ndarray) -> tuple[np.ndarray, dict]:
-    return triad_batch(
-        pooled.z0[rows], pooled.gyro_axis[rows], pooled.rho_static[rows], pooled.gyro_rho[rows]
-    ), {}
-
-
-def _single(pooled: Pooled, row: int) -> tuple[np.ndarray, dict]:
-    v_est, _ = sagittal_axes(pooled)
-    return triad(SAGITTAL_REFERENCE, v_est[row]), {}
-
-
-def fit(pooled: Pooled, fitted: Mapping[str, Fit] | None = None) -> Fit:
+class Triad(AxisMethod):
     """TRIAD of z0 and the gyroscope axis onto body z and y, the more reliable (rho) kept exactly
-    (z0, whose static rho is near 1, in practice), flagged as the axis methods are.
+    (z0, whose static rho is near 1, in practice), flagged as the axis methods are
+    (:class:`aceval.methods.sagittal.AxisMethod`).
     """
-    return Fit(*axis_method_fit(pooled, _batch, _single))
 
+    def _batch(self, pooled: Pooled, rows: np.ndarray) -> tuple[np.ndarray, dict]:
+        return triad_batch(
+            pooled.z0[rows], pooled.gyro_axis[rows], pooled.rho_static[rows], pooled.gyro_rho[rows]
+        ), {}
 
-def resample(pooled: Pooled, fitted: Mapping[str, Fit] | None = None) -> Fit:
-    """TRIAD of each bootstrap resample, NaN where its axis would be flagged."""
-    usable = usable_axes(pooled)
-    R = triad_batch(pooled.z0, pooled.gyro_axis, pooled.rho_static, pooled.gyro_rho)
-    return Fit(np.where(usable[:, None, None], R, np.nan), np.where(usable, "", "low_rho"))
+    def _single(self, pooled: Pooled, row: int) -> tuple[np.ndarray, dict]:
+        v_est, _ = sagittal_axes(pooled)
+        return triad(SAGITTAL_REFERENCE, v_est[row]), {}
 
-
-METHOD = Method(
-    name="triad",
-    fit=fit,
-    resample=resample,
-    summary="TRIAD: z0 kept exactly, body y from the gyroscope's principal axis",
-)
+    def resample(self, pooled: Pooled, fitted=None) -> Triad:
+        """TRIAD of each bootstrap resample, NaN where its axis would be flagged."""
+        usable = usable_axes(pooled)
+        R = triad_batch(pooled.z0, pooled.gyro_axis, pooled.rho_static, pooled.gyro_rho)
+        return self._set(
+            np.where(usable[:, None, None], R, np.nan), np.where(usable, "", "low_rho")
+        )

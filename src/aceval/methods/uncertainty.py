@@ -3,7 +3,7 @@ every calibration aceval makes from a motion test's repetitions, by every method
 with a ``resample`` (:mod:`aceval.methods.registry`; not the peers', which run in their own
 environments, nor Ricci's functional design, whose axes pool all trials of several tests).
 
-Every repetition of a motion test is reduced to a few sums (:mod:`aceval.methods.statistics`), so a
+Every repetition of a motion test is reduced to a few sums (:mod:`aceval.methods.sufficient`), so a
 calibration from any resample of repetitions costs a few weighted 3x3 sums and one ``eigh``.
 :func:`bootstrap_cones` draws ``n_boot`` resamples of each unit's repetitions with replacement
 (Efron's bootstrap, the repetition as the unit), calibrates each by every method's ``resample``
@@ -29,8 +29,9 @@ import numpy as np
 import pandas as pd
 
 from aceval.data.rotations import relative_rotvec, rotvec_vertical_share
-from aceval.methods.interface import Fit, Method
-from aceval.methods.statistics import Units, pool
+from aceval.methods.interface import CalibrationMethod
+from aceval.methods.registry import classes, fit_order
+from aceval.methods.sufficient import Units, pool
 
 #: resamples per calibration (the 95th percentile of 200 angles: its 10th largest)
 N_BOOT = 200
@@ -82,30 +83,31 @@ def bootstrap_cones(
     units: Units,
     seeds: np.ndarray,
     R_full: dict[str, np.ndarray],
-    methods: tuple[Method, ...],
     n_boot: int = N_BOOT,
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """The 95 % cone of each method's calibration of each unit from all its repetitions:
-    ``{method: (cone95_deg (U,), cone_vertical_share (U,))}`` for the ``methods`` with a
-    ``resample`` and a calibration in ``R_full`` (method -> (U, 3, 3), NaN where none).
+    ``{method: (cone95_deg (U,), cone_vertical_share (U,))}`` for the methods of ``R_full``
+    (method -> (U, 3, 3), NaN where none) that resample (:mod:`aceval.methods.registry`).
 
     Each unit draws ``n_boot`` resamples of its own repetitions from its own ``seeds`` (U,) (the
-    same cones on every run and in any job); every method calibrates the same resamples.
+    same cones on every run and in any job); every method calibrates the same resamples, after
+    the methods it needs.
     """
     present = units.present.sum(axis=1)
     weights = np.zeros((len(units) * n_boot, units.present.shape[1]))
     for u, (n_rep, seed) in enumerate(zip(present, seeds)):
         weights[u * n_boot : (u + 1) * n_boot, :n_rep] = resample_weights(int(n_rep), n_boot, seed)
     pooled = pool(units, np.repeat(np.arange(len(units)), n_boot), weights, subsets=False)
-    fitted: dict[str, Fit] = {}
+    methods = classes(R_full)
+    fitted: dict[str, CalibrationMethod] = {}
     out = {}
-    for method in methods:
-        if method.resample is None:
+    for name in fit_order(methods):
+        if not methods[name].has_resample():
             continue
-        fitted[method.name] = method.resample(pooled, fitted)
-        if method.name in R_full:
-            resampled = fitted[method.name].R.reshape(len(units), n_boot, 3, 3)
-            out[method.name] = cones(resampled, R_full[method.name])
+        fitted[name] = methods[name]().resample(pooled, fitted)
+        if name in R_full:
+            resampled = fitted[name].rotation_.reshape(len(units), n_boot, 3, 3)
+            out[name] = cones(resampled, R_full[name])
     return out
 
 

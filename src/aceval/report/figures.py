@@ -359,11 +359,12 @@ def _reliability(data: dict, out: Path, title: str) -> None:
 def _methods(data: dict, out: Path, title: str) -> None:
     """Every method's error to the ground truth, per segment and test (median and quartiles)."""
     from aceval.evaluation import methods_comparison
+    from aceval.methods import registry
 
     errors = methods_comparison.full_set_errors(data["calibrations"])
     if errors.empty:
         return _not_testable(out, f"Methods vs ground truth, {title}: no ground truth")
-    order = [m for m in methods_comparison.METHOD_ORDER if m in set(errors["method"])]
+    order = registry.ordered(errors["method"])
     figure = _facets(
         errors,
         x="test",

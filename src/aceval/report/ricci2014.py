@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 
 from aceval.evaluation.stats import TTEST_COLUMNS, holm, paired_ttest
+from aceval.methods import registry
 from aceval.methods.functional import SAME_SOLUTION_DEG
 
 REFERENCE = Path(__file__).parent / "reference" / "ricci2014"
@@ -130,7 +131,7 @@ def lm_table(calibrations: pd.DataFrame) -> pd.DataFrame:
     :data:`aceval.methods.ricci.GRAD_TOL`); the random starts: the share that reach the closed-form
     optimum and their iterations.
     """
-    lm = calibrations[calibrations["method"] == "ricci_lm"]
+    lm = calibrations[calibrations["method"] == registry.paper_method("ricci2014")]
     lm = lm.assign(
         off_optimum=lm["optimum_distance_deg"] > SAME_SOLUTION_DEG,
         fixed_off_optimum=lm["fixed_optimum_distance_deg"] > SAME_SOLUTION_DEG,

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import pandas as pd
 
 from aceval.evaluation.stats import summary_ci
+from aceval.methods import registry
 from aceval.report.claims import (
     CODE,
     FAILS,
@@ -127,7 +128,8 @@ def _supported(e: Evidence) -> tuple[str, str]:
 
 def _iterations(e: Evidence) -> tuple[str, str]:
     c = e.calibrations
-    fits = c[c["method"] == "ricci_lm"] if c is not None and "n_iterations" in c else None
+    lm = registry.paper_method("ricci2014")
+    fits = c[c["method"] == lm] if c is not None and "n_iterations" in c else None
     if fits is None or fits.empty:
         return UNTESTABLE, "no LM fit"
     children = subject_cells(fits, ["segment"], "n_iterations")  # a child's sides averaged

@@ -10,8 +10,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from aceval.calibrate.table import unflagged
+from aceval.calibrate.table import kong_rows, unflagged
 from aceval.evaluation.methods_comparison import MAX_MARKER_FRAME_VERTICAL_DEG
+from aceval.methods import registry
 from aceval.methods.kong import KongLimits
 from aceval.report.claims import (
     CODE,
@@ -40,31 +41,26 @@ def claims(tables: dict, data: dict) -> list[Claim]:
     return found
 
 
-#: where each peer's authors meant it, and what it reads (a note when it is shown elsewhere)
-PEER_DESIGN = {
-    "gaitmap_pca": (
-        ("foot",),
-        "gaitmap's PCA alignment is written for the foot's medial-lateral axis in gait (its "
-        "docstring); its rows on {others} are outside that design",
-    ),
-    "opensense_imuplacer": (
-        None,
-        "OpenSense's IMUPlacer reads the static pose (the first sample of quiet standing) and the "
-        "vendor's magnetometer-aided headings only: it is reported under the static test, and "
-        "its cells are not the motion tests' (more information than the others get: a heading)",
-    ),
-}
-
-
 def _design_notes(methods: pd.DataFrame) -> list[str]:
-    """One line per peer shown outside what its authors meant it for (:data:`PEER_DESIGN`)."""
+    """One line per peer shown outside what its authors meant it for (the registry's
+    ``design_segments`` and ``design_note``).
+    """
     notes = []
-    for method, (segments, text) in PEER_DESIGN.items():
+    for method, peer in registry.peers().items():
+        if not peer.design_note:
+            continue
         rows = methods[(methods["method"] == method) & methods["median"].notna()]
-        others = sorted(set(rows["segment"]) - set(segments or ()))
-        if len(rows) and (segments is None or others):
-            notes.append("- " + text.format(others=", ".join(others)) + ".")
+        others = sorted(set(rows["segment"]) - set(peer.design_segments or ()))
+        if len(rows) and (peer.design_segments is None or others):
+            notes.append("- " + peer.design_note.format(others=", ".join(others)) + ".")
     return ["", "Peers outside their authors' design here:", *notes] if notes else []
+
+
+def _static_pose_methods() -> set[str]:
+    """Methods that calibrate from a static pose (the registry's ``static_pose``): their cells are
+    the static test's, and their test-retest says nothing about the motion.
+    """
+    return {name for name, peer in registry.peers().items() if peer.static_pose}
 
 
 def _shared_cells_line(methods: pd.DataFrame, compared: list[str]) -> str:
@@ -100,7 +96,8 @@ def methods_section(tables: dict) -> list[str]:
         + ", ".join(f"{m} {v:.2f} deg ({cells[m]} cells)" for m, v in overall.items())
         + "."
     )
-    moving = [m for m in overall.index if m not in STATIC_METHODS]  # a static pose: its own cells
+    static = _static_pose_methods()  # a static pose: its own cells
+    moving = [m for m in overall.index if m not in static]
     lines += ["", _shared_cells_line(methods, moving), *_design_notes(methods)]
     if "note" in methods:
         never = methods[~methods["method"].isin(overall.index)].groupby("method")["note"].first()
@@ -115,13 +112,14 @@ def methods_section(tables: dict) -> list[str]:
             else []
         )
     lines.append("")
+    kong_method = registry.paper_method("kong2016")
     for segment, group in best.groupby("segment", sort=False):
         parts = [
             f"{r['method']} {r['best_test']} ({r['best_median_deg']:.2f} deg)"
             for _, r in group.iterrows()
         ]
         kong = group[
-            (group["method"] == "kong")
+            (group["method"] == kong_method)
             & group["kong_recommends"].notna()
             & (group["kong_recommends"] != "")
         ]
@@ -129,7 +127,7 @@ def methods_section(tables: dict) -> list[str]:
         if len(kong):
             row = kong.iloc[0]
             tests_here = methods.loc[
-                (methods["segment"] == segment) & (methods["method"] == "kong"), "test"
+                (methods["segment"] == segment) & (methods["method"] == kong_method), "test"
             ].nunique()
             agree = (
                 "is the only test here, so nothing is compared with"
@@ -269,10 +267,6 @@ def _truth_rows(tables: dict, segment: str) -> pd.DataFrame:
     return table[table["segment"] == segment].drop_duplicates(["subject", "sensor_set", "imu"])
 
 
-#: methods whose test-retest says nothing about the motion (OpenSense calibrates from a static pose)
-STATIC_METHODS = {"opensense_imuplacer"}
-
-
 def recommendation_section(tables: dict) -> list[str]:
     """Which method and test for which segment, from this dataset's numbers: the smallest median
     error to the ground truth (table ``methods``) where there is one, else the smallest
@@ -285,7 +279,7 @@ def recommendation_section(tables: dict) -> list[str]:
         return []
     data = table.dropna(subset=["median"])
     if not truth:
-        data = data[~data["method"].isin(STATIC_METHODS)]
+        data = data[~data["method"].isin(_static_pose_methods())]
     lines = [
         "## Which method for which segment (this dataset's numbers)",
         "",
@@ -421,7 +415,7 @@ def truth_section(tables: dict) -> list[str]:
     table = tables.get("truth_errors")
     if table is None or table.empty:
         return []
-    kong = table[table["method"] == "kong"]
+    kong = kong_rows(table)
     lines = [
         "## What Kong's method measures on this person (against the marker-based ground truth)",
         "",

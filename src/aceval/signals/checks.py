@@ -54,6 +54,7 @@ from scipy.ndimage import maximum_filter1d
 
 from aceval.data.contract import GRAVITY
 from aceval.data.rotations import vector_angle_deg
+from aceval.methods.sufficient import Part, Statistic
 
 WINDOW_S = 0.25
 SLOW_MAX_DEV_G = 0.1
@@ -180,6 +181,24 @@ def third_moments(gyr: np.ndarray) -> dict:
         name: float(np.sum(gyr[:, i] * gyr[:, j] * gyr[:, k]))
         for name, (i, j, k) in zip(THIRD_MOMENT_COLUMNS, _TRIPLES)
     }
+
+
+def _third_of_kept(acc: np.ndarray, gyr: np.ndarray, kept: np.ndarray, fs_hz: float) -> dict:
+    """:func:`third_moments` of the kept angular velocities."""
+    return third_moments(gyr[kept])
+
+
+#: the third moments of the kept angular velocities, per repetition (not summed when pooled: the
+#: direction checks weigh each repetition's, :func:`direction_checks`)
+GYRO_THIRD = Statistic(
+    "gyro_third",
+    {
+        "third": Part(
+            tuple(THIRD_MOMENT_COLUMNS), (len(THIRD_MOMENT_COLUMNS),), missing=None, summed=False
+        )
+    },
+    reduce=_third_of_kept,
+)
 
 
 def swing_skew(moments: np.ndarray, axes: np.ndarray) -> np.ndarray:

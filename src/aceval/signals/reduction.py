@@ -2,9 +2,12 @@
 statistics that every analysis needs (docs/design.md, "One pass").
 
 * ``summaries``, one row per recording that calibrates something (:func:`summarise`): static
-  tests give z0 (Kong Eq. 2); motion tests the scatter ``sum a a^T`` of the trimmed accelerations
-  (Kong Eq. 3: the plane of any union of repetitions is a sum of these), the moments of the unit
-  gyroscope samples (Ricci Eq. 1-2) and the plausibility moments of :mod:`aceval.signals.checks`;
+  tests give z0 (Kong Eq. 2); motion tests every sufficient statistic the registry's methods
+  declare (:mod:`aceval.methods.sufficient`: Kong's scatter ``sum a a^T`` of the trimmed
+  accelerations, Eq. 3, whose sum over repetitions is their union's; the moments of the unit
+  gyroscope samples, Ricci Eq. 1-2; the step-band scatter of walking), run by their own
+  ``reduce`` (this pass imports no method), and the plausibility moments of
+  :mod:`aceval.signals.checks`;
   every motion recording also its place in the test among the other sensors of its set
   (:mod:`aceval.signals.signatures`). A motion recording of a test that does not calibrate its IMU gets a
   row of kind ``extra`` with its typical speed only.
@@ -31,16 +34,13 @@ from aceval.data.dataset import Dataset
 from aceval.data.errors import CalibrationError, SaturatedError
 from aceval.data.recording_checks import known_recordings, plateau_limit, read_checked
 from aceval.data.rotations import axis_vector
-from aceval.methods.functional import recording_moments
-from aceval.methods.kong import scatter, vertical_axis
-from aceval.methods.step_harmonic import SCATTER_COLUMNS as STEP_COLUMNS
-from aceval.methods.step_harmonic import harmonic, pooled_steps, step_scatter
+from aceval.methods import registry
+from aceval.methods.moments import recording_moments, vertical_axis
 from aceval.signals.alignment import aligned, pooled_lag
-from aceval.signals.checks import MIN_STILL_S, STILL_COLUMNS, agreement_moments, third_moments
+from aceval.signals.checks import GYRO_THIRD, MIN_STILL_S, STILL_COLUMNS, agreement_moments
 from aceval.signals.segmentation import TrimParams, mask_to_ranges, movement_mask
 from aceval.signals.signatures import motion_signatures, sagittal_rate, speed_envelope
 
-SCATTER_COLUMNS = [f"s{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
 #: a motion recording is left out when more than this fraction of its moving samples is clipped at
 #: the accelerometer range (a choice, not from the papers: the clipped samples themselves are always
 #: left out of the scatter, and beyond a fifth of them the plane rests on a biased remainder)
@@ -109,7 +109,9 @@ def reduce_recordings(
     max_lag = int(round(max_lag_s * dataset.fs_hz))
     pair_imus = segment_pair_imus(dataset, segment_pairs or {})
     records = dict(zip(recordings.index, recordings.to_dict("records")))  # one conversion
-    walking: dict[tuple, list] = {}  # (subject, test) -> its walking recordings, until all are read
+    statistics = motion_statistics()
+    per_test = [s for s in statistics if s.reduce_test is not None]
+    walking: dict[tuple, list] = {}  # (subject, test) -> its recordings, until all are read
     unread = recordings.groupby(["subject", "test"]).size().to_dict()
     for (subj, test, rep), group in recordings.groupby(["subject", "test", "rep"], sort=False):
         loaded: dict[tuple[str, str], tuple[Recording, np.ndarray]] = {}
@@ -135,8 +137,12 @@ def reduce_recordings(
                 except CalibrationError:
                     moving = None
             if needed:
-                summaries[index] = summarise(dataset, rec, data, moving, is_static, trim)
-            if dataset.first_phase(test) == "gait" and moving is not None:
+                summaries[index] = summarise(
+                    dataset, rec, data, moving, is_static, trim, statistics
+                )
+            if moving is not None and any(
+                s.test_phase == dataset.first_phase(test) for s in per_test
+            ):
                 usable = needed and not summaries[index]["flag"]
                 segment = dataset.places[(rec["sensor_set"], rec["imu"])][0]
                 walking.setdefault((subj, test), []).append(
@@ -153,36 +159,22 @@ def reduce_recordings(
             _add_signatures(dataset, test, by_set, summaries)
         unread[(subj, test)] -= len(group)
         if not unread[(subj, test)] and (subj, test) in walking:  # its last repetition: pool them
-            add_step_scatters(dataset, walking.pop((subj, test)), summaries)
+            read = walking.pop((subj, test))
+            for statistic in per_test:
+                if statistic.test_phase == dataset.first_phase(test):
+                    statistic.reduce_test(read, dataset.fs_hz, summaries)
     report = ValidationReport(dataset.name)
     report.findings = [f for k in sorted(findings) for f in findings[k]]  # in the sheet's order
     ordered = [summaries[k] for k in sorted(summaries)]
     return Reduction(pd.DataFrame(ordered), pd.DataFrame(pairs, columns=PAIR_COLUMNS), report)
 
 
-def add_step_scatters(dataset: Dataset, recordings: list, summaries: dict) -> None:
-    """The step-harmonic columns of one subject's walking test (``recordings``: (summary index or
-    None, acceleration, moving mask, segment, repetition) of every recording read, every repetition and
-    IMU, those not calibrated in this test too: they tell the step frequency,
-    :func:`aceval.methods.step_harmonic.pooled_steps`): ``step_hz``, the repetition's step
-    frequency, ``step_hz_own``, the recording's own, ``step_disagrees`` (1 where the test's
-    repetitions disagree on it) and ``h11..h33``, the scatter of the acceleration band-passed at
-    the segment's harmonic of the step over the kept samples.
+def motion_statistics() -> list:
+    """The statistics the pass computes of every motion recording: those the registry's methods
+    declare (:func:`aceval.methods.registry.statistics`), then the direction checks' third
+    moments (:data:`aceval.signals.checks.GYRO_THIRD`).
     """
-    fs = dataset.fs_hz
-    step_hz, _, own, disagree = pooled_steps([r[1:] for r in recordings], fs)
-    for (index, acc, _, segment, rep), own_hz in zip(recordings, own):
-        if index is None:
-            continue
-        kept = np.zeros(len(acc), dtype=bool)
-        for part in filter(None, str(summaries[index].get("kept", "")).split(";")):
-            start, stop = map(int, part.split(":"))
-            kept[start:stop] = True
-        scatter = step_scatter(acc, fs, kept, harmonic(segment) * step_hz[rep])
-        summaries[index].update(
-            step_hz=step_hz[rep], step_hz_own=own_hz, step_disagrees=float(disagree)
-        )
-        summaries[index].update(zip(STEP_COLUMNS, scatter.ravel()))
+    return [*registry.statistics(), GYRO_THIRD]
 
 
 def summarise_recordings(
@@ -248,17 +240,19 @@ def summarise(
     moving: np.ndarray | None,
     is_static: bool,
     trim: TrimParams = TrimParams(),
+    statistics: list | None = None,
 ) -> dict:
     """The summary row of one recording (module docstring). Static tests: ``z0_x, z0_y, z0_z``
     and the unit moments of the accelerometer. Motion tests: ``n_samples`` kept by the trimmer
-    (``moving``; None when it found no movement) and the scatter ``s11..s33`` (m^2/s^4);
-    ``kept``, the half-open sample ranges behind the scatter ('a:b;c:d', the samples the peers
-    read too). Walking tests get their step-harmonic columns once all repetitions of the
-    subject's test are read (:func:`add_step_scatters`).
-    Samples clipped at the declared accelerometer range, or at a plateau found in the data
-    (``n_clipped``), carry a wrong direction and are left out of the scatter; above
-    :data:`MAX_CLIPPED_FRACTION` the recording is left out. A recording that cannot be used gets
-    ``flag`` (the error code) and ``message`` naming the file.
+    (``moving``; None when it found no movement), ``kept``, the half-open sample ranges of those
+    samples ('a:b;c:d', what the peers read too), and the columns of every statistic of
+    ``statistics`` (default :func:`motion_statistics`) reduced from them (Kong's scatter
+    ``s11..s33`` in m^2/s^4, ...); a statistic computed per test (the step-harmonic scatter of
+    walking) is added once all repetitions of the subject's test are read. Samples clipped at
+    the declared accelerometer range, or at a plateau found in the data (``n_clipped``), carry a
+    wrong direction and are left out of the scatter; above :data:`MAX_CLIPPED_FRACTION` the
+    recording is left out. A recording that cannot be used gets ``flag`` (the error code) and
+    ``message`` naming the file.
     """
     row = _row(rec, is_static)
     try:
@@ -295,9 +289,9 @@ def summarise(
         kept = mask_to_ranges(mask)
         row["n_segments"] = len(kept)
         row["kept"] = ";".join(f"{a}:{b}" for a, b in kept)  # what the peers are given too
-        row.update(zip(SCATTER_COLUMNS, scatter(data.acc[mask]).ravel()))
-        row.update(recording_moments(data.gyr[mask], dataset.fs_hz, motion=True))
-        row.update(third_moments(data.gyr[mask]))
+        for statistic in motion_statistics() if statistics is None else statistics:
+            if statistic.reduce is not None:
+                row.update(statistic.reduce(data.acc, data.gyr, mask, dataset.fs_hz))
     except CalibrationError as exc:
         row.update(flag=exc.code, message=f"{rec['path']}: {exc}")
     return row
