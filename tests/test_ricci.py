@@ -4,8 +4,8 @@ from scipy.spatial.transform import Rotation
 
 from aceval.data.errors import AlignedAxesError, NonFiniteError, TooFewAxesError, TooFewSamplesError
 from aceval.methods import functional_axis, lm_fit, wahba_fit
-from aceval.methods.triad import triad
 from aceval.methods.ricci import _residual_jacobian, quaternion_matrix
+from aceval.methods.triad import triad
 
 
 def angle_between(r1: Rotation, r2: Rotation) -> float:
