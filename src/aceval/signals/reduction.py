@@ -119,27 +119,14 @@ def reduce_recordings(
         for index in group.index:
             rec = records[index]
             report = ValidationReport(dataset.name)
-            data = read_checked(dataset, rec, report)
-            findings[index] = report.findings
             is_static = rec["test"] in static
             needed = is_static or (rec["test"], rec["imu"]) in allowed
+            data, moving, summary = _read(dataset, rec, report, is_static, needed, trim, statistics)
+            findings[index] = report.findings
+            if summary is not None:
+                summaries[index] = summary
             if data is None:
-                if needed:
-                    summaries[index] = _row(rec, is_static) | {
-                        "flag": "unreadable",
-                        "message": f"{rec['path']}: {report.errors[0].cause}",
-                    }
                 continue
-            moving = None
-            if not is_static:
-                try:
-                    moving = movement_mask(data.gyr, dataset.fs_hz, trim)
-                except CalibrationError:
-                    moving = None
-            if needed:
-                summaries[index] = summarise(
-                    dataset, rec, data, moving, is_static, trim, statistics
-                )
             if moving is not None and any(
                 s.test_phase == dataset.first_phase(test) for s in per_test
             ):
@@ -167,6 +154,26 @@ def reduce_recordings(
     report.findings = [f for k in sorted(findings) for f in findings[k]]  # in the sheet's order
     ordered = [summaries[k] for k in sorted(summaries)]
     return Reduction(pd.DataFrame(ordered), pd.DataFrame(pairs, columns=PAIR_COLUMNS), report)
+
+
+def _read(dataset, rec, report, is_static, needed, trim, statistics) -> tuple:
+    """``(recording, moving mask, summary)`` of one recording: read and checked (its problems in
+    ``report``), its movement found (motion tests; None where the trimmer finds none) and, where
+    an analysis ``needed`` it, its summary row (:func:`summarise`; an unreadable file's row says
+    why). The recording is None where it cannot be read, the summary where it is not needed.
+    """
+    data = read_checked(dataset, rec, report)
+    if data is None:
+        cause = {"flag": "unreadable", "message": f"{rec['path']}: {report.errors[0].cause}"}
+        return None, None, _row(rec, is_static) | cause if needed else None
+    moving = None
+    if not is_static:
+        try:
+            moving = movement_mask(data.gyr, dataset.fs_hz, trim)
+        except CalibrationError:
+            moving = None
+    summary = summarise(dataset, rec, data, moving, is_static, trim, statistics) if needed else None
+    return data, moving, summary
 
 
 def motion_statistics() -> list:
