@@ -20,7 +20,7 @@ from aceval.methods.moments import (
 from aceval.methods.sufficient import gyroscope_axis
 from aceval.signals.reduction import summarise_recordings
 from aceval.simulate import SimOptions
-from aceval.simulate.ricci import simulate_ricci
+from aceval.simulate.ricci_dataset import simulate_ricci
 
 TRUE = Rotation.from_euler("xyz", [25, -40, 110], degrees=True).as_matrix()  # sensor -> body
 

@@ -14,8 +14,8 @@ from scipy.spatial.transform import Rotation
 from aceval.cli import main
 from aceval.data.dataset import load_dataset, validate
 from aceval.importers import FormatError
-from aceval.importers.common import straight_strides, walking_bouts
 from aceval.importers.hugadb import import_hugadb, read_hugadb
+from aceval.importers.shared import straight_strides, walking_bouts
 from aceval.importers.vicon import body_axes, optical_angular_velocity, sensor_to_segment
 from aceval.importers.xsens import read_mt_export
 

@@ -28,6 +28,7 @@ from aceval.data.dataset import Dataset
 from aceval.data.recording_checks import read_checked
 from aceval.data.safety import contained
 from aceval.data.writer import write_sheet
+from aceval.methods import registry
 
 KEY = ["subject", "sensor_set", "imu"]
 #: the calibrations column that names the recordings a calibration was made from
@@ -86,11 +87,16 @@ def read_calibrations(path: str | Path) -> pd.DataFrame:
 
 
 def chosen_calibrations(
-    dataset: Dataset, calibrations: pd.DataFrame, method: str = "kong", test: str | None = None
+    dataset: Dataset,
+    calibrations: pd.DataFrame,
+    method: str | None = None,
+    test: str | None = None,
 ) -> pd.DataFrame:
-    """One valid calibration per (subject, set, IMU): ``method``, all repetitions (the largest
-    ``n_reps``), from ``test`` or else the first test of calibrates.tsv that has one.
+    """One valid calibration per (subject, set, IMU): ``method`` (default Kong's, the registry's
+    method of Kong et al. 2016), all repetitions (the largest ``n_reps``), from ``test`` or else
+    the first test of calibrates.tsv that has one.
     """
+    method = method or registry.paper_method("kong2016")
     valid = calibrations[(calibrations["method"] == method) & unflagged(calibrations)]
     if test is not None:
         valid = valid[valid["test"] == test]
@@ -205,7 +211,7 @@ def apply_calibrations(
     dataset: Dataset,
     calibrations: pd.DataFrame,
     out: Path,
-    method: str = "kong",
+    method: str | None = None,
     test: str | None = None,
     progress=None,
     source: str | None = None,

@@ -15,8 +15,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from aceval.calibrate.functional_design import calibrate_functional
 from aceval.calibrate.plan import EVERY_SUBSET, RETEST, Plan, Subsets, build_plan
+from aceval.calibrate.ricci_design import calibrate_functional
 from aceval.calibrate.rows import calibration_rows, motion_axes
 from aceval.calibrate.table import (
     AXES_COLUMNS,

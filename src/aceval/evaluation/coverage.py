@@ -36,8 +36,8 @@ from aceval.data.dataset import load_dataset
 from aceval.evaluation.methods_comparison import uncertainty_table, with_truth
 from aceval.methods.uncertainty import MODEL_PATH, fit_model, model_cones
 from aceval.signals.reduction import reduce_recordings
-from aceval.simulate.common import SimOptions
-from aceval.simulate.kong import simulate_kong
+from aceval.simulate.kong_dataset import simulate_kong
+from aceval.simulate.options import SimOptions
 
 #: simulations the model learns from (the committed kong_sim is seed 0, box_sim and ricci_sim
 #: have protocols of their own)

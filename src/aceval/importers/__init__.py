@@ -4,6 +4,6 @@ Nothing downstream reads a foreign format. Each importer writes a complete datas
 ``import_report.tsv`` (what was imported, flagged, excluded or skipped, and why).
 """
 
-from aceval.importers.common import FormatError, ImportReport
+from aceval.importers.shared import FormatError, ImportReport
 
 __all__ = ["FormatError", "ImportReport"]

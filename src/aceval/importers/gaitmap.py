@@ -32,7 +32,7 @@ import numpy as np
 import pandas as pd
 
 from aceval.data.writer import DatasetWriter, write_sheet
-from aceval.importers.common import (
+from aceval.importers.shared import (
     FormatError,
     ImportReport,
     straight_strides,

@@ -17,7 +17,7 @@ Rules (each documented here and in config/README.md "Real datasets"):
   were put on again. ``various`` files: every standing run (activity 8) longer than 2 s, less
   0.5 s at each end, is a T0 repetition; every standing-up (7) run with the sitting-down (6) run
   that follows it, and the standing between, is a T3 repetition. Walking files: 5 T6 repetitions
-  of equal numbers of whole strides (:func:`aceval.importers.common.walking_bouts`, strides from
+  of equal numbers of whole strides (:func:`aceval.importers.shared.walking_bouts`, strides from
   the right shank's angular speed). Turns cannot be told apart without a trunk sensor and are
   kept.
 * No standing in the walking files: z0 cannot come from T0. A separate static test ``T0w``
@@ -44,7 +44,7 @@ import pandas as pd
 
 from aceval.data.contract import GRAVITY
 from aceval.data.writer import DatasetWriter, write_sheet
-from aceval.importers.common import (
+from aceval.importers.shared import (
     FormatError,
     ImportReport,
     stride_peaks,

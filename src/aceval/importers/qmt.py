@@ -17,7 +17,7 @@ Rules (documented in config/README.md "Real datasets"):
   ``first_phase`` (no direction check).
 * T6 = straight walking after the sitting: strides from the right shank's angular speed, a
   stride whose pelvis heading turns by 20 deg or more left out, grouped into at most 5
-  repetitions of equal numbers of whole strides (:func:`aceval.importers.common.walking_bouts`).
+  repetitions of equal numbers of whole strides (:func:`aceval.importers.shared.walking_bouts`).
 * Which test may calibrate which IMU: Kong Table 2 (T3: head, chest, waist, thighs; T6: thighs,
   shanks, feet) plus what this recording allows to compare: the lower back with T3, the shanks
   with T3, the pelvis and lower back with T6 (cross-test T3 vs T6 for the trunk and shanks).
@@ -46,7 +46,7 @@ from scipy.ndimage import uniform_filter1d
 from scipy.spatial.transform import Rotation
 
 from aceval.data.writer import DatasetWriter, write_sheet
-from aceval.importers.common import (
+from aceval.importers.shared import (
     FormatError,
     ImportReport,
     straight_strides,

@@ -7,7 +7,7 @@ from pathlib import Path
 import pandas as pd
 
 from aceval.data.writer import write_sheet
-from aceval.importers.common import FormatError, ImportReport
+from aceval.importers.shared import FormatError, ImportReport
 
 
 def run_import(

@@ -41,7 +41,7 @@ import numpy as np
 import pandas as pd
 from scipy.spatial.transform import Rotation
 
-from aceval.importers.common import FormatError
+from aceval.importers.shared import FormatError
 
 #: three markers or joint centres rigid with each segment: origin, along, in-plane (the thigh and
 #: tibia wand markers, well off the long axis; the foot has only heel and toe markers, so its

@@ -15,7 +15,7 @@ Rules (documented in config/README.md "Real datasets"):
 * T6 = the straight strides of the movement (strides from the first shank IMU of the sheet;
   a stride during which the waist sensor's heading turns by 20 deg or more is left out), grouped
   into at most 5 repetitions of equal numbers of whole strides
-  (:func:`aceval.importers.common.walking_bouts`).
+  (:func:`aceval.importers.shared.walking_bouts`).
 * Kong Table 2: T6 may calibrate thighs, shanks and feet. The pelvis too, as in the qmt import:
   Kong calibrates it from the trunk tests T1-T3, absent here, and walking is what this recording
   has to compare methods on the pelvis with (its Kong calibration from walking is expected to be
@@ -33,7 +33,7 @@ import numpy as np
 import pandas as pd
 
 from aceval.data.writer import DatasetWriter, write_sheet
-from aceval.importers.common import (
+from aceval.importers.shared import (
     FormatError,
     ImportReport,
     straight_strides,

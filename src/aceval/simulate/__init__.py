@@ -6,9 +6,9 @@ reproduced table match a published one.
 """
 
 from aceval.simulate.box import simulate_box
-from aceval.simulate.common import SimOptions
-from aceval.simulate.kong import simulate_kong
-from aceval.simulate.ricci import simulate_ricci
+from aceval.simulate.kong_dataset import simulate_kong
+from aceval.simulate.options import SimOptions
+from aceval.simulate.ricci_dataset import simulate_ricci
 
 GENERATORS = {"kong": simulate_kong, "ricci": simulate_ricci, "box": simulate_box}
 

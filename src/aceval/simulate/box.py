@@ -10,10 +10,10 @@ import numpy as np
 
 from aceval.data.writer import DatasetWriter, simulated_meta, write_sheet
 from aceval.simulate.body import Placement, random_mount
-from aceval.simulate.common import SimOptions, sensor_signals
 from aceval.simulate.engine import band_noise, euler_pitch_roll_yaw, fine_time, small_rotations
-from aceval.simulate.kong import ACC_RANGE_G, GYR_RANGE_DPS, IMUS, SENSOR_SETS, UNITS
+from aceval.simulate.kong_dataset import ACC_RANGE_G, GYR_RANGE_DPS, IMUS, SENSOR_SETS, UNITS
 from aceval.simulate.motion import bell
+from aceval.simulate.options import SimOptions, sensor_signals
 
 #: box size (m): Kong does not give it; a hand-held aluminium box of this size is assumed
 BOX = np.array([0.30, 0.20, 0.15])

@@ -16,7 +16,6 @@ import numpy as np
 
 from aceval.data.writer import DatasetWriter, simulated_meta, write_sheet
 from aceval.simulate.body import Placement, random_mount
-from aceval.simulate.common import SimOptions, sensor_signals
 from aceval.simulate.engine import (
     ImuErrorModel,
     band_noise,
@@ -25,6 +24,7 @@ from aceval.simulate.engine import (
     small_rotations,
 )
 from aceval.simulate.motion import bell
+from aceval.simulate.options import SimOptions, sensor_signals
 
 SEGMENTS = ["thorax", "upper_arm_r", "upper_arm_l", "forearm_r", "forearm_l"]
 IMUS = [  # Ricci Fig. 2: 1 thorax, 2/3 right/left upper arm, 4/5 right/left forearm

@@ -11,10 +11,10 @@ import numpy as np
 
 from aceval.data.writer import DatasetWriter, simulated_meta, write_sheet
 from aceval.simulate.body import Anthropometry, kong_placements, random_mount
-from aceval.simulate.common import SimOptions, sensor_signals
 from aceval.simulate.engine import euler_pitch_roll_yaw
 from aceval.simulate.kong_protocol import PROTOCOL, t6_walk
 from aceval.simulate.motion import segment_poses
+from aceval.simulate.options import SimOptions, sensor_signals
 
 IMUS = [  # Kong Sec. 2.3 and Fig. 4
     ("IMU1", "head", "center", "upper_body"),
