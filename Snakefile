@@ -21,15 +21,15 @@ include: "workflow/rules/results.smk"
 
 
 onstart:
-    save_hashes()
+    PLAN.hashes.save()
 
 
 onsuccess:
-    save_hashes()
+    PLAN.hashes.save()
 
 
 onerror:
-    save_hashes()
+    PLAN.hashes.save()
 
 
 rule all:

@@ -27,12 +27,12 @@ rule calibrate:
     conda:
         "../envs/aceval.yaml"
     params:
-        root=lambda w: dataset_dir(w.dataset),
+        root=lambda w: PLAN.dataset_dir(w.dataset),
         subject=lambda w: ["--subject", *subject_batches(w.dataset)[w.subject]],
-        files=lambda w: recordings_fingerprint(w.dataset, subject_batches(w.dataset)[w.subject]),
-        options=trim_options()
-        + correlation_options()
-        + [f"--retest-k={config['objectives']['test_retest_k']}"],
+        files=lambda w: PLAN.recording_files_digest(
+            w.dataset, subject_batches(w.dataset)[w.subject]
+        ),
+        options=PLAN.calibrate_options(),
     shell:
         "python -m aceval calibrate {params.root:q} {params.subject:q} --allow-empty "
         "--out {output.calibrations:q} --recordings-out {output.recordings:q} --axes-out {output.axes:q} "

@@ -13,7 +13,7 @@ rule simulate:
     benchmark:
         "logs/{dataset}/benchmarks/simulate.tsv"
     wildcard_constraints:
-        dataset=only(SIMULATED),
+        dataset=only(PLAN.simulated),
     priority: 10
     conda:
         "../envs/aceval.yaml"
@@ -21,11 +21,7 @@ rule simulate:
     params:
         protocol=lambda w: DATASETS[w.dataset]["simulate"]["protocol"],
         seed=lambda w: DATASETS[w.dataset]["simulate"].get("seed", 0),
-        options=lambda w: [
-            f"--{key}={DATASETS[w.dataset]['simulate'][key]}"
-            for key in ("subjects", "repetitions")
-            if key in DATASETS[w.dataset]["simulate"]
-        ],
+        options=lambda w: PLAN.simulate_options(w.dataset),
     shell:
         "python -m aceval simulate {params.protocol:q} --out {output:q} --seed {params.seed:q} {params.options:q} "
         "--jobs {threads} --force 2> {log:q}"
@@ -33,7 +29,7 @@ rule simulate:
 
 rule import_dataset:
     input:
-        import_inputs,
+        lambda w: PLAN.import_inputs(w.dataset),
     output:
         directory("resources/{dataset}"),
     log:
@@ -41,13 +37,13 @@ rule import_dataset:
     benchmark:
         "logs/{dataset}/benchmarks/import.tsv"
     wildcard_constraints:
-        dataset=only(IMPORTED),
+        dataset=only(PLAN.imported),
     conda:
         "../envs/aceval.yaml"
     params:
         format=lambda w: DATASETS[w.dataset]["import"]["format"],
-        options=import_options,
-        source=lambda w: import_source(w.dataset),
+        options=lambda w: PLAN.import_options(w.dataset),
+        source=lambda w: PLAN.import_source(w.dataset),
     shell:
         "python -m aceval import {params.format:q} {params.source:q} --out {output:q} {params.options:q} "
         "--force 2> {log:q}"
@@ -55,7 +51,7 @@ rule import_dataset:
 
 checkpoint validate:
     input:
-        dataset_input,
+        lambda w: PLAN.dataset_files(w.dataset),
     output:
         "results/{dataset}/validation/sheets.tsv",
     log:
@@ -65,8 +61,8 @@ checkpoint validate:
     conda:
         "../envs/aceval.yaml"
     params:
-        root=lambda w: dataset_dir(w.dataset),
-        files=lambda w: recordings_fingerprint(w.dataset),
+        root=lambda w: PLAN.dataset_dir(w.dataset),
+        files=lambda w: PLAN.recording_files_digest(w.dataset),
     shell:
         "python -m aceval validate {params.root:q} --sheets-only --findings-out {output:q} > {log:q} 2>&1 "
         "|| (cat {log:q} >&2; exit 1)"

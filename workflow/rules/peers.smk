@@ -10,22 +10,22 @@
 
 rule peer_envs:
     input:
-        [peer_env_stamp(peer.environment) for peer in PEER_METHODS.values()],
+        [PLAN.peer_env_stamp(peer.environment) for peer in PLAN.peers.values()],
 
 
 rule peer_env:
     input:
         os.path.join(PEERS_DIR, "{env}.txt"),
     output:
-        os.path.join(PEERS_ROOT, "{env}", "aceval-pins.txt"),
+        os.path.join(PLAN.peers_root, "{env}", "aceval-pins.txt"),
     log:
         "logs/peers/{env}_env.log",
     wildcard_constraints:
-        env="|".join(peer.environment for peer in PEER_METHODS.values()),
+        env="|".join(peer.environment for peer in PLAN.peers.values()),
     conda:
         "../envs/aceval.yaml"
     params:
-        env=lambda w: os.path.join(PEERS_ROOT, w.env),
+        env=lambda w: os.path.join(PLAN.peers_root, w.env),
     shell:
         "python3 -m venv --clear {params.env:q} > {log:q} 2>&1 && "
         "{params.env:q}/bin/python -m pip install --quiet -r {input:q} >> {log:q} 2>&1 && "
@@ -35,7 +35,7 @@ rule peer_env:
 rule peer_calibrate:
     input:
         plan="results/{dataset}/calibrations/{subject}_plan.json",
-        env=lambda w: peer_env_stamp(PEER_METHODS[w.peer].environment),
+        env=lambda w: PLAN.peer_env_stamp(PLAN.peers[w.peer].environment),
     output:
         "results/{dataset}/peers/{peer}/{subject}.csv",
     log:
@@ -43,11 +43,11 @@ rule peer_calibrate:
     benchmark:
         "logs/{dataset}/benchmarks/peer_{peer}_{subject}.tsv"
     wildcard_constraints:
-        peer="|".join(PEER_METHODS),
+        peer="|".join(PLAN.peers),
     conda:
-        lambda w: f"../envs/peer_{PEER_METHODS[w.peer].environment}.yaml"
+        lambda w: f"../envs/peer_{PLAN.peers[w.peer].environment}.yaml"
     params:
-        python=lambda w: peer_python(w.peer),
-        adapter=lambda w: os.path.join(PEERS_DIR, PEER_METHODS[w.peer].adapter),
+        python=lambda w: PLAN.peer_python(w.peer),
+        adapter=lambda w: os.path.join(PEERS_DIR, PLAN.peers[w.peer].adapter),
     shell:
         "{params.python:q} {params.adapter:q} {input.plan:q} {output:q} > {log:q} 2>&1"

@@ -1,44 +1,53 @@
-# Stage 3: per dataset, two jobs write its results folder (`aceval outputs`), each in one process:
-# the tables (Kong's Obj 3-5 angles, every table of its analyses as the registry aceval.report.outputs
-# declares them, SUMMARY.md with each claim of Kong et al. 2016 and Ricci et al. 2014: holds / does
-# not hold / not testable, and validation.txt with the sheets' and every file's findings) and the
-# figures, side by side. Not one process per output: start-up (pandas, SciPy, statsmodels, seaborn)
-# costs more than most outputs. Rules per dataset, because each dataset's outputs differ (Snakemake
-# evaluates a rule's shell late: everything dataset-specific reaches it through input, output and
-# params).
+# Stage 3: per dataset, one job writes its results folder (`aceval outputs`) in one process: Kong's
+# Obj 3-5 angles, every table and figure of its analyses as the registry aceval.report.outputs
+# declares them, SUMMARY.md with each claim of Kong et al. 2016 and Ricci et al. 2014 (holds / does
+# not hold / inconclusive / not testable), and validation.txt with the sheets' and every file's
+# findings. One process per dataset, not one per output: start-up (pandas, SciPy, statsmodels,
+# seaborn) costs more than most outputs. A dataset's analyses decide which tables and figures it
+# has, so the job's outputs are its tables/ and figures/ folders (each file in the report).
 
-for _dataset in DATASETS:
-    for _kind in ("table", "figure"):
-        if not results_outputs(_dataset, _kind):
-            continue
 
-        rule:
-            name:
-                f"{_kind}s_{_dataset}"
-            input:
-                unpack(results_inputs(_dataset)),
-            output:
-                **results_outputs(_dataset, _kind),
-            log:
-                f"logs/{_dataset}/{_kind}s.log",
-            benchmark:
-                f"logs/{_dataset}/benchmarks/{_kind}s.tsv"
-            conda:
-                "../envs/aceval.yaml"
-            params:
-                root=dataset_dir(_dataset),
-                results=lambda w, output: results_folder(output),
-                kind=_kind,
-                inputs=results_options,
-                analyses=analyses(_dataset),
-                names=json.dumps(DATASETS[_dataset].get("paper_names", {})),
-                note=DATASETS[_dataset].get("note", ""),
-                peers_note=peers_note(_dataset),
-                k=config["objectives"]["test_retest_k"],
-                data_label=simulated_label(_dataset),
-            shell:
-                "python -m aceval outputs --kinds {params.kind:q} --dataset {params.root:q} "
-                "--results {params.results:q} --analyses {params.analyses:q} {params.inputs:q} "
-                "--paper-names {params.names:q} --note={params.note:q} --note={params.peers_note:q} "
-                "--test-retest-k {params.k:q} "
-                "2> {log:q}"
+rule results:
+    input:
+        unpack(results_inputs),
+    output:
+        summary=report(
+            "results/{dataset}/SUMMARY.md",
+            caption="../report/summary.rst",
+            category="{dataset}",
+            subcategory="Summary",
+            labels={"dataset": "{dataset}", "file": "SUMMARY.md"},
+        ),
+        validation="results/{dataset}/validation.txt",
+        angles="results/{dataset}/angles.csv",
+        tables=report(
+            directory("results/{dataset}/tables"),
+            patterns=["{name}.csv"],
+            caption="../report/table.rst",
+            category="{dataset}",
+            subcategory="Tables",
+            labels={"dataset": "{dataset}", "table": "{name}"},
+        ),
+        figures=report(
+            directory("results/{dataset}/figures"),
+            patterns=["{name}.png"],
+            caption="../report/figure.rst",
+            category="{dataset}",
+            subcategory="Figures",
+            labels={"dataset": "{dataset}", "figure": "{name}"},
+        ),
+    log:
+        "logs/{dataset}/results.log",
+    benchmark:
+        "logs/{dataset}/benchmarks/results.tsv"
+    conda:
+        "../envs/aceval.yaml"
+    params:
+        root=lambda w: PLAN.dataset_dir(w.dataset),
+        results="results/{dataset}",
+        inputs=input_options,
+        options=lambda w: PLAN.results_options(w.dataset),
+        data_label=lambda w: PLAN.data_label(w.dataset),
+    shell:
+        "python -m aceval outputs --dataset {params.root:q} --results {params.results:q} "
+        "{params.options:q} {params.inputs:q} 2> {log:q}"

@@ -173,7 +173,8 @@ def write_results(
     files: FileSet | None = None,
 ) -> None:
     """Write into ``results`` (a dataset's folder under results/) the outputs of ``analyses`` of
-    these ``kinds``: for tables also ``angles.csv`` (Kong's analyses), ``SUMMARY.md`` and, when
+    these ``kinds``: for tables also ``angles.csv`` (Kong's Obj 3-5 angles; without Kong's
+    analyses, its header only), ``SUMMARY.md`` and, when
     given, the ``validation`` report as validation.txt. ``data`` from :func:`build_data`. Tables
     and figures can be written by two processes at once (the workflow does). With ``files``
     every output is staged there and put in place when the set is committed (all or none).
@@ -193,7 +194,9 @@ def write_results(
             data["angles"] = pd.read_csv(written, low_memory=False)
     elif "kong" in analyses and "table" in kinds:  # computed per subject (calibrate --angles-out)
         _put(results / "angles.csv", lambda tmp: data["angles"].to_csv(tmp, index=False), files)
-    if "kong" in analyses and "table" in kinds:
+    if "kong" not in analyses and "table" in kinds:  # no Obj 3-5 here: the file, with no row
+        _put(results / "angles.csv", lambda tmp: _no_angles().to_csv(tmp, index=False), files)
+    if "table" in kinds:
         progress("angles.csv")
     tables = {}
     for output in chosen:
@@ -212,6 +215,13 @@ def write_results(
         progress("SUMMARY.md")
         if validation is not None:
             _write_text(results / "validation.txt", validation, files)
+
+
+def _no_angles() -> pd.DataFrame:
+    """The Obj 3-5 angles table with no row (a dataset without Kong's analyses)."""
+    from aceval.evaluation.objectives import ANGLE_COLUMNS
+
+    return pd.DataFrame(columns=ANGLE_COLUMNS)
 
 
 def summary_text(tables: dict, analyses: list[str], data: dict, notes: list[str]) -> str:
