@@ -1,0 +1,97 @@
+"""The workflow's plan of its configuration (aceval.workflow_plan): what each dataset gets, which
+peers, which jobs, and a recording whose bytes change is seen even with its size and mtime kept."""
+
+import os
+
+import yaml
+
+from aceval.methods import registry
+from aceval.workflow_plan import Configuration, HashCache, read_sheet
+
+from .runner import REPO
+
+
+def _plan(tmp_path, datasets, **extra) -> Configuration:
+    config = yaml.safe_load((REPO / "config" / "config.yaml").read_text())
+    config = {**config, "datasets": datasets, "run": list(datasets), **extra}
+    return Configuration(config, str(REPO), HashCache(str(tmp_path / "hashes.json")))
+
+
+def test_each_dataset_gets_the_analyses_its_truth_and_protocol_allow(tmp_path):
+    lab = tmp_path / "lab"
+    lab.mkdir()
+    plan = _plan(
+        tmp_path,
+        {
+            "sim": {"simulate": {"protocol": "kong"}, "analyses": ["kong"]},
+            "children": {"simulate": {"protocol": "ricci"}, "analyses": ["ricci"]},
+            "lab": {"path": str(lab), "analyses": ["kong"]},
+            "neura": {
+                "import": {"format": "xsens", "source": "x", "vicon": "v"},
+                "analyses": ["kong"],
+            },
+            "qmt": {"import": {"format": "qmt", "source": "q"}, "analyses": ["kong"]},
+        },
+    )
+    assert plan.analyses("sim") == ["kong", "methods", "retest"]
+    assert plan.analyses("children") == ["ricci", "methods"]
+    assert plan.analyses("lab") == ["kong", "retest"]  # no ground_truth.tsv: no methods table
+    (lab / "ground_truth.tsv").write_text("subject\n")
+    assert plan.analyses("lab") == ["kong", "methods", "retest"]
+    assert plan.analyses("neura") == ["kong", "methods", "retest", "truth"]
+    assert plan.analyses("qmt") == ["kong", "retest", "loose_reference"]
+    assert plan.peers_of("sim") == list(registry.peers())
+    assert plan.peers_of("children") == [] and "not run" in plan.peers_note("children")
+    assert plan.dataset_dir("sim") == "resources/sim" and plan.dataset_dir("lab") == str(lab)
+    assert (
+        plan.data_label("sim").startswith("SIMULATED") and plan.data_label("lab") == "recorded data"
+    )
+
+
+def test_peers_left_out_are_said_and_the_rest_come_from_the_registry(tmp_path):
+    plan = _plan(
+        tmp_path,
+        {"sim": {"simulate": {"protocol": "kong"}, "analyses": ["kong"]}},
+        peers=["qmt_hinge"],
+    )
+    assert plan.peers_run == ["qmt_hinge"]
+    assert plan.peers_absent == [m for m in registry.peers() if m != "qmt_hinge"]
+    assert "gaitmap_pca" in plan.peers_note("sim")
+    assert plan.peer_python("qmt_hinge").endswith(os.path.join("qmt", "bin", "python"))
+
+
+def test_subjects_are_batched_in_sheet_order_and_a_single_subject_job_is_named_after_it(tmp_path):
+    plan = _plan(
+        tmp_path,
+        {
+            "one": {"simulate": {"protocol": "kong"}},
+            "three": {"simulate": {"protocol": "kong"}, "subjects_per_job": 3},
+        },
+    )
+    names = [f"S{k}" for k in range(1, 8)]
+    assert plan.subject_batches("one", names[:2]) == {"S1": ["S1"], "S2": ["S2"]}
+    batches = plan.subject_batches("three", names)
+    assert list(batches) == ["_batch1", "_batch2", "_batch3"]
+    assert sum(batches.values(), []) == names
+
+
+def test_a_recording_changed_in_place_changes_the_digest_and_paths_out_of_the_folder_are_not_followed(
+    tmp_path,
+):
+    lab = tmp_path / "lab"
+    lab.mkdir()
+    (lab / "a.csv").write_text("t\n0\n")
+    (lab / "recordings.tsv").write_text(
+        "subject\tpath\nS1\ta.csv\nS2\t../outside.csv\n", encoding="utf-8-sig"
+    )
+    (tmp_path / "outside.csv").write_text("secret\n")
+    plan = _plan(tmp_path, {"lab": {"path": str(lab), "analyses": ["kong"]}})
+    assert read_sheet(str(lab / "recordings.tsv"))[0] == {"subject": "S1", "path": "a.csv"}
+    before = plan.recording_files_digest("lab")
+    assert plan.recording_files_digest("lab", ["S2"]) == plan.recording_files_digest("lab", [])
+    stat = os.stat(lab / "a.csv")
+    (lab / "a.csv").write_text("t\n1\n")  # same size
+    os.utime(lab / "a.csv", ns=(stat.st_atime_ns, stat.st_mtime_ns))  # and the same mtime
+    assert plan.recording_files_digest("lab") != before
+    plan.hashes.save()
+    assert HashCache.load(plan.hashes.path).entries == plan.hashes.entries
