@@ -41,7 +41,7 @@ def test_peer_rows_pass_the_same_rotation_gate_as_acevals():
     from scipy.spatial.transform import Rotation
 
     from aceval.data.contract import R_COLUMNS
-    from aceval.evaluation.methods_comparison import gate_peers
+    from aceval.evaluation.peer_gates import axis_gates
 
     turned = Rotation.from_euler("z", 90, degrees=True).as_matrix()  # body y -> sensor -x
     rows = pd.DataFrame(
@@ -52,7 +52,7 @@ def test_peer_rows_pass_the_same_rotation_gate_as_acevals():
              **dict(zip(R_COLUMNS, np.full(9, np.nan)))},
         ]
     )  # fmt: skip
-    gated = gate_peers(rows, lambda sensor_set, imu: "+y")
+    gated = axis_gates(rows, lambda sensor_set, imu: "+y")
     assert gated["flag"].tolist() == ["", "right_axis_mismatch", "not_applicable"]
     assert gated["right_axis_angle_deg"].iloc[:2].round(6).tolist() == [0.0, 90.0]
     # the peer's own axis 20 deg from the vertical (body z = sensor z here), or a PCA whose two
@@ -63,7 +63,7 @@ def test_peer_rows_pass_the_same_rotation_gate_as_acevals():
         {**rows.iloc[0].to_dict(), **dict(zip(["axis_x", "axis_y", "axis_z"], tilted))},
         {**rows.iloc[0].to_dict(), "axis_x": 0.0, "axis_y": 1.0, "axis_z": 0.0, "axis_variance_ratio": 0.8},
     ])  # fmt: skip
-    gated = gate_peers(axes, lambda sensor_set, imu: "+y")
+    gated = axis_gates(axes, lambda sensor_set, imu: "+y")
     assert gated["flag"].tolist() == ["", "axis_near_vertical", "axis_undetermined"]
     assert gated["axis_vertical_angle_deg"].round(6).tolist()[:2] == [90.0, 20.0]
 
@@ -148,3 +148,100 @@ def test_the_peers_read_the_samples_acevals_methods_read(tmp_path):
             np.testing.assert_allclose(scatter, expected, rtol=1e-6)
             checked += 1
     assert checked >= 9
+
+
+def test_a_peer_row_meets_the_sensor_flags_direction_vote_rho_and_stability_of_its_unit():
+    """Issue 39: a peer's rows get what aceval measured about the same recordings: the sensor's
+    flags in that test, the unit's gyroscope rho where the peer reports no eigenvalue ratio, the
+    direction vote of the repetitions it is made from, and 'unstable' for a subset far from its
+    own calibration from all repetitions."""
+    import numpy as np
+    import pandas as pd
+    from scipy.spatial.transform import Rotation
+
+    from aceval.data.contract import R_COLUMNS
+    from aceval.evaluation.peer_gates import gate_peers
+    from aceval.methods.moments import PHASE_COLUMNS
+
+    key = {"subject": "S1", "sensor_set": "s", "imu": "A", "segment": "thigh", "side": "right"}
+    eye = dict(zip(R_COLUMNS, np.eye(3).ravel()))
+    far = dict(zip(R_COLUMNS, Rotation.from_euler("z", 12, degrees=True).as_matrix().ravel()))
+    back = dict(zip(R_COLUMNS, Rotation.from_euler("z", 180, degrees=True).as_matrix().ravel()))
+
+    def peer(test, repetitions, n_reps, rotation):
+        return {
+            **key,
+            "test": test,
+            "repetitions": repetitions,
+            "n_reps": n_reps,
+            "method": "qmt_hinge",
+            "flag": "",
+            **rotation,
+        }
+
+    peers = pd.DataFrame(
+        [
+            peer("T5", "R1+R2+R3", 3, eye),  # its unit's sensor flag, rho fine
+            peer("T5", "R1+R2", 2, far),  # 12 deg from its full set: unstable
+            peer("T6", "R1+R2+R3", 3, eye),  # the unit's rho is 0.3: undetermined
+            peer("T1", "R1+R2+R3", 3, back),  # turned 180 deg about z: backward
+        ]
+    )
+    own = pd.DataFrame(
+        [
+            {
+                **key,
+                "test": "T5",
+                "repetitions": "R1+R2+R3",
+                "n_reps": 3,
+                "method": "kong",
+                "rho_motion": 0.8,
+                "sensor_flag": "static_not_standing",
+            },
+            {
+                **key,
+                "test": "T6",
+                "repetitions": "R1+R2+R3",
+                "n_reps": 3,
+                "method": "kong",
+                "rho_motion": 0.3,
+                "sensor_flag": "",
+            },
+            {
+                **key,
+                "test": "T1",
+                "repetitions": "R1+R2+R3",
+                "n_reps": 3,
+                "method": "kong",
+                "rho_motion": 0.9,
+                "sensor_flag": "",
+            },
+        ]
+    )
+    # T1's first phase is about -y (flexion): each repetition's own axis, signed by its first
+    # phase, is -y in the sensor frame; the 180-deg calibration maps the body's y onto -y
+    recordings = pd.DataFrame(
+        [
+            {
+                **key,
+                "test": "T1",
+                "rep": rep,
+                "kind": "motion",
+                "flag": "",
+                **dict(zip(PHASE_COLUMNS, [0.0, -1.0, 0.0])),
+            }
+            for rep in (1, 2, 3)
+        ]
+    )
+    gated = gate_peers(peers, lambda s, i: "+y", own, recordings, {"T1": "-y"}.get, 3)
+    flags = [set(f.split(";")) - {""} for f in gated["flag"]]
+    assert flags[0] == {"static_not_standing"}
+    assert flags[1] == {"static_not_standing", "unstable"}
+    assert gated["full_set_angle_deg"].iloc[1] == pytest.approx(12.0)
+    assert "axis_undetermined" in flags[2]
+    assert "backward" in flags[3] and gated["first_phase_agreement"].iloc[3] == 0.0
+    # the same calibration not turned agrees with every repetition: no flag
+    unturned = gate_peers(
+        peers.iloc[[0]].assign(test="T1"), lambda s, i: "+y", own, recordings, {"T1": "-y"}.get, 3
+    )
+    assert unturned["flag"].iloc[0] == "" and unturned["first_phase_agreement"].iloc[0] == 1.0

@@ -193,7 +193,8 @@ def test_methods_table_statistics_and_best_test():
 
 def test_a_flagged_calibration_from_all_repetitions_is_not_replaced_by_its_subsets():
     """When the calibration from all repetitions is flagged, the IMU drops out of the methods
-    table: its unflagged subsets never stand in for it."""
+    table's numbers: its unflagged subsets never stand in for it; the cell keeps its row with
+    n = 0 of 1 and the flag (the price of the flags, issue 39)."""
     base = {"subject": "S1", "sensor_set": "a", "imu": "I", "segment": "shank", "test": "T6",
             "method": "kong", "error_vertical_share": 1.0}  # fmt: skip
     calibrations = pd.DataFrame(
@@ -204,7 +205,9 @@ def test_a_flagged_calibration_from_all_repetitions_is_not_replaced_by_its_subse
         ]  # fmt: skip
     )
     assert methods_comparison.full_set_errors(calibrations).empty
-    assert methods_comparison.methods_table(calibrations).empty
+    table = methods_comparison.methods_table(calibrations)
+    assert len(table) == 1 and table.loc[0, "n"] == 0 and table.loc[0, "n_calibrations"] == 1
+    assert table.loc[0, "flags"] == "not_planar x1" and np.isnan(table.loc[0, "median"])
 
 
 def _yaw(deg: float) -> list[float]:

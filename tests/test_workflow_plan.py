@@ -33,13 +33,13 @@ def test_each_dataset_gets_the_analyses_its_truth_and_protocol_allow(tmp_path):
             "qmt": {"import": {"format": "qmt", "source": "q"}, "analyses": ["kong"]},
         },
     )
-    assert plan.analyses("sim") == ["kong", "methods", "retest"]
-    assert plan.analyses("children") == ["ricci", "methods"]
-    assert plan.analyses("lab") == ["kong", "retest"]  # no ground_truth.tsv: no methods table
+    assert plan.analyses("sim") == ["kong", "decision", "methods", "retest"]
+    assert plan.analyses("children") == ["ricci", "decision", "methods"]
+    assert plan.analyses("lab") == ["kong", "decision", "retest"]  # no ground truth: no methods
     (lab / "ground_truth.tsv").write_text("subject\n")
-    assert plan.analyses("lab") == ["kong", "methods", "retest"]
-    assert plan.analyses("neura") == ["kong", "methods", "retest", "truth"]
-    assert plan.analyses("qmt") == ["kong", "retest", "loose_reference"]
+    assert plan.analyses("lab") == ["kong", "decision", "methods", "retest"]
+    assert plan.analyses("neura") == ["kong", "decision", "methods", "retest", "truth"]
+    assert plan.analyses("qmt") == ["kong", "decision", "retest", "loose_reference"]
     assert plan.peers_of("sim") == list(registry.peers())
     assert plan.peers_of("children") == [] and "not run" in plan.peers_note("children")
     assert plan.dataset_dir("sim") == "resources/sim" and plan.dataset_dir("lab") == str(lab)

@@ -305,6 +305,12 @@ def _add_outputs(commands) -> None:
         "--peers", nargs="*", default=[], help="peer tools' calibrations (workflow/peers/, CSV)"
     )
     outputs.add_argument(
+        "--recordings",
+        nargs="*",
+        default=[],
+        help="the one pass's summaries (calibrate --recordings-out): the peers' direction vote",
+    )
+    outputs.add_argument(
         "--angles",
         nargs="*",
         default=[],
@@ -376,6 +382,7 @@ INPUT_OPTIONS = {
     "retest_units": "--retest-units",
     "findings": "--findings",
     "peers": "--peers",
+    "recordings": "--recordings",
 }
 #: commands whose --out is a folder written as a whole
 FOLDER_COMMANDS = {"simulate", "import", "apply"}

@@ -305,7 +305,7 @@ def _write_calibrate_outputs(args, files, tables: dict, report, dataset) -> None
         findings = _findings_table(report)
         files.write(args.findings_out, lambda tmp: findings.to_csv(tmp, sep="\t", index=False))
     if args.angles_out or args.retest_out:
-        _write_angles(args, files)
+        _write_angles(args, files, tables["out"])
     if args.plan_out:
         from aceval.calibrate.peer_plan import calibration_plan
 
@@ -315,17 +315,14 @@ def _write_calibrate_outputs(args, files, tables: dict, report, dataset) -> None
         files.write(args.plan_out, lambda tmp: Path(tmp).write_text(plan + "\n"))
 
 
-def _write_angles(args, files) -> None:
+def _write_angles(args, files, calibrations) -> None:
     """Kong's Obj 3-5 angles (--angles-out) and every method's test-retest units (--retest-out)
-    of this job's subjects, from its calibrations as a reader of ``args.out`` sees them (what the
-    results jobs computed from before): the only tables that need the calibrations from subsets
-    of repetitions, so the results jobs read only those from all repetitions.
+    of this job's subjects, from its ``calibrations``: the only tables that need the calibrations
+    from subsets of repetitions, so the results jobs read only those from all repetitions.
     """
     from aceval.evaluation.methods_comparison import retest_units
     from aceval.evaluation.objectives import all_angles
-    from aceval.report.results import read_tables
 
-    calibrations = read_tables([files.staged[Path(args.out)]])
     if args.angles_out:
         table = all_angles(calibrations, args.retest_k)
         files.write(args.angles_out, lambda tmp: table.to_csv(tmp, index=False))
@@ -501,6 +498,7 @@ def outputs(args) -> int:
         peers=read_tables(args.peers),
         test_retest_k=args.test_retest_k,
         retest_units=read_tables(args.retest_units) if args.retest_units else None,
+        recordings=read_tables(args.recordings, _direction_columns) if args.peers else None,
     )
     print("aceval outputs: read the inputs", file=sys.stderr)
     validation = None
@@ -513,6 +511,18 @@ def outputs(args) -> int:
     with files:
         _write_results(args, data, validation, files)
     return 0
+
+
+def _direction_columns(summaries):
+    """What the peers' direction vote reads of the one pass's summaries (each motion
+    repetition's first-phase axis and third moments), and no more.
+    """
+    from aceval.methods.moments import PHASE_COLUMNS
+    from aceval.signals.checks import THIRD_MOMENT_COLUMNS
+
+    keep = ["subject", "sensor_set", "imu", "test", "rep", "kind", "flag"]
+    keep += PHASE_COLUMNS + THIRD_MOMENT_COLUMNS
+    return summaries[[c for c in keep if c in summaries]]
 
 
 def _write_results(args, data, validation, files) -> None:

@@ -243,11 +243,12 @@ class Configuration:
         return bool(set(KONG_PROTOCOL) & set(self.datasets[dataset].get("analyses", [])))
 
     def analyses(self, dataset: str) -> list[str]:
-        """The configured analyses, then those aceval adds: every method against a ground truth
-        (``methods``), every method's test-retest (Kong's protocol), the marker truth's own and
-        the loose reference's tables.
+        """The configured analyses, then those aceval adds: which calibration to use for
+        each IMU (``decision``), every method against a ground truth (``methods``), every
+        method's test-retest (Kong's protocol), the marker truth's own and the loose
+        reference's tables.
         """
-        extra = ["methods"] if self.has_ground_truth(dataset) else []
+        extra = ["decision"] + (["methods"] if self.has_ground_truth(dataset) else [])
         extra += ["retest"] if self.kong_protocol(dataset) else []
         extra += ["truth"] if self.has_truth_method(dataset) else []
         extra += ["loose_reference"] if self.has_loose_reference(dataset) else []

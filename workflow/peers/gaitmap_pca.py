@@ -57,20 +57,24 @@ def gravity_rotation(static: pd.DataFrame, fs_hz: float) -> tuple:
     return get_gravity_rotation(np.median(static[SF_ACC].to_numpy()[still], axis=0), GRAV_VEC), note
 
 
-def pca_rotation(gravity, motion: pd.DataFrame) -> tuple[np.ndarray, float]:
+def pca_rotation(gravity, motion: pd.DataFrame) -> tuple[np.ndarray, float, np.ndarray]:
     """Gaitmap's sensor -> aligned rotation (z up, y the gravity-aligned gyroscope's principal
-    horizontal axis, x = y x z), and the ratio of its PCA's two variances (second / first: near 1,
-    the principal axis is undetermined).
+    horizontal axis, x = y x z), the ratio of its PCA's two variances (second / first: near 1,
+    the principal axis is undetermined), and the gyroscope's principal axis before gaitmap
+    projects it on the horizontal (the first component of the same samples' 3-D PCA, centred as
+    gaitmap's; sensor frame): what aceval's vertical gate judges, since gaitmap's own axis is
+    horizontal by construction whatever the motion.
     """
+    gyr = gravity.apply(motion[SF_GYR].to_numpy())
     aligned = pd.DataFrame(
-        np.column_stack(
-            [gravity.apply(motion[SF_ACC].to_numpy()), gravity.apply(motion[SF_GYR].to_numpy())]
-        ),
+        np.column_stack([gravity.apply(motion[SF_ACC].to_numpy()), gyr]),
         columns=[*SF_ACC, *SF_GYR],
     )
     pca = PcaAlignment(target_axis="y", pca_plane_axis=("gyr_x", "gyr_y")).align(aligned)
     variance = pca.pca_.explained_variance_
-    return (pca.rotation_ * gravity).as_matrix(), float(variance[1] / variance[0])
+    _, vectors = np.linalg.eigh(np.cov(gyr.T))
+    axis = gravity.inv().apply(vectors[:, -1])
+    return (pca.rotation_ * gravity).as_matrix(), float(variance[1] / variance[0]), axis
 
 
 def calibrate(plan: dict) -> list[dict]:
@@ -92,7 +96,7 @@ def calibrate(plan: dict) -> list[dict]:
                 np.vstack([reps[r][0] for r in subset]), np.vstack([reps[r][1] for r in subset])
             )
             with Timer() as timer:
-                aligned, ratio = pca_rotation(gravity, motion)
+                aligned, ratio, axis = pca_rotation(gravity, motion)
             R = frame_from_axes(-aligned[2], aligned[1], entry["right_axis"])
             seconds = gravity_timer.seconds + timer.seconds  # one calibration: both steps
             rows.append(
@@ -103,7 +107,7 @@ def calibrate(plan: dict) -> list[dict]:
                     R,
                     seconds,
                     note=note,
-                    axis=aligned[1],
+                    axis=axis,
                     axis_variance_ratio=ratio,
                 )
             )

@@ -14,7 +14,6 @@ rule calibrate:
         calibrations="results/{dataset}/calibrations/{subject}.csv",
         recordings="results/{dataset}/calibrations/{subject}_recordings.csv",
         axes="results/{dataset}/calibrations/{subject}_axes.csv",
-        pairs="results/{dataset}/calibrations/{subject}_pairs.csv",
         findings="results/{dataset}/calibrations/{subject}_findings.tsv",
         correlations="results/{dataset}/correlations/{subject}.csv",
         angles="results/{dataset}/calibrations/{subject}_angles.csv",
@@ -36,6 +35,6 @@ rule calibrate:
     shell:
         "python -m aceval calibrate {params.root:q} {params.subject:q} --allow-empty "
         "--out {output.calibrations:q} --recordings-out {output.recordings:q} --axes-out {output.axes:q} "
-        "--pairs-out {output.pairs:q} --findings-out {output.findings:q} "
+        "--findings-out {output.findings:q} "
         "--correlations-out {output.correlations:q} --angles-out {output.angles:q} "
         "--retest-out {output.retest:q} --plan-out {output.plan:q} {params.options:q} 2> {log:q}"

@@ -68,8 +68,8 @@ def all_outputs(wildcards):
 
 
 def results_inputs(wildcards):
-    """Every calibration job's tables and findings, the sheets gate's findings, the peers'
-    calibrations and the dataset itself (its ground truth and reference sheets: a re-import that
+    """Every calibration job's tables, findings and recordings' summaries (the peers' direction
+    vote reads them), the sheets gate's findings, the peers' calibrations and the dataset itself (its ground truth and reference sheets: a re-import that
     changes only them reruns the results)."""
     dataset = wildcards.dataset
     return {
@@ -81,6 +81,7 @@ def results_inputs(wildcards):
         "angles": unit_files(dataset, "calibrations/{unit}_angles.csv"),
         "retest_units": unit_files(dataset, "calibrations/{unit}_retest.csv"),
         "findings": unit_files(dataset, "calibrations/{unit}_findings.tsv"),
+        "recordings": unit_files(dataset, "calibrations/{unit}_recordings.csv"),
         "peers": [
             f"results/{dataset}/peers/{peer}/{unit}.csv"
             for peer in PLAN.peers_of(dataset)
@@ -92,7 +93,15 @@ def results_inputs(wildcards):
 def input_options(wildcards, input):
     """The inputs as options of `aceval outputs` (--calibrations, ..., --findings), of the inputs
     known so far (before the checkpoint has run, only the sheets gate's)."""
-    kinds = ("calibrations", "axes", "correlations", "angles", "retest_units", "peers")
+    kinds = (
+        "calibrations",
+        "axes",
+        "correlations",
+        "angles",
+        "retest_units",
+        "peers",
+        "recordings",
+    )
     known = [kind for kind in kinds if kind in input.keys() and len(input[kind])]
     options = [item for kind in known for item in (f"--{kind.replace('_', '-')}", *input[kind])]
     findings = [input[k] for k in ("sheets",) if k in input.keys()]

@@ -100,6 +100,7 @@ TABLE_COLUMNS = [
     "gyro_acc_evidence_deg",
     "static_vertical_angle_deg",
     "flag",
+    "sensor_flag",
     "error_deg",
     "error_vertical_share",
     "cone95_deg",
@@ -163,6 +164,7 @@ def calibration_rows(
             for k in ("gyro_acc_agreement", "gyro_acc_evidence_deg", "static_vertical_angle_deg")
         },
         "flag": fit.flag,
+        "sensor_flag": identity["sensor_flag"].to_numpy(),
         "error_deg": np.full(len(unit), np.nan),
         "error_vertical_share": np.full(len(unit), np.nan),
     }

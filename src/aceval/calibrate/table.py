@@ -69,12 +69,25 @@ def unflagged(table: pd.DataFrame) -> pd.Series:
     return flag.isna() | (flag.astype(str) == "")
 
 
+#: flags that judge a calibration against the other methods', not against its own recordings:
+#: the papers' analyses of one method (Kong's Objectives, the reliability of its tests) keep these
+#: rows, so that they do not depend on which other methods ran
+COMPARISON_FLAGS = ("methods_disagree",)
+
+
+def only_flags(table: pd.DataFrame, names) -> pd.Series:
+    """True for the rows that are unflagged or flagged by ``names`` alone."""
+    flags = table["flag"].fillna("").astype(str).str.split(";")
+    return unflagged(table) | flags.map(lambda found: set(found) - {""} <= set(names))
+
+
 def usable(calibrations: pd.DataFrame, method: str | None = None) -> pd.DataFrame:
-    """A method's calibrations that are not flagged (Objectives 1-5 are about Kong's method; the
-    other methods are compared in :mod:`aceval.evaluation.methods_comparison`).
+    """A method's calibrations that are not flagged, but for :data:`COMPARISON_FLAGS`
+    (Objectives 1-5 are about Kong's method; the other methods are compared in
+    :mod:`aceval.evaluation.methods_comparison`).
     """
     calibrations = kong_rows(calibrations, method)
-    return calibrations[unflagged(calibrations)]
+    return calibrations[only_flags(calibrations, COMPARISON_FLAGS)]
 
 
 #: flags that say how far a calibration is from the others of its unit, not that it is wrong in
@@ -88,9 +101,7 @@ def spread_usable(calibrations: pd.DataFrame, method: str | None = None) -> pd.D
     the unstable subsets out would hide the spread those objectives measure).
     """
     calibrations = kong_rows(calibrations, method)
-    flags = calibrations["flag"].fillna("").astype(str)
-    spread_only = flags.str.split(";").map(lambda names: set(names) - {""} <= set(SPREAD_FLAGS))
-    return calibrations[unflagged(calibrations) | spread_only]
+    return calibrations[only_flags(calibrations, SPREAD_FLAGS + COMPARISON_FLAGS)]
 
 
 def kong_rows(calibrations: pd.DataFrame, method: str | None = None) -> pd.DataFrame:

@@ -18,7 +18,6 @@ from aceval.data.rotations import error_angle_deg, vector_angle_deg, vertical_sh
 from aceval.evaluation.conditioning import heading_status
 from aceval.evaluation.objectives import SEGMENT_ORDER, test_retest_angles
 from aceval.methods import registry
-from aceval.methods.kong import KongLimits
 
 #: Kong et al. 2016 Sec. 4: the test recommended for each segment
 KONG_RECOMMENDATION = {"head": "T3", "chest": "T3", "waist": "T3", "thigh": "T6", "shank": "T6"}
@@ -80,7 +79,43 @@ def methods_table(
             columns={"median": "retest_median_deg", "n": "retest_n"}
         )
         table = table.merge(retest, on=keys, how="left")
+    table = _with_price(table, calibrations, keys)
     return _method_order(_with_not_applicable(table, calibrations, keys), keys[:3])
+
+
+def _with_price(table: pd.DataFrame, calibrations: pd.DataFrame, keys) -> pd.DataFrame:
+    """The price of the flags beside every cell's numbers: ``n_calibrations``, the calibrations
+    from all repetitions the cell could hold (a peer that does not apply is not counted), of which
+    ``n`` are unflagged and counted, and ``flags`` (those of the others, by how often); a cell
+    whose every calibration is flagged keeps its row, with n = 0 and its flags.
+    """
+    full = full_set_rows(calibrations)
+    full = full[full["flag"].fillna("").astype(str) != "not_applicable"]
+    if full.empty:
+        return table
+    flagged = full[~unflagged(full)]
+    counts = full.groupby(keys).size().rename("n_calibrations").reset_index()
+    names = flagged.assign(name=flagged["flag"].astype(str).str.split(";")).explode("name")
+    flags = (
+        names.groupby([*keys, "name"])
+        .size()
+        .rename("count")
+        .reset_index()
+        .sort_values([*keys, "count", "name"], ascending=[True] * len(keys) + [False, True])
+        .assign(text=lambda t: t["name"] + " x" + t["count"].astype(str))
+        .groupby(keys)["text"]
+        .agg("; ".join)
+        .rename("flags")
+        .reset_index()
+    )
+    priced = counts.merge(flags, on=keys, how="left")
+    if table.empty:  # every calibration flagged: the cells' rows, n = 0
+        table = priced.reindex(columns=[*table.columns, "n_calibrations", "flags"])
+    else:
+        table = table.merge(priced, on=keys, how="outer")
+    table["n"] = table["n"].fillna(0).astype(int)
+    table["flags"] = table["flags"].fillna("")
+    return table
 
 
 def _with_not_applicable(table: pd.DataFrame, calibrations: pd.DataFrame, keys) -> pd.DataFrame:
@@ -157,6 +192,7 @@ def retest_table(
         full = full[unflagged(full)]
         cones = full.groupby(keys)["cone95_deg"].median().rename("cone95_median_deg")
         table = table.merge(cones.reset_index(), on=keys, how="left")
+    table = _with_price(table, calibrations, keys)
     return _method_order(_with_not_applicable(table, calibrations, keys), keys[:3])
 
 
@@ -239,54 +275,6 @@ def uncertainty_table(
     table = pd.DataFrame(rows, columns=columns)
     cells = _method_order(table[table["segment"] != "all"], ["segment", "test"])
     return pd.concat([cells, _method_order(table[table["segment"] == "all"], [])])[columns]
-
-
-def gate_peers(peers: pd.DataFrame, right_axis_of) -> pd.DataFrame:
-    """The peers' rows through the gates aceval's own rows pass, with the same limits:
-
-    * ``right_axis_mismatch``: the declared right axis (``right_axis_of(sensor_set, imu)`` ->
-      '+y', ...) more than :data:`aceval.signals.checks.MAX_RIGHT_AXIS_ANGLE_DEG` from the
-      calibration's body y (column ``right_axis_angle_deg``);
-    * ``axis_near_vertical``: the peer's own medial-lateral axis (``axis_x..z``, before its
-      vertical part is removed) closer to the vertical than the axis methods allow
-      (:class:`aceval.methods.sagittal.AxisLimits`, 45 deg; column ``axis_vertical_angle_deg``);
-    * ``axis_undetermined``: the two eigenvalues that decide the peer's axis (gaitmap's PCA,
-      ``axis_variance_ratio``) closer than Kong's plane normal may be
-      (:class:`aceval.methods.kong.KongLimits` ``max_normal_ratio``, 0.5).
-
-    Each flag joins the peer's own; flagged rows leave the medians, as aceval's do. (The
-    direction vote needs the recordings' first movement phases, which a peer's output does not
-    carry: the right-axis gate stands in for it.)
-    """
-    from aceval.calibrate.table import combine_flags
-    from aceval.data.rotations import axis_vector
-    from aceval.methods.sagittal import AxisLimits
-    from aceval.signals.checks import MAX_RIGHT_AXIS_ANGLE_DEG, right_axis_angle_deg
-
-    if peers.empty:
-        return peers
-    R = peers[R_COLUMNS].to_numpy(float).reshape(-1, 3, 3)
-    right = np.array(
-        [axis_vector(right_axis_of(s, i)) for s, i in zip(peers["sensor_set"], peers["imu"])]
-    )
-    angle = right_axis_angle_deg(R[:, 1, :], right)
-    axis = peers.reindex(columns=["axis_x", "axis_y", "axis_z"]).to_numpy(float)
-    with np.errstate(invalid="ignore"):
-        axis = axis / np.linalg.norm(axis, axis=1)[:, None]
-    vertical_angle = vector_angle_deg(axis, R[:, 2, :], sign_free=True)
-    ratio = peers.reindex(columns=["axis_variance_ratio"]).to_numpy(float)[:, 0]
-    checks = [
-        ("right_axis_mismatch", angle > MAX_RIGHT_AXIS_ANGLE_DEG),
-        ("axis_near_vertical", vertical_angle < AxisLimits().min_vertical_angle_deg),
-        ("axis_undetermined", ratio > KongLimits().max_normal_ratio),
-    ]
-    flags = [
-        combine_flags(own, *(name for name, hit in checks if hit[k]))
-        for k, own in enumerate(peers["flag"].fillna("").astype(str))
-    ]
-    return peers.assign(
-        right_axis_angle_deg=angle, axis_vertical_angle_deg=vertical_angle, flag=flags
-    )
 
 
 def with_truth(calibrations: pd.DataFrame, ground_truth: pd.DataFrame | None) -> pd.DataFrame:

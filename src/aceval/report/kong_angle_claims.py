@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import pandas as pd
 
-from aceval.calibrate.table import full_set_rows, kong_rows, unflagged
+from aceval.calibrate.table import full_set_rows, kong_rows, usable
 from aceval.report.claims import (
     FAILS,
     HOLDS,
@@ -169,8 +169,7 @@ def recommended_most_accurate(e: Evidence) -> tuple[str, str]:
     c = e.calibrations
     if c is None or "error_deg" not in c or c["error_deg"].isna().all():
         return UNTESTABLE, "no ground truth"
-    full = full_set_rows(kong_rows(c))
-    full = full[unflagged(full)]
+    full = usable(full_set_rows(kong_rows(c)))
     per_subject = full.groupby(["subject", "segment", "test"])["error_deg"].mean().reset_index()
     verdicts, parts = [], []
     for segment, (test, _, _) in RECOMMENDED.items():

@@ -19,7 +19,16 @@ from dataclasses import dataclass
 #: ground truth (ground_truth_method.tsv) or a loose reference (loose_reference.tsv)
 INPUT_KINDS = ("calibrations", "axes", "correlations", "angles", "truth_method", "loose_reference")
 #: the analyses a dataset can ask for (config ``analyses``), and the ones aceval adds itself
-ANALYSES = ("kong", "box", "ricci", "methods", "retest", "truth", "loose_reference")
+ANALYSES = (
+    "kong",
+    "box",
+    "ricci",
+    "decision",
+    "methods",
+    "retest",
+    "truth",
+    "loose_reference",
+)
 
 
 @dataclass(frozen=True)
@@ -425,6 +434,25 @@ _ENTRIES = [
         "Ricci Fig. 5 in spirit: residual angle between each reference axis and its estimate "
         "before (identity) and after the LM fit, mean and SD over children",
         build=_figure("ricci_figure5"),
+    ),
+    Output(
+        "decision",
+        "table",
+        "decision",
+        "beyond the papers (which calibration to use)",
+        ("calibrations",),
+        "For each IMU, the calibration to use: among its unflagged calibrations from all "
+        "repetitions (every method and test), the method and test most accurate on its segment "
+        "(or, without a ground truth, most repeatable); its uncertainty, the spread between the "
+        "methods, how many calibrations it rests on, and a verdict",
+        "one row per IMU of a subject",
+        _named(
+            "evaluation.decision.decision_table",
+            "calibrations",
+            "test_retest_k",
+            optional=("retest_units",),
+        ),
+        _named_markdown,
     ),
     Output(
         "methods",

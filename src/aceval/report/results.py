@@ -97,20 +97,32 @@ def build_data(
     peers=None,
     test_retest_k: int = 3,
     retest_units=None,
+    recordings=None,
 ) -> dict:
     """The ``data`` dict the builders read: the tidy tables (the ``peers``' calibrations joined
-    to aceval's, through the same rotation gate (:func:`aceval.evaluation.methods_comparison.
-    gate_peers`) and with their error to the ground truth), the dataset's truth and reference sheets,
+    to aceval's, through every gate aceval's rows pass (:func:`aceval.evaluation.peer_gates.
+    gate_peers`: ``recordings``, the one pass's summaries, for their direction vote) and with
+    their error to the ground truth), the dataset's truth and reference sheets,
     its ``paper_names`` (this dataset's test names -> the paper's), sensor sets and Obj 4's k;
     ``retest_units``: aceval's methods' test-retest units, computed per subject
     (:func:`aceval.evaluation.methods_comparison.retest_units`; None: from the calibrations).
     """
     from aceval.data.dataset import load_dataset
-    from aceval.evaluation.methods_comparison import gate_peers, with_truth
+    from aceval.evaluation.decision import flag_disagreements
+    from aceval.evaluation.methods_comparison import with_truth
+    from aceval.evaluation.peer_gates import gate_peers
 
     meta = dataset_meta(root)
     if peers is not None and len(peers):
-        peers = gate_peers(peers, load_dataset(root).right_axis)
+        dataset = load_dataset(root)
+        peers = gate_peers(
+            peers,
+            dataset.right_axis,
+            calibrations,
+            recordings,
+            dataset.first_phase,
+            test_retest_k,
+        )
         calibrations = pd.concat([calibrations, peers], ignore_index=True)
     if calibrations is not None and len(calibrations):  # against the truth as it is now
         errors = ["error_deg", "error_vertical_share"]
@@ -120,6 +132,8 @@ def build_data(
             ),
             ground_truth_sheet(root),
         )
+    if calibrations is not None and len(calibrations):
+        calibrations = flag_disagreements(calibrations)
     return {
         "test_retest_k": test_retest_k,
         "calibrations": calibrations,
@@ -228,6 +242,7 @@ def summary_text(tables: dict, analyses: list[str], data: dict, notes: list[str]
     """SUMMARY.md from the tables as read back (Kong's keyed by number, the others by name)."""
     from aceval.evaluation.methods_comparison import truth_warning
     from aceval.report import summary
+    from aceval.report.decisions import decision_section
 
     meta = data["meta"]
     calibrations = data.get("calibrations") if "kong" in analyses else None
@@ -240,6 +255,7 @@ def summary_text(tables: dict, analyses: list[str], data: dict, notes: list[str]
         meta.get("description", ""),
         bool(meta.get("simulated")),
         notes,
+        decision_section(tables),
         summary.recommendation_section(tables)
         + summary.methods_section(tables)
         + summary.retest_section(tables)

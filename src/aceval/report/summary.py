@@ -90,12 +90,33 @@ def methods_section(tables: dict) -> list[str]:
     lines = ["## Methods against the ground truth: which test for which segment", ""]
     overall = methods.groupby("method")["median"].median().dropna().sort_values()
     cells = methods.dropna(subset=["median"]).groupby("method").size()
+    price = methods.groupby("method")[["n", "n_calibrations"]].sum() if "flags" in methods else None
+
+    def counted(m):
+        kept = "" if price is None else f", {_of(price.loc[m])}"
+        return f"{cells[m]} cells{kept}"
+
     lines.append(
         "Median error to the true mounting (median over segment x test x set cells of the per-cell "
-        "medians; table `methods`), each method over all its own cells: "
-        + ", ".join(f"{m} {v:.2f} deg ({cells[m]} cells)" for m, v in overall.items())
+        "medians; table `methods`), each method over all its own cells, with how many of its "
+        "calibrations the flags left: "
+        + ", ".join(f"{m} {v:.2f} deg ({counted(m)})" for m, v in overall.items())
         + "."
     )
+    fully = (
+        methods[(methods["n"] == 0) & (methods["flags"].fillna("") != "")]
+        if price is not None
+        else []
+    )
+    if len(fully):
+        lines.append(
+            "Every calibration flagged (no number, the row kept in table `methods`): "
+            + "; ".join(
+                f"{r['method']} {r['segment']} {r['test']} {r['sensor_set']} ({r['flags']})"
+                for _, r in fully.iterrows()
+            )
+            + "."
+        )
     static = _static_pose_methods()  # a static pose: its own cells
     moving = [m for m in overall.index if m not in static]
     lines += ["", _shared_cells_line(methods, moving), *_design_notes(methods)]
@@ -267,6 +288,12 @@ def _truth_rows(tables: dict, segment: str) -> pd.DataFrame:
     return table[table["segment"] == segment].drop_duplicates(["subject", "sensor_set", "imu"])
 
 
+def _of(row) -> str:
+    """'2 unflagged of 3' (``n`` of ``n_calibrations``), or just n without the count."""
+    total = row.get("n_calibrations", np.nan)
+    return f"{int(row['n'])} unflagged of {int(total)}" if pd.notna(total) else f"{int(row['n'])}"
+
+
 def recommendation_section(tables: dict) -> list[str]:
     """Which method and test for which segment, from this dataset's numbers: the smallest median
     error to the ground truth (table ``methods``) where there is one, else the smallest
@@ -292,7 +319,7 @@ def recommendation_section(tables: dict) -> list[str]:
     for segment, group in data.groupby("segment", sort=False):
         best = group.loc[group["median"].idxmin()]
         what = "error" if truth else "test-retest"
-        evidence = f"median {what} {best['median']:.2f} deg, n = {int(best['n'])}"
+        evidence = f"median {what} {best['median']:.2f} deg, n = {_of(best)}"
         if truth and pd.notna(best.get("retest_median_deg", np.nan)):
             evidence += f"; test-retest {best['retest_median_deg']:.2f} deg"
         if pd.notna(best.get("cone95_median_deg", np.nan)):
@@ -452,14 +479,20 @@ def to_markdown(
     description: str,
     simulated: bool,
     notes: list[str],
+    first: list[str] | None = None,
     extra: list[str] | None = None,
 ) -> str:
-    """SUMMARY.md: the counts and table of the papers' claims, the notes, then aceval's own checks
-    against a ground truth, the checks of the code, and the extra sections.
+    """SUMMARY.md: the ``first`` section (which calibration to use for each sensor), the counts
+    and table of the papers' claims (the testable ones first), the notes, then aceval's own
+    checks against a ground truth, the checks of the code, and the ``extra`` sections.
     """
     claims = [c for c in found if c.section == PAPER]
+    claims = [c for c in claims if c.verdict != UNTESTABLE] + [
+        c for c in claims if c.verdict == UNTESTABLE
+    ]
     counts = {v: sum(c.verdict == v for c in claims) for v in VERDICTS}
-    lines = [f"# {dataset}: the papers' claims on this dataset", "", f"{description}", ""]
+    lines = [f"# {dataset}: which calibration to use, and the papers' claims", ""]
+    lines += [f"{description}", ""]
     if simulated:
         lines += [
             "**SIMULATED data.** The simulator is built from physiology and datasheets, never fitted to the "
@@ -467,12 +500,16 @@ def to_markdown(
             "subjects (see docs/simulation.md), which says nothing about the method on real data.",
             "",
         ]
+    lines += first or []
     lines += [
+        "## The papers' claims on this dataset",
+        "",
         f"{counts[HOLDS]} hold, {counts[FAILS]} do not hold, {counts[INCONCLUSIVE]} inconclusive, "
         f"{counts[UNTESTABLE]} not testable. Each claim is judged on the subjects as independent "
         "units, from the 95 % interval of its number (docs/objectives.md, 'How a claim is "
         "judged'): holds when the whole interval is on the claim's side, does not hold when it is "
-        "wholly on the other, inconclusive when it includes both.",
+        "wholly on the other, inconclusive when it includes both. The claims that cannot be "
+        "tested here come last.",
         "",
     ]
     lines += notes + ([""] if notes else [])
