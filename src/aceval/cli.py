@@ -1,4 +1,5 @@
-"""Command line: ``aceval simulate|import|validate|calibrate|apply|angles|table|figure|outputs``
+"""Command line: ``aceval simulate|import|validate|right-axis|calibrate|apply|angles|table|figure|
+outputs``
 (also ``python -m aceval``). The workflow's rules are thin calls of these commands.
 """
 
@@ -121,6 +122,19 @@ def _add_validate(commands) -> None:
         "workflow's first gate: the files' contents are checked in the pass that reads them)",
     )
     validate.set_defaults(run=work.validate)
+
+
+def _add_right_axis(commands) -> None:
+    """The ``right-axis`` command's arguments."""
+    right_axis = commands.add_parser(
+        "right-axis",
+        help="propose each IMU's right_axis from its recordings (how sure, and which imus.tsv cell "
+        "holds it)",
+    )
+    right_axis.add_argument("dataset")
+    right_axis.add_argument("--out", help="write the proposals here as a tab-separated table")
+    _add_trim_options(right_axis)
+    right_axis.set_defaults(run=work.right_axis)
 
 
 def _add_calibrate(commands) -> None:
@@ -331,6 +345,7 @@ def main(argv: list[str] | None = None) -> int:
     _add_simulate(commands)
     _add_importer(commands)
     _add_validate(commands)
+    _add_right_axis(commands)
     _add_calibrate(commands)
     _add_apply(commands)
     _add_angles(commands)

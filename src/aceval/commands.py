@@ -93,6 +93,40 @@ def validate(args) -> int:
     return 0 if report.ok else 1
 
 
+def right_axis(args) -> int:
+    """`aceval right-axis`: each IMU's right axis as its recordings propose it, beside the declared
+    one and the imus.tsv cell that holds it.
+    """
+    import pandas as pd
+
+    from aceval.data.contract import DatasetError
+    from aceval.data.dataset import load_dataset
+    from aceval.signals.right_axis import dataset_right_axes
+
+    try:
+        dataset = load_dataset(args.dataset)
+    except DatasetError as exc:
+        print(f"aceval right-axis: {args.dataset} is not a valid dataset:\n{exc}", file=sys.stderr)
+        return 1
+    table = pd.DataFrame(dataset_right_axes(dataset, _trim(args)))
+    columns = ["sensor_set", "imu", "segment", "side", "declared", "proposed", "verdict"]
+    columns += ["agrees", "cell", "evidence"]
+    table = table[columns] if len(table) else pd.DataFrame(columns=columns)
+    print(table[columns[:-2]].to_string(index=False))
+    for row in table.itertuples():
+        print(f"{row.sensor_set} {row.imu}: {row.evidence}; {row.cell}")
+    differs = table[table["agrees"].str.startswith("no")]
+    for row in differs.itertuples():
+        print(
+            f"aceval right-axis: {row.sensor_set} {row.imu} is declared {row.declared} but its "
+            f"recordings point to {row.proposed} ({row.verdict}): check {row.cell}",
+            file=sys.stderr,
+        )
+    if args.out:
+        _write_text(args.out, table.to_csv(sep="\t", index=False))
+    return 0
+
+
 def _atomic(path: str | Path, write) -> None:
     from aceval.data.safety import atomic_file
 
