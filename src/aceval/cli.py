@@ -93,9 +93,27 @@ def _add_importer(commands) -> None:
     importer.add_argument("--out", required=True, help="output dataset folder (created)")
     importer.add_argument(
         "--sensors",
-        help="xsens: sensor sheet (sensor_id imu sensor_set segment side region right_axis)",
+        help="xsens: sensor sheet (sensor_id segment side, and imu sensor_set region right_axis: "
+        "all required for one trial without --trials)",
     )
-    importer.add_argument("--subject", default="S01", help="xsens: subject name (S01)")
+    importer.add_argument(
+        "--trials",
+        help="xsens: a lab's sheet of trials (subject, trial, test, [rep, static, first_phase, "
+        "calibrates]): every subject and trial in one import (docs/your_data.md)",
+    )
+    importer.add_argument(
+        "--rate",
+        type=float,
+        help="xsens: samples per second, for exports without a '// Update Rate' line (checked "
+        "against the line and SampleTimeFine where they are)",
+    )
+    importer.add_argument(
+        "--trim-to-shared",
+        action="store_true",
+        help="xsens --trials: cut the sensors of a trial to the samples they all share "
+        "(PacketCounter); without it a trial whose sensors differ is refused",
+    )
+    importer.add_argument("--subject", default="S01", help="xsens, one trial: subject name (S01)")
     importer.add_argument(
         "--vicon", help="xsens: Vicon .mat of the same trial: writes ground_truth.tsv (see docs)"
     )
@@ -383,6 +401,7 @@ INPUT_OPTIONS = {
     "dataset": "dataset",
     "src": "source",
     "sensors": "--sensors",
+    "trials": "--trials",
     "vicon": "--vicon",
     "calibrations": "--calibrations",
     "correlations": "--correlations",

@@ -57,23 +57,24 @@ def simulate(args) -> int:
 
 def import_dataset(args) -> int:
     """`aceval import`: foreign recordings converted into the contract."""
+    from aceval.data.errors import CalibrationError
     from aceval.importers import FormatError
     from aceval.importers.run import run_import
 
-    try:
-        return _staged(
-            Path(args.out),
-            args.force,
-            "import",
-            lambda folder: print(
-                run_import(
-                    folder, args.format, args.src, args.sensors, args.subject, args.vicon, args.name
-                ).summary(),
-                file=sys.stderr,
-            ),
+    lab = {"trials": args.trials, "rate": args.rate, "trim_to_shared": args.trim_to_shared}
+
+    def write(folder):
+        report = run_import(
+            folder, args.format, args.src, args.sensors, args.subject, args.vicon, args.name, lab
         )
-    except (FormatError, OSError) as exc:
-        print(f"aceval import {args.format}: {exc}", file=sys.stderr)
+        for note in report.notes:
+            print(f"aceval import {args.format}: {note}", file=sys.stderr)
+        print(report.summary(), file=sys.stderr)
+
+    try:
+        return _staged(Path(args.out), args.force, "import", write)
+    except (FormatError, CalibrationError, OSError) as exc:
+        print(f"aceval import {args.format}: {exc}; nothing written", file=sys.stderr)
         return 1
 
 
