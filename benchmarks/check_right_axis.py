@@ -24,8 +24,12 @@ def main(folders: list[str]) -> None:
     for folder in folders:
         for proposal in dataset_right_axes(load_dataset(folder)):
             agrees = proposal["agrees"]
-            outcome = "agrees" if agrees == "yes" else "axis only" if "axis" in agrees else (
-                "no proposal" if not agrees else "disagrees"
+            outcome = (
+                "agrees"
+                if agrees == "yes"
+                else "axis only"
+                if "axis" in agrees
+                else ("no proposal" if not agrees else "disagrees")
             )
             rows.append({"dataset": folder.rstrip("/").split("/")[-1],
                          "verdict": proposal["verdict"], "outcome": outcome,

@@ -48,7 +48,9 @@ def walking_copy(source: Path, target: Path) -> None:
             shutil.copy(source / sheet, target / sheet)
     tests = dataset.tests.reset_index()
     tests = tests[tests["test"].isin(["T0", "T6"])].copy()
-    tests.loc[tests["test"] == "T0", "repetitions"] = tests.loc[tests["test"] == "T6", "repetitions"].item()
+    tests.loc[tests["test"] == "T0", "repetitions"] = tests.loc[
+        tests["test"] == "T6", "repetitions"
+    ].item()
     tests.to_csv(target / "tests.tsv", sep="\t", index=False)
     calibrates = pd.read_csv(target / "calibrates.tsv", sep="\t", dtype=str)
     calibrates[calibrates["test"] == "T6"].to_csv(target / "calibrates.tsv", sep="\t", index=False)
