@@ -32,6 +32,10 @@ class Trial:
     lines: list[int]
     prefixes: list[str]
     files: list[Path] = field(default_factory=list)
+    #: once read: ``{sensor_id: {acc, gyr, quat, row, file}}`` (SI), and what of it is static and
+    #: what motion (``{"static": (test, slice)``, optional, ``"motion": slice or None}``)
+    sensors: dict = field(default_factory=dict)
+    parts: dict = field(default_factory=dict)
 
     @property
     def where(self) -> str:

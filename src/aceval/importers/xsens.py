@@ -43,7 +43,7 @@ from aceval.importers.shared import (
     stride_spans,
     walking_bouts,
 )
-from aceval.signals.segmentation import movement_mask
+from aceval.signals.segmentation import TrimParams, movement_mask
 
 REQUIRED = ["PacketCounter", "Acc_X", "Acc_Y", "Acc_Z", "Gyr_X", "Gyr_Y", "Gyr_Z"]
 QUATERNION = ["Quat_q0", "Quat_q1", "Quat_q2", "Quat_q3"]
@@ -169,7 +169,9 @@ def export_rate(header: dict, values: pd.DataFrame, path, rate: float | None = N
             + ", ".join(f"{where} {hz:.4g} Hz" for where, hz in found.items())
             + " (more than 2 % apart): check --rate, or the export"
         )
-    return float(rates[0] if len(found) > 1 or rate is not None or match else round(rates[0], 2))
+    if rate is not None:
+        return float(rate)
+    return float(match.group(1)) if match else float(round(found["its SampleTimeFine"], 2))
 
 
 def sensor_id_of(path: Path, header: dict) -> str:
@@ -385,7 +387,8 @@ def _trial_spans(src, sensors, wanted: dict, gyr, acc, fs_hz: float) -> dict:
     try:
         spans = trial_spans(gyr, shanks[0], fs_hz, yaw_rate)
     except CalibrationError as exc:
-        still = [s for s, g in gyr.items() if np.linalg.norm(g, axis=1).max() < 0.35]
+        limit = TrimParams().min_peak_rad_s
+        still = [s for s, g in gyr.items() if np.linalg.norm(g, axis=1).max() < limit]
         raise FormatError(
             f"{src}: one trial of quiet standing then walking is expected, but sensor(s) "
             f"{', '.join(still)} do not move ({exc}). A lab's trials (standing apart, or no "

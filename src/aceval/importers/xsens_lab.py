@@ -80,25 +80,24 @@ def import_xsens_lab(
     trials = find_trials(
         src, table, report, {Path(trials_path).resolve(), Path(sensors_path).resolve()}
     )
-    signals, fs_hz = {}, None
+    fs_hz = None
     for trial in trials:
-        found, trial_fs = _read_trial(trial, sensors, rate, trim_to_shared, report)
+        trial.sensors, trial_fs = _read_trial(trial, sensors, rate, trim_to_shared, report)
         if fs_hz is not None and abs(trial_fs / fs_hz - 1) > FS_TOLERANCE:
             raise FormatError(
                 f"{trial.where} is sampled at {trial_fs:g} Hz, the trials before it at {fs_hz:g} "
                 "Hz: a dataset has one rate; import the two rates as two datasets"
             )
         fs_hz = fs_hz or trial_fs
-        signals[id(trial)] = found
-    parts = {id(t): _parts(t, signals[id(t)], fs_hz, tests) for t in trials}
     for trial in trials:
+        trial.parts = _parts(trial, fs_hz, tests)
         if tests[trial.test]["first_phase"] == "gait":
-            _say_turns(trial, signals[id(trial)], parts[id(trial)]["motion"], fs_hz, report)
-    _check_statics(trials, signals, parts, tests)
-    imus = _imus(trials, signals)
-    _check_right_axes(imus, trials, signals, parts, tests, fs_hz)
+            _say_turns(trial, fs_hz, report)
+    _check_statics(trials, tests)
+    imus = _imus(trials)
+    _check_right_axes(imus, trials, tests, fs_hz)
     writer = DatasetWriter(out, _meta(name, src, fs_hz, imus))
-    repetitions = _write(writer, trials, signals, parts, report)
+    repetitions = _write(writer, trials, report)
     writer.close()
     _sheets(out, tests, repetitions, imus, trials, report)
     return report
@@ -198,10 +197,11 @@ def _synchronised(trial: Trial, tables: dict, paths: dict, trim: bool, report) -
     }
 
 
-def _parts(trial: Trial, found: dict, fs_hz: float, tests: dict) -> dict:
+def _parts(trial: Trial, fs_hz: float, tests: dict) -> dict:
     """What of the trial is static and what motion: ``{"static": (test, slice) or absent,
     "motion": slice or None}``; FormatError when the trial does not hold what the sheet says.
     """
+    found = trial.sensors
     n = min(len(f["gyr"]) for f in found.values())
     if tests[trial.test]["kind"] == "static":
         return {"static": (trial.test, slice(0, n)), "motion": None}
@@ -248,12 +248,12 @@ def _parts(trial: Trial, found: dict, fs_hz: float, tests: dict) -> dict:
 MAX_TURN_DEG, TURN_WINDOW_S = 90.0, 4.0
 
 
-def _say_turns(trial: Trial, found: dict, motion: slice, fs_hz: float, report) -> None:
+def _say_turns(trial: Trial, fs_hz: float, report) -> None:
     """Name a walking trial that turns: the heading of its trunk sensors (of every sensor when it
     has none; each about its mean specific force, the vertical) changes by more than
     :data:`MAX_TURN_DEG` within :data:`TURN_WINDOW_S` seconds (median over the sensors).
     """
-    window = int(TURN_WINDOW_S * fs_hz)
+    window, found, motion = int(TURN_WINDOW_S * fs_hz), trial.sensors, trial.parts["motion"]
     trunk = [f for f in found.values() if f["row"]["segment"] in UPPER_BODY]
     turns = []
     for f in trunk or found.values():
@@ -274,13 +274,13 @@ def _say_turns(trial: Trial, found: dict, motion: slice, fs_hz: float, report) -
         report.add(trial.where, trial.subject, "", "flagged", text)
 
 
-def _check_statics(trials: list[Trial], signals: dict, parts: dict, tests: dict) -> None:
+def _check_statics(trials: list[Trial], tests: dict) -> None:
     """Every sensor that a motion test calibrates has a static recording of its subject."""
     static, needed = {}, {}
     for trial in trials:
-        for sensor, f in signals[id(trial)].items():
+        for sensor, f in trial.sensors.items():
             key = (trial.subject, sensor)
-            if parts[id(trial)].get("static"):
+            if trial.parts.get("static"):
                 static.setdefault(key, []).append(trial)
             if f["row"]["segment"] in tests[trial.test]["calibrates"]:
                 needed.setdefault(key, trial)
@@ -304,11 +304,11 @@ def _check_statics(trials: list[Trial], signals: dict, parts: dict, tests: dict)
 IMU_COLUMNS = ["sensor_set", "imu", "segment", "side", "region", "right_axis", "source"]
 
 
-def _imus(trials: list[Trial], signals: dict) -> pd.DataFrame:
+def _imus(trials: list[Trial]) -> pd.DataFrame:
     """imus.tsv's rows: one per (sensor_set, imu) imported, the same for every subject."""
     rows = {}
     for trial in trials:
-        for f in signals[id(trial)].values():
+        for f in trial.sensors.values():
             row = f["row"]
             for name in ("subject", "sensor_set", "imu"):
                 value = row.get(name, "") if name != "subject" else trial.subject
@@ -329,7 +329,7 @@ def _imus(trials: list[Trial], signals: dict) -> pd.DataFrame:
     return pd.DataFrame(sorted(rows.values(), key=lambda row: row["line"]))[IMU_COLUMNS]
 
 
-def _check_right_axes(imus, trials, signals, parts, tests, fs_hz: float) -> None:
+def _check_right_axes(imus, trials, tests, fs_hz: float) -> None:
     """Refuse empty right_axis cells, with what the recordings propose for each."""
     empty = imus[imus["right_axis"] == ""]
     if empty.empty:
@@ -338,11 +338,11 @@ def _check_right_axes(imus, trials, signals, parts, tests, fs_hz: float) -> None
 
     units: dict[tuple, dict] = {}
     for trial in trials:
-        motion = parts[id(trial)]["motion"]
+        motion = trial.parts["motion"]
         if motion is None:
             continue
         phase = tests[trial.test]["first_phase"]
-        for sensor_set in {f["row"]["sensor_set"] for f in signals[id(trial)].values()}:
+        for sensor_set in {f["row"]["sensor_set"] for f in trial.sensors.values()}:
             group = {
                 f["row"]["imu"]: (
                     f["acc"][motion],
@@ -350,7 +350,7 @@ def _check_right_axes(imus, trials, signals, parts, tests, fs_hz: float) -> None
                     f["row"]["segment"],
                     f["row"]["side"],
                 )
-                for f in signals[id(trial)].values()
+                for f in trial.sensors.values()
                 if f["row"]["sensor_set"] == sensor_set
             }
             for imu, stats in recording_evidence(group, phase, fs_hz).items():
@@ -400,12 +400,12 @@ def _meta(name: str, src: Path, fs_hz: float, imus: pd.DataFrame) -> dict:
     }
 
 
-def _write(writer: DatasetWriter, trials, signals, parts, report: ImportReport) -> dict:
+def _write(writer: DatasetWriter, trials, report: ImportReport) -> dict:
     """Every trial's static and motion recordings; returns each test's repetitions."""
     repetitions: dict[str, int] = {}
     generated: dict[tuple, int] = {}  # (subject, static test) -> repetitions written
     for trial in trials:
-        part, written = parts[id(trial)], []
+        part, written = trial.parts, []
         pieces = []
         if part.get("static"):
             test, span = part["static"]
@@ -415,7 +415,7 @@ def _write(writer: DatasetWriter, trials, signals, parts, report: ImportReport) 
         if part["motion"] is not None:
             pieces.append((trial.test, trial.rep, part["motion"], False))
         for test, rep, span, mean in pieces:
-            for f in signals[id(trial)].values():
+            for f in trial.sensors.values():
                 acc, gyr = f["acc"][span], f["gyr"][span]
                 quat = None if f["quat"] is None or mean else f["quat"][span]
                 if mean:
@@ -427,7 +427,7 @@ def _write(writer: DatasetWriter, trials, signals, parts, report: ImportReport) 
                 )
             repetitions[test] = max(repetitions.get(test, 0), rep)
             written.append(f"{test} R{rep}")
-        for f in signals[id(trial)].values():
+        for f in trial.sensors.values():
             report.add(f["file"], trial.subject, f["row"]["imu"], "imported", ", ".join(written))
     return repetitions
 
