@@ -7,7 +7,7 @@ benchmark: docs/your_data.md quotes its numbers.
 Each argument is a dataset folder with quiet standing (static test T0) and walking (motion test
 T6, first phase ``gait``). A copy is written whose T0 recordings are replaced by the walking
 vertical of each T6 repetition (the repetition low-passed at 0.5 Hz,
-:func:`aceval.importers.common.mean_posture`); both are calibrated from all repetitions of T6
+:func:`aceval.importers.shared.mean_posture`); both are calibrated from all repetitions of T6
 (`aceval calibrate --subsets full --tests T6`). Per segment it prints: the angle between the two
 verticals (deg; median and largest over the IMUs) and, where the dataset has a ground truth, each
 method's median error with the standing vertical and with the walking one.
@@ -26,7 +26,7 @@ import pandas as pd
 
 from aceval.data.dataset import load_dataset
 from aceval.data.writer import DatasetWriter
-from aceval.importers.common import mean_posture
+from aceval.importers.shared import mean_posture
 
 
 def walking_copy(source: Path, target: Path) -> None:

@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 
 from aceval.data.contract import FIRST_PHASES, RIGHT_AXIS_SPELLINGS
-from aceval.importers.common import FormatError, ImportReport
+from aceval.importers.shared import FormatError, ImportReport
 
 #: the static tests the import writes besides the lab's own standing trials
 STANDING, WALKING_VERTICAL = "standing", "walking_vertical"

@@ -12,7 +12,7 @@ from two sheets (config/README.md, "A lab's Xsens exports"; docs/your_data.md wa
   whole trial is quiet standing (a static test named by ``test``); a number N: the trial's first
   N seconds are quiet standing (static test ``standing``), the rest is ``test``; ``walking``: no
   quiet standing, the vertical of the mean walking posture (static test ``walking_vertical``, the
-  trial's movement low-passed at 0.5 Hz: a fallback, see :mod:`aceval.importers.common`);
+  trial's movement low-passed at 0.5 Hz: a fallback, see :mod:`aceval.importers.shared`);
 * ``first_phase`` (optional, as tests.tsv: ``gait`` for walking) and ``calibrates`` (optional:
   the segments the test calibrates, comma-separated; for ``gait`` by default thigh, shank, foot
   and waist: Kong Table 2's walking segments and the pelvis, as the NeuRA and qmt imports).
@@ -41,7 +41,6 @@ import pandas as pd
 from aceval.data.contract import FS_TOLERANCE
 from aceval.data.errors import CalibrationError
 from aceval.data.writer import DatasetWriter, write_sheet
-from aceval.importers.common import FormatError, ImportReport, mean_posture
 from aceval.importers.lab_sheets import (
     STANDING,
     UPPER_BODY,
@@ -52,6 +51,7 @@ from aceval.importers.lab_sheets import (
     read_trials,
     subject_sensors,
 )
+from aceval.importers.shared import FormatError, ImportReport, mean_posture
 from aceval.importers.xsens import (
     ACC_RANGE_G,
     GYR_RANGE_DPS,

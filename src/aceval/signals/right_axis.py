@@ -12,7 +12,7 @@ calibration (``right_axis_mismatch``); a lab that does not know it can ask the r
 
   - a test with a ``first_phase`` of ``-y`` or ``+y`` (bowing, sit-to-stand: -y; seated shank
     lift, leg swing: +y): the sign of each recording's first half-movement about the axis
-    (:func:`aceval.methods.ricci.first_phase_sign`);
+    (:func:`aceval.methods.moments.first_phase_sign`);
   - walking (``gait``), a shank: it swings forward faster than it moves back, so the third
     moment (skew) of its angular velocity about the right axis is positive;
   - walking, a thigh or a foot: its angular velocity about its right axis rises and falls with
@@ -33,7 +33,7 @@ from collections import defaultdict
 import numpy as np
 
 from aceval.data.errors import CalibrationError
-from aceval.methods.ricci import first_phase_sign
+from aceval.methods.moments import first_phase_sign
 from aceval.signals.segmentation import TrimParams, movement_mask
 
 #: Kong's limit on the plane normal (smallest/middle eigenvalue): above it the normal, and so the
