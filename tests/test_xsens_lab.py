@@ -77,7 +77,9 @@ WALKS = "subject\ttrial\ttest\tstatic\tfirst_phase\n" + "".join(
 
 
 def test_two_trials_become_two_repetitions_with_the_standing_start_as_static(tmp_path, run):
-    result = run(lab(tmp_path, WALKS))
+    folder = lab(tmp_path, WALKS)
+    (folder / "trials.tsv").write_text("\ufeff" + WALKS)  # Excel's "CSV UTF-8" starts so
+    result = run(folder)
     assert result.code == 0, result.err
     dataset = load_dataset(result.out, check_files=True)
     assert dataset.fs_hz == 100.0  # from SampleTimeFine (ticks of 100 us that wrap at 2^32)
@@ -206,6 +208,12 @@ def test_a_broken_export_is_a_message_naming_it(tmp_path, run, damage):
         ("subject\ttrial\ttest\tfirst_phase\nP1\tP1/walk_9\twalk\tgait\n", "matches no export"),
         ("subject\ttrial\ttest\nP1\tP1/walk_1\tbow\n", "say which segments it calibrates"),
         ("subject\ttrial\ttest\trep\tfirst_phase\nP1\tP1/walk_1\twalk\t0\tgait\n", "rep '0'"),
+        (
+            "subject\tfile\ttest\trep\tstatic\tfirst_phase\n"
+            "P1\tP1/walk_1-000_00B4A201.txt\twalk\t1\t2\tgait\n"
+            "P1\tP1/walk_1-000_00B4A202.txt\twalk\t1\t\tgait\n",
+            "one trial (P1, walk R1) with two static sources",
+        ),
     ],
 )
 def test_a_broken_sheet_is_a_message_naming_its_line(tmp_path, run, trials, message):

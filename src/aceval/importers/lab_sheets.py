@@ -74,7 +74,9 @@ def read_trials(path: str | Path) -> tuple[list[dict], dict]:
 def _sheet(path, required: list[str], one_of: tuple = ()) -> pd.DataFrame:
     """A tab-separated sheet of strings (stripped, ``#`` lines are comments)."""
     try:
-        sheet = pd.read_csv(path, sep="\t", dtype=str, comment="#", keep_default_na=False)
+        sheet = pd.read_csv(
+            path, sep="\t", dtype=str, comment="#", keep_default_na=False, encoding="utf-8-sig"
+        )
     except (OSError, ValueError, pd.errors.ParserError) as exc:
         raise FormatError(f"{path}: cannot be read as a tab-separated sheet ({exc})") from None
     sheet.columns = [str(c).strip() for c in sheet.columns]
@@ -191,6 +193,12 @@ def find_trials(src: Path, rows: list[dict], report: ImportReport, sheets: set) 
     for row in rows:
         key = (row["subject"], row["test"], row["rep"])
         trial = trials.setdefault(key, Trial(*key, row["static"], [], []))
+        if row["static"] != trial.static:
+            raise FormatError(
+                f"trials.tsv lines {trial.lines[0]} and {row['line']}: one trial ({row['subject']}, "
+                f"{row['test']} R{row['rep']}) with two static sources ({trial.static!r}, "
+                f"{row['static']!r}): give it once, the same on every row of the trial"
+            )
         trial.lines.append(row["line"])
         trial.prefixes.append(row["trial"])
         prefix = row["trial"].rstrip("/")
