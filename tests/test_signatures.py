@@ -90,3 +90,18 @@ def test_direction_checks_give_both_flags_when_both_hold():
         np.ones((1, 1)), np.eye(3)[None], np.array([[1.0, 0.0, 0.0]]),
     )  # fmt: skip
     assert found["flag"][0] == "backward;right_axis_mismatch"
+
+
+def test_an_undetermined_y_axis_leaves_the_right_axis_unchecked_not_mislabelled():
+    """The declared right axis 90 deg from y0: a mislabel where y0 is determined, 'unchecked'
+    where Kong's plane normal is undetermined (y0 then says nothing about the declaration)."""
+    from aceval.signals.checks import direction_checks
+
+    args = (
+        np.array(["", ""]), np.array(["waist", "waist"]), np.full((2, 1, 3), np.nan), None,
+        np.ones((2, 1)), np.stack([np.eye(3)] * 2), np.array([[1.0, 0.0, 0.0]] * 2),
+    )  # fmt: skip
+    found = direction_checks(*args, undetermined=np.array([False, True]))
+    assert found["flag"].tolist() == ["right_axis_mismatch", "right_axis_unchecked"]
+    assert found["mismatch"].tolist() == [True, False]
+    assert direction_checks(*args)["flag"].tolist() == ["right_axis_mismatch"] * 2

@@ -1,4 +1,5 @@
-"""Command line: ``aceval simulate|import|validate|calibrate|apply|angles|table|figure|outputs``
+"""Command line: ``aceval simulate|import|validate|right-axis|calibrate|apply|angles|table|figure|
+outputs``
 (also ``python -m aceval``). The workflow's rules are thin calls of these commands.
 """
 
@@ -92,9 +93,27 @@ def _add_importer(commands) -> None:
     importer.add_argument("--out", required=True, help="output dataset folder (created)")
     importer.add_argument(
         "--sensors",
-        help="xsens: sensor sheet (sensor_id imu sensor_set segment side region right_axis)",
+        help="xsens: sensor sheet (sensor_id segment side, and imu sensor_set region right_axis: "
+        "all required for one trial without --trials)",
     )
-    importer.add_argument("--subject", default="S01", help="xsens: subject name (S01)")
+    importer.add_argument(
+        "--trials",
+        help="xsens: a lab's sheet of trials (subject, trial, test, [rep, static, first_phase, "
+        "calibrates]): every subject and trial in one import (docs/your_data.md)",
+    )
+    importer.add_argument(
+        "--rate",
+        type=float,
+        help="xsens: samples per second, for exports without a '// Update Rate' line (checked "
+        "against the line and SampleTimeFine where they are)",
+    )
+    importer.add_argument(
+        "--trim-to-shared",
+        action="store_true",
+        help="xsens --trials: cut the sensors of a trial to the samples they all share "
+        "(PacketCounter); without it a trial whose sensors differ is refused",
+    )
+    importer.add_argument("--subject", default="S01", help="xsens, one trial: subject name (S01)")
     importer.add_argument(
         "--vicon", help="xsens: Vicon .mat of the same trial: writes ground_truth.tsv (see docs)"
     )
@@ -121,6 +140,19 @@ def _add_validate(commands) -> None:
         "workflow's first gate: the files' contents are checked in the pass that reads them)",
     )
     validate.set_defaults(run=work.validate)
+
+
+def _add_right_axis(commands) -> None:
+    """The ``right-axis`` command's arguments."""
+    right_axis = commands.add_parser(
+        "right-axis",
+        help="propose each IMU's right_axis from its recordings (how sure, and which imus.tsv cell "
+        "holds it)",
+    )
+    right_axis.add_argument("dataset")
+    right_axis.add_argument("--out", help="write the proposals here as a tab-separated table")
+    _add_trim_options(right_axis)
+    right_axis.set_defaults(run=work.right_axis)
 
 
 def _add_calibrate(commands) -> None:
@@ -337,6 +369,7 @@ def main(argv: list[str] | None = None) -> int:
     _add_simulate(commands)
     _add_importer(commands)
     _add_validate(commands)
+    _add_right_axis(commands)
     _add_calibrate(commands)
     _add_apply(commands)
     _add_angles(commands)
@@ -374,6 +407,7 @@ INPUT_OPTIONS = {
     "dataset": "dataset",
     "src": "source",
     "sensors": "--sensors",
+    "trials": "--trials",
     "vicon": "--vicon",
     "calibrations": "--calibrations",
     "correlations": "--correlations",

@@ -57,23 +57,24 @@ def simulate(args) -> int:
 
 def import_dataset(args) -> int:
     """`aceval import`: foreign recordings converted into the contract."""
+    from aceval.data.errors import CalibrationError
     from aceval.importers import FormatError
     from aceval.importers.run import run_import
 
-    try:
-        return _staged(
-            Path(args.out),
-            args.force,
-            "import",
-            lambda folder: print(
-                run_import(
-                    folder, args.format, args.src, args.sensors, args.subject, args.vicon, args.name
-                ).summary(),
-                file=sys.stderr,
-            ),
+    lab = {"trials": args.trials, "rate": args.rate, "trim_to_shared": args.trim_to_shared}
+
+    def write(folder):
+        report = run_import(
+            folder, args.format, args.src, args.sensors, args.subject, args.vicon, args.name, lab
         )
-    except (FormatError, OSError) as exc:
-        print(f"aceval import {args.format}: {exc}", file=sys.stderr)
+        for note in report.notes:
+            print(f"aceval import {args.format}: {note}", file=sys.stderr)
+        print(report.summary(), file=sys.stderr)
+
+    try:
+        return _staged(Path(args.out), args.force, "import", write)
+    except (FormatError, CalibrationError, OSError) as exc:
+        print(f"aceval import {args.format}: {exc}; nothing written", file=sys.stderr)
         return 1
 
 
@@ -91,6 +92,40 @@ def validate(args) -> int:
                 table = _findings_table(report)
                 files.write(args.findings_out, lambda tmp: table.to_csv(tmp, sep="\t", index=False))
     return 0 if report.ok else 1
+
+
+def right_axis(args) -> int:
+    """`aceval right-axis`: each IMU's right axis as its recordings propose it, beside the declared
+    one and the imus.tsv cell that holds it.
+    """
+    import pandas as pd
+
+    from aceval.data.contract import DatasetError
+    from aceval.data.dataset import load_dataset
+    from aceval.signals.right_axis import dataset_right_axes
+
+    try:
+        dataset = load_dataset(args.dataset)
+    except DatasetError as exc:
+        print(f"aceval right-axis: {args.dataset} is not a valid dataset:\n{exc}", file=sys.stderr)
+        return 1
+    table = pd.DataFrame(dataset_right_axes(dataset, _trim(args)))
+    columns = ["sensor_set", "imu", "segment", "side", "declared", "proposed", "verdict"]
+    columns += ["agrees", "cell", "evidence"]
+    table = table[columns] if len(table) else pd.DataFrame(columns=columns)
+    print(table[columns[:-2]].to_string(index=False))
+    for row in table.itertuples():
+        print(f"{row.sensor_set} {row.imu}: {row.evidence}; {row.cell}")
+    differs = table[table["agrees"].str.startswith("no")]
+    for row in differs.itertuples():
+        print(
+            f"aceval right-axis: {row.sensor_set} {row.imu} is declared {row.declared} but its "
+            f"recordings point to {row.proposed} ({row.verdict}): check {row.cell}",
+            file=sys.stderr,
+        )
+    if args.out:
+        _write_text(args.out, table.to_csv(sep="\t", index=False))
+    return 0
 
 
 def _atomic(path: str | Path, write) -> None:

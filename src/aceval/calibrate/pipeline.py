@@ -33,6 +33,7 @@ from aceval.data.dataset import Dataset
 from aceval.data.rotations import error_angle_deg
 from aceval.methods import registry
 from aceval.methods.interface import CalibrationMethod, Fit
+from aceval.methods.kong import KongLimits
 from aceval.methods.sufficient import Pooled, pool
 from aceval.methods.uncertainty import bootstrap_cones
 from aceval.signals.checks import direction_checks
@@ -157,7 +158,9 @@ def _checked(plan: Plan, subsets: Subsets, fit: Fit) -> Fit:
     checks' (:func:`aceval.signals.checks.direction_checks`: the declared right axis on the
     calibration's own y, forward or backward on its own repetitions; nothing inherited from the
     calibration of all of them), and their evidence, on every row it calibrated. A method's own
-    ``not_applicable`` stays alone.
+    ``not_applicable`` stays alone. Where the method reports its plane normal's eigenvalue ratio
+    (Kong's ``normal_ratio``) and it is undetermined, the right axis is ``right_axis_unchecked``,
+    not a mismatch: the y axis then says nothing about the declaration.
     """
     sensor = plan.identity["sensor_flag"].to_numpy()[subsets.unit]
     flag = np.array(
@@ -178,11 +181,21 @@ def _checked(plan: Plan, subsets: Subsets, fit: Fit) -> Fit:
         subsets.weights[checked],
         fit.R[checked],
         units.right[unit],
+        _undetermined(fit, checked),
     )
     for key in ("first_phase_agreement", "right_axis_angle_deg"):
         columns[key][checked] = direction[key]
     flag[checked] = [combine_flags(f, found) for f, found in zip(flag[checked], direction["flag"])]
     return Fit(fit.R, flag, columns)
+
+
+def _undetermined(fit: Fit, rows: np.ndarray) -> np.ndarray | None:
+    """Where the ``rows`` of a fit that reports its plane normal's ratio have it undetermined
+    (above :attr:`aceval.methods.kong.KongLimits.max_normal_ratio`); None for other fits.
+    """
+    if "normal_ratio" not in fit.columns:
+        return None
+    return ~(np.asarray(fit.columns["normal_ratio"])[rows] <= KongLimits().max_normal_ratio)
 
 
 def flag_unstable(fit: Fit, pooled: Pooled, retest_k: int | None) -> Fit:

@@ -47,6 +47,7 @@ from aceval.data.writer import DatasetWriter, write_sheet
 from aceval.importers.shared import (
     FormatError,
     ImportReport,
+    mean_posture,
     stride_peaks,
     stride_spans,
     walking_bouts,
@@ -59,7 +60,6 @@ INT16_LIMITS = (-32768, 32767)
 MAX_PLAUSIBLE_GYRO_DPS = 1000.0
 MAX_GYRO_CLIPPED_FRACTION = 0.01
 MIN_STANDING_S = 2.0
-MEAN_POSTURE_CUTOFF_HZ = 0.5
 EDGE_S = 0.5
 #: HuGaDB code -> (segment, side)
 SENSORS = {
@@ -200,15 +200,6 @@ def gyro_fault(gyr_counts: np.ndarray) -> str:
 def clipped_fraction(counts: np.ndarray) -> float:
     """Fraction of samples (N, 3) with any axis at the int16 limits."""
     return float(((counts <= INT16_LIMITS[0]) | (counts >= INT16_LIMITS[1])).any(axis=1).mean())
-
-
-def mean_posture(signal: np.ndarray, fs_hz: float = SAMPLING_RATE_HZ) -> np.ndarray:
-    """``signal`` (N, 3) low-passed at :data:`MEAN_POSTURE_CUTOFF_HZ` (zero-phase): what stays
-    of a walking bout below the stride frequency.
-    """
-    from scipy.signal import butter, sosfiltfilt
-
-    return sosfiltfilt(butter(2, MEAN_POSTURE_CUTOFF_HZ, fs=fs_hz, output="sos"), signal, axis=0)
 
 
 def _runs(activity: np.ndarray) -> list[tuple[int, int, int]]:
@@ -368,7 +359,8 @@ def _write_session(writer, report, path, subject, data, ranges, repetitions: dic
                 continue
             for rep, (a, b) in enumerate(spans, start=1):
                 if test == "T0w":
-                    gyr_part, acc_part = mean_posture(gyr[a:b]), mean_posture(acc[a:b])
+                    gyr_part = mean_posture(gyr[a:b], SAMPLING_RATE_HZ)
+                    acc_part = mean_posture(acc[a:b], SAMPLING_RATE_HZ)
                 else:
                     gyr_part, acc_part = gyr[a:b], acc[a:b]
                 writer.recording(subject, "legs", test, rep, imu, gyr_part, acc_part)

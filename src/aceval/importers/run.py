@@ -18,11 +18,34 @@ def run_import(
     subject: str = "S01",
     vicon: str | None = None,
     name: str | None = None,
+    lab: dict | None = None,
 ) -> ImportReport:
     """Write the dataset of ``src`` (in ``format``) into the empty folder ``out``, with its
-    ``import_report.tsv``; returns the report.
+    ``import_report.tsv``; returns the report. ``lab``: xsens's ``trials`` (a lab's sheet of
+    trials: :mod:`aceval.importers.xsens_lab`), ``rate`` and ``trim_to_shared``.
     """
-    report = _convert(out, format, src, sensors, subject, vicon, name)
+    lab = lab or {}
+    if lab.get("trials"):
+        if format != "xsens":
+            raise FormatError("--trials is for xsens exports")
+        if not sensors:
+            raise FormatError("--trials needs --sensors, the sheet of sensor IDs and segments")
+        if vicon:
+            raise FormatError("--vicon is for one trial (without --trials)")
+        from aceval.importers.xsens_lab import import_xsens_lab
+
+        report = import_xsens_lab(
+            src,
+            out,
+            lab["trials"],
+            sensors,
+            name or "xsens",
+            lab.get("rate"),
+            lab.get("trim_to_shared", False),
+        )
+        report.write(out / "import_report.tsv")
+        return report
+    report = _convert(out, format, src, sensors, subject, vicon, name, lab.get("rate"))
     report.write(out / "import_report.tsv")
     return report
 
@@ -35,6 +58,7 @@ def _convert(
     subject: str = "S01",
     vicon: str | None = None,
     name: str | None = None,
+    rate: float | None = None,
 ) -> ImportReport:
     """Write the dataset of ``src`` (in ``format``) into the empty folder ``out``; the report."""
     if not Path(src).exists():
@@ -62,7 +86,7 @@ def _convert(
 
     if not sensors:
         raise FormatError("xsens needs --sensors, a sheet mapping sensor IDs to IMUs and segments")
-    report, imports = import_xsens(src, out, sensors, subject, name or "xsens")
+    report, imports = import_xsens(src, out, sensors, subject, name or "xsens", rate=rate)
     if vicon:
         from aceval.importers.vicon import ground_truth_table, read_markers
 

@@ -15,6 +15,8 @@ MIN_STRIDES_PER_REPETITION = 1
 MAX_TURN_DEG = 20.0
 #: shortest plausible stride (s): peaks closer than this are one stride (fast walking: ~0.9 s)
 MIN_STRIDE_S = 0.7
+#: walking low-passed below the stride frequency (about 0.9 Hz) is the mean walking posture
+MEAN_POSTURE_CUTOFF_HZ = 0.5
 
 
 class FormatError(ValueError):
@@ -28,6 +30,12 @@ class ImportReport:
     """What an importer wrote, left out or flagged, as rows for ``import_report.tsv``."""
 
     rows: list[dict] = field(default_factory=list)
+    #: what the user should read on screen (a trim, a skipped file, an IMU left uncalibrated)
+    notes: list[str] = field(default_factory=list)
+
+    def note(self, text: str) -> None:
+        """A line for the screen (``aceval import`` prints them)."""
+        self.notes.append(text)
 
     def add(self, source: str, subject: str, imu: str, status: str, cause: str) -> None:
         """Record one imported, flagged, excluded or skipped item and why."""
@@ -51,6 +59,16 @@ class ImportReport:
             ", ".join(f"{n} {status}" for status, n in sorted(counts.items()))
             or "nothing to report"
         )
+
+
+def mean_posture(signal: np.ndarray, fs_hz: float) -> np.ndarray:
+    """``signal`` (N, 3) low-passed at :data:`MEAN_POSTURE_CUTOFF_HZ` (zero-phase): what stays
+    of a walking bout below the stride frequency, the fallback vertical of recordings without
+    quiet standing (its accuracy: docs/your_data.md).
+    """
+    from scipy.signal import butter, sosfiltfilt
+
+    return sosfiltfilt(butter(2, MEAN_POSTURE_CUTOFF_HZ, fs=fs_hz, output="sos"), signal, axis=0)
 
 
 def stride_peaks(gyr: np.ndarray, fs_hz: float) -> np.ndarray:

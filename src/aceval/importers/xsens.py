@@ -32,6 +32,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from aceval.data.contract import FS_TOLERANCE
+from aceval.data.errors import CalibrationError
 from aceval.data.writer import DatasetWriter, write_sheet
 from aceval.importers.shared import (
     FormatError,
@@ -41,7 +43,7 @@ from aceval.importers.shared import (
     stride_spans,
     walking_bouts,
 )
-from aceval.signals.segmentation import movement_mask
+from aceval.signals.segmentation import TrimParams, movement_mask
 
 REQUIRED = ["PacketCounter", "Acc_X", "Acc_Y", "Acc_Z", "Gyr_X", "Gyr_Y", "Gyr_Z"]
 QUATERNION = ["Quat_q0", "Quat_q1", "Quat_q2", "Quat_q3"]
@@ -53,7 +55,9 @@ T6_SEGMENTS = ("thigh", "shank", "foot", "waist")
 #: Xsens MTw datasheet: +-160 m/s^2 (16 g), +-2000 deg/s
 ACC_RANGE_G = 16.0
 GYR_RANGE_DPS = 2000.0
-_ID = re.compile(r"_([0-9A-Fa-f]{8})\.txt$")
+_ID = re.compile(r"_([0-9A-Fa-f]{8})\.(?:txt|csv)$")
+#: MT Manager's SampleTimeFine: 10 kHz ticks of a 32-bit clock; its PacketCounter: 16 bits
+SAMPLE_TIME, TICKS_PER_S, TICKS_WRAP, COUNTER_WRAP = "SampleTimeFine", 10000.0, 2**32, 2**16
 
 
 def read_mt_export(path: str | Path) -> tuple[dict, pd.DataFrame]:
@@ -112,6 +116,10 @@ def read_mt_export(path: str | Path) -> tuple[dict, pd.DataFrame]:
         quat = table[QUATERNION].apply(pd.to_numeric, errors="coerce")
         if np.isfinite(quat.to_numpy(dtype=float)).all():
             values = pd.concat([values, quat], axis=1)
+    if SAMPLE_TIME in columns:  # the device's clock, where exported (MT Manager may leave it empty)
+        ticks = pd.to_numeric(table[SAMPLE_TIME], errors="coerce")
+        if np.isfinite(ticks.to_numpy(dtype=float)).all():
+            values[SAMPLE_TIME] = ticks
     return header, values
 
 
@@ -132,12 +140,72 @@ def _separator(path: Path, number: int, line: str) -> str:
         ) from None
 
 
-def sampling_rate(header: dict, path) -> float:
-    """Samples per second from the export's ``// Update Rate: <n>Hz`` line."""
+def export_rate(header: dict, values: pd.DataFrame, path, rate: float | None = None) -> float:
+    """Samples per second of one export: ``rate`` (``--rate``) or the ``// Update Rate: <n>Hz``
+    header line, else derived from SampleTimeFine (10 kHz ticks) over the PacketCounter's samples;
+    whichever of the three are there must agree within the contract's 2 %. FormatError saying
+    what was found and what to do.
+    """
+    found = {}
+    if rate is not None:
+        found["--rate"] = float(rate)
     match = re.match(r"([\d.]+)\s*Hz", header.get("Update Rate", ""))
-    if not match:
-        raise FormatError(f"{path}: no '// Update Rate: <n>Hz' header line")
-    return float(match.group(1))
+    if match:
+        found["its '// Update Rate' line"] = float(match.group(1))
+    if SAMPLE_TIME in values and len(values) > 1:
+        ticks = np.diff(values[SAMPLE_TIME].to_numpy(np.int64)) % TICKS_WRAP
+        samples = np.diff(values["PacketCounter"].to_numpy(np.int64)) % COUNTER_WRAP
+        if ticks.sum() > 0:
+            found["its SampleTimeFine"] = TICKS_PER_S * samples.sum() / ticks.sum()
+    if not found:
+        raise FormatError(
+            f"{path}: no '// Update Rate: <n>Hz' header line and no SampleTimeFine values, so "
+            "its sampling rate is unknown: give it with --rate (e.g. --rate 100)"
+        )
+    rates = list(found.values())
+    if max(rates) / min(rates) - 1 > FS_TOLERANCE:
+        raise FormatError(
+            f"{path}: the sampling rate disagrees: "
+            + ", ".join(f"{where} {hz:.4g} Hz" for where, hz in found.items())
+            + " (more than 2 % apart): check --rate, or the export"
+        )
+    if rate is not None:
+        return float(rate)
+    return float(match.group(1)) if match else float(round(found["its SampleTimeFine"], 2))
+
+
+def sensor_id_of(path: Path, header: dict) -> str:
+    """The sensor ID of an export: from its file name (``..._<8 hex>.txt``) or its header's
+    ``DeviceId`` line; FormatError when neither says or they disagree.
+    """
+    named = _ID.search(Path(path).name)
+    device = header.get("DeviceId", "").strip().upper()
+    if named and device and named.group(1).upper() != device:
+        raise FormatError(
+            f"{path}: its name says sensor {named.group(1).upper()}, its DeviceId line {device}"
+        )
+    if not named and not device:
+        raise FormatError(
+            f"{path}: no sensor ID: name the file ..._<8-hex sensor ID>.txt (as MT Manager does) "
+            "or keep its '// DeviceId' header line"
+        )
+    return named.group(1).upper() if named else device
+
+
+def unwrapped_counter(values: pd.DataFrame, path) -> np.ndarray:
+    """The PacketCounter as increasing integers (MT Manager's wraps at 65536); FormatError where
+    it does not step by one (lost samples, or two recordings in one file).
+    """
+    counter = values["PacketCounter"].to_numpy(np.int64)
+    steps = np.diff(counter) % COUNTER_WRAP
+    if (steps != 1).any():
+        k = int(np.flatnonzero(steps != 1)[0])
+        raise FormatError(
+            f"{path}: PacketCounter steps from {counter[k]} to {counter[k + 1]} after sample "
+            f"{k + 1} ({int(steps[k]) - 1 if steps[k] else 'a repeated'} sample(s) lost, or two "
+            "recordings in one file): re-export the trial with lost samples filled, or cut it there"
+        )
+    return counter[0] + np.concatenate([[0], np.cumsum(steps)])
 
 
 def read_sensor_sheet(path: str | Path) -> pd.DataFrame:
@@ -190,8 +258,10 @@ def import_xsens(
     subject: str,
     name: str = "xsens",
     description: str = "",
+    rate: float | None = None,
 ) -> tuple[ImportReport, dict]:
-    """Convert one trial's exports in ``src`` (``*_<sensor id>.txt``) into a dataset at ``out``.
+    """Convert one trial's exports in ``src`` (``*_<sensor id>.txt``) into a dataset at ``out``
+    (``rate``: ``--rate``, see :func:`export_rate`).
 
     Returns the report and, for callers that add ground truth (:mod:`aceval.importers.vicon`),
     ``{"signals": {(sensor_set, imu): (gyr, acc)}, "spans": {test: ranges}, "fs_hz": ...,
@@ -201,7 +271,7 @@ def import_xsens(
     sheet = read_sensor_sheet(sensors)
     report = ImportReport()
     files, wanted = _exports(src, sheet, sensors, subject, report)
-    gyr, acc, quat, fs_hz = _synchronised(src, files, wanted)
+    gyr, acc, quat, fs_hz = _synchronised(src, files, wanted, rate)
     spans = _trial_spans(src, sensors, wanted, gyr, acc, fs_hz)
     meta = {
         "name": name,
@@ -274,7 +344,7 @@ def _exports(src: Path, sheet, sensors, subject: str, report: ImportReport):
     return files, wanted
 
 
-def _synchronised(src: Path, files: dict, wanted: dict):
+def _synchronised(src: Path, files: dict, wanted: dict, rate: float | None = None):
     """``(gyr, acc, quat, fs_hz)`` of the wanted sensors (by id; quat None when not exported:
     the Xsens orientation, scalar first, sensor -> its z-up world); FormatError unless the
     exports are one synchronised trial (the same packet counters and rate).
@@ -282,7 +352,7 @@ def _synchronised(src: Path, files: dict, wanted: dict):
     tables, rates = {}, set()
     for sensor_id in wanted:
         header, table = read_mt_export(files[sensor_id])
-        rates.add(sampling_rate(header, files[sensor_id]))
+        rates.add(export_rate(header, table, files[sensor_id], rate))
         tables[sensor_id] = table
     counters = {
         s: (int(t["PacketCounter"].iloc[0]), int(t["PacketCounter"].iloc[-1]), len(t))
@@ -314,10 +384,33 @@ def _trial_spans(src, sensors, wanted: dict, gyr, acc, fs_hz: float) -> dict:
     if waist:  # vertical from the first second, when the subject stands
         vertical = acc[waist[0]][: int(fs_hz)].mean(axis=0)
         yaw_rate = gyr[waist[0]] @ (vertical / np.linalg.norm(vertical))
-    spans = trial_spans(gyr, shanks[0], fs_hz, yaw_rate)
-    if "T0" not in spans or "T6" not in spans:
+    try:
+        spans = trial_spans(gyr, shanks[0], fs_hz, yaw_rate)
+    except CalibrationError as exc:
+        limit = TrimParams().min_peak_rad_s
+        still = [s for s, g in gyr.items() if np.linalg.norm(g, axis=1).max() < limit]
         raise FormatError(
-            f"{src}: expected standing then walking; found {', '.join(spans) or 'neither'}"
+            f"{src}: one trial of quiet standing then walking is expected, but sensor(s) "
+            f"{', '.join(still)} do not move ({exc}). A lab's trials (standing apart, or no "
+            "standing): aceval import xsens --trials (config/README.md)"
+        ) from None
+    missing = [
+        what
+        for test, what in (
+            (
+                "T0",
+                f"at least {MIN_STANDING_S:g} s of quiet standing ending {STANDING_MARGIN_S:g} s "
+                "before the first movement",
+            ),
+            ("T6", "whole straight strides of walking"),
+        )
+        if test not in spans
+    ]
+    if missing:
+        raise FormatError(
+            f"{src}: one trial of quiet standing then walking is expected; found no "
+            f"{' and no '.join(missing)}. A lab's trials (standing apart, or no standing): "
+            "aceval import xsens --trials (config/README.md)"
         )
     return spans
 

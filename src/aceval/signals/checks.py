@@ -226,6 +226,7 @@ def direction_checks(
     membership: np.ndarray,
     R: np.ndarray,
     right: np.ndarray,
+    undetermined: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
     """Is forward forward? For each calibration ``R`` (B, 3, 3) of an IMU from the recordings
     ``membership`` (B, n_rep) weighs (0/1) among those of its test.
@@ -235,12 +236,14 @@ def direction_checks(
     positive about it; a recording votes when that axis is within 45 deg of the calibration's body
     y (sensor frame: ``R[:, 1]``) and agrees when the sign is the protocol's. ``gait``: shanks
     only, from the summed third moments ``third`` (B, n_rep, 10) (:func:`swing_skew`). ``right``
-    (B, 3): the declared right axis.
+    (B, 3): the declared right axis. ``undetermined`` (B,), optional: True where the
+    calibration's y axis is itself undetermined (Kong's plane normal: eigenvalue ratio above 0.5),
+    so that its angle to the declared right axis says nothing about the declaration.
 
     Returns ``flag`` ('backward' when most votes disagree or the shank swings backward,
-    'right_axis_mismatch' when the declared right axis is more than 60 deg from y0, both joined by
-    ';' when both hold, else ''),
-    ``mismatch`` (that angle test alone, whatever the vote),
+    'right_axis_mismatch' when the declared right axis is more than 60 deg from y0 (where y0 is
+    undetermined: 'right_axis_unchecked', not a mislabel), joined by ';' when both hold, else ''),
+    ``mismatch`` (that angle test alone, whatever the vote; False where undetermined),
     ``first_phase_agreement`` (share of agreeing votes; NaN without votes) and
     ``right_axis_angle_deg``.
     """
@@ -264,11 +267,21 @@ def direction_checks(
         agreement[swing] = (skew > 0).astype(float)
         backward[np.flatnonzero(swing)[skew < 0]] = True
     angle = right_axis_angle_deg(body_y, right)
-    mismatch = angle > MAX_RIGHT_AXIS_ANGLE_DEG
+    far = angle > MAX_RIGHT_AXIS_ANGLE_DEG
+    unchecked = far & (False if undetermined is None else np.asarray(undetermined, dtype=bool))
+    mismatch = far & ~unchecked
     flag = np.array(
         [
-            ";".join(f for f, on in (("backward", b), ("right_axis_mismatch", m)) if on)
-            for b, m in zip(backward, mismatch)
+            ";".join(
+                f
+                for f, on in (
+                    ("backward", b),
+                    ("right_axis_mismatch", m),
+                    ("right_axis_unchecked", u),
+                )
+                if on
+            )
+            for b, m, u in zip(backward, mismatch, unchecked)
         ],
         dtype=object,
     )
