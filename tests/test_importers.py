@@ -277,7 +277,7 @@ def test_calibrate_command_options_and_apply(tmp_path, capsys):
     every = tmp_path / "all.csv"
     assert run("calibrate", data, "--out", every).returncode == 0
     table = pd.read_csv(every)
-    for option, kept in (("kong", {"kong"}), ("triad", {"triad"}), ("ricci", {"ricci_lm"})):
+    for option, kept in (("kong", {"kong"}), ("triad", {"triad"}), ("ricci_lm", {"ricci_lm"})):
         out = tmp_path / f"{option}.csv"
         result = run(
             "calibrate",

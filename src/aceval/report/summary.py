@@ -82,6 +82,20 @@ def _shared_cells_line(methods: pd.DataFrame, compared: list[str]) -> str:
     )
 
 
+def _fully_flagged(methods: pd.DataFrame) -> list[str]:
+    """The cells whose every calibration is flagged (n = 0, the flags kept in table ``methods``)."""
+    if "flags" not in methods:
+        return []
+    fully = methods[(methods["n"] == 0) & (methods["flags"].fillna("") != "")]
+    if fully.empty:
+        return []
+    cells = "; ".join(
+        f"{r['method']} {r['segment']} {r['test']} {r['sensor_set']} ({r['flags']})"
+        for _, r in fully.iterrows()
+    )
+    return [f"Every calibration flagged (no number, the row kept in table `methods`): {cells}."]
+
+
 def methods_section(tables: dict) -> list[str]:
     """Which method and which test, per segment, against the ground truth (tables methods*)."""
     best, methods = tables.get("methods_best"), tables.get("methods")
@@ -103,20 +117,7 @@ def methods_section(tables: dict) -> list[str]:
         + ", ".join(f"{m} {v:.2f} deg ({counted(m)})" for m, v in overall.items())
         + "."
     )
-    fully = (
-        methods[(methods["n"] == 0) & (methods["flags"].fillna("") != "")]
-        if price is not None
-        else []
-    )
-    if len(fully):
-        lines.append(
-            "Every calibration flagged (no number, the row kept in table `methods`): "
-            + "; ".join(
-                f"{r['method']} {r['segment']} {r['test']} {r['sensor_set']} ({r['flags']})"
-                for _, r in fully.iterrows()
-            )
-            + "."
-        )
+    lines += _fully_flagged(methods)
     static = _static_pose_methods()  # a static pose: its own cells
     moving = [m for m in overall.index if m not in static]
     lines += ["", _shared_cells_line(methods, moving), *_design_notes(methods)]
