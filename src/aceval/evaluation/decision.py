@@ -138,9 +138,10 @@ def decision_table(
     return pd.DataFrame(rows, columns=DECISION_COLUMNS)
 
 
-def _flag_counts(rows: pd.DataFrame) -> str:
+def _flag_counts(rows: pd.DataFrame, cone: pd.Series | None = None) -> str:
     """'not_planar x3; backward x1': the flags of ``rows`` by how often they occur (a peer's
-    ``not_applicable`` left out: it made no calibration to count).
+    ``not_applicable`` left out: it made no calibration to count), and the unflagged ones left out
+    for an uncertainty beyond :data:`MAX_CONE_DEG` (``cone``).
     """
     names = [
         n
@@ -148,6 +149,9 @@ def _flag_counts(rows: pd.DataFrame) -> str:
         for n in f.split(";")
         if n and n != "not_applicable"
     ]
+    if cone is not None:
+        wide = unflagged(rows) & (cone > MAX_CONE_DEG)
+        names += [f"uncertainty above {MAX_CONE_DEG:g} deg"] * int(wide.sum())
     counts = pd.Series(names, dtype=object).value_counts()
     return "; ".join(f"{name} x{count}" for name, count in counts.items())
 
@@ -160,7 +164,7 @@ def _decide(imu: pd.DataFrame, evidence: pd.DataFrame, basis: str) -> dict:
     usable = imu[unflagged(imu) & ~(cone > MAX_CONE_DEG)]
     row |= {"n_unflagged": len(usable), "n_calibrations": len(imu), "basis": basis}
     if usable.empty:
-        why = _flag_counts(imu) or "no calibration was made"
+        why = _flag_counts(imu, cone) or "no calibration was made"
         return row | {"flags_elsewhere": why, "verdict": f"no trustworthy calibration: {why}"}
     measured = usable[np.isfinite(usable.get(CONE, pd.Series(np.nan, index=usable.index)))]
     keys = ["segment", "test", "sensor_set", "method"]
@@ -178,7 +182,7 @@ def _decide(imu: pd.DataFrame, evidence: pd.DataFrame, basis: str) -> dict:
         "repetitions": chosen["repetitions"],
         CONE: chosen.get(CONE, np.nan),
         "methods_spread_deg": spread,
-        "flags_elsewhere": _flag_counts(imu),
+        "flags_elsewhere": _flag_counts(imu, cone),
         "evidence_median_deg": chosen["median"],
         "evidence_n": chosen["n"],
         "note": _design_note(chosen["method"], chosen["segment"]),
@@ -190,8 +194,8 @@ def _decide(imu: pd.DataFrame, evidence: pd.DataFrame, basis: str) -> dict:
     row["verdict"] = "use"
     if not len(measured):
         row["verdict"] = (
-            "use with care: no calibration of this IMU has an uncertainty measured on the "
-            "recording (only methods without one are unflagged)"
+            "use with care: none of its unflagged calibrations has an uncertainty measured on "
+            "the recording"
         )
     if len(disagree):
         names = ", ".join(registry.ordered(disagree["method"]))
