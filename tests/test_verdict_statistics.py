@@ -1,0 +1,259 @@
+"""Every statistic a verdict of SUMMARY.md reads, against an independent computation: the
+intervals against ``scipy.stats``, the effect size and standard deviations by hand, Holm against
+``statsmodels``, the exact test's smallest p by enumerating the sign flips, the resampled
+intervals against the same draws made here (issue 44). A slip such as the SD over n instead of
+n - 1 narrows every interval of SUMMARY.md by about 11 % at 5 subjects: these tests see it."""
+
+import itertools
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy import stats as scipy_stats
+from statsmodels.stats.multitest import multipletests
+
+from aceval.evaluation import stats
+from aceval.report import claims
+
+#: five subjects' values (a verdict's usual sample) and a second, skewed sample
+FIVE = np.array([2.1, 3.9, 1.2, 5.6, 3.25])
+SKEWED = np.array([0.3, 0.31, 0.35, 0.4, 0.9, 2.5, 0.33])
+
+
+def t_interval(x, level):
+    """The t-interval of the mean, computed by scipy.stats alone."""
+    x = np.asarray(x, float)
+    return scipy_stats.t.interval(level, len(x) - 1, loc=x.mean(), scale=scipy_stats.sem(x))
+
+
+@pytest.mark.parametrize("values", [FIVE, SKEWED, FIVE[:2]])
+@pytest.mark.parametrize("level", [0.95, 0.90, 0.99])
+def test_mean_ci_is_scipys_t_interval(values, level):
+    mean, low, high, n = stats.mean_ci(values, level)
+    assert n == len(values) and mean == pytest.approx(values.mean(), rel=1e-12)
+    assert (low, high) == pytest.approx(t_interval(values, level), rel=1e-12)
+    # and the one-sample t-test's own interval says the same
+    ci = scipy_stats.ttest_1samp(values, 0.0).confidence_interval(level)
+    assert (low, high) == pytest.approx((ci.low, ci.high), rel=1e-12)
+
+
+def test_mean_ci_worked_by_hand_at_five_subjects():
+    """Mean 3.21, SD (n - 1) 1.69278, t(0.975, 4) = 2.776445: 3.21 +- 2.10186 (an SD over n
+    would give +- 1.87996, 11 % narrower)."""
+    mean, low, high, n = stats.mean_ci(FIVE)
+    assert mean == pytest.approx(3.21)
+    assert (low, high) == pytest.approx((3.21 - 2.10186, 3.21 + 2.10186), abs=1e-5)
+
+
+def test_mean_ci_drops_nan_and_has_no_interval_below_two_values():
+    with_nan = np.array([*FIVE, np.nan, np.inf])
+    assert stats.mean_ci(with_nan) == pytest.approx(stats.mean_ci(FIVE))
+    mean, low, high, n = stats.mean_ci([4.0])
+    assert (mean, n) == (4.0, 1) and np.isnan(low) and np.isnan(high)
+    mean, low, high, n = stats.mean_ci([np.nan])
+    assert n == 0 and np.isnan(mean) and np.isnan(low) and np.isnan(high)
+
+
+@pytest.mark.parametrize("n", [2, 5, 40])
+def test_summary_ci_from_mean_sd_n_is_scipys(n):
+    low, high = stats.summary_ci(1.5, 0.4, n, 0.95)
+    assert (low, high) == pytest.approx(
+        scipy_stats.t.interval(0.95, n - 1, loc=1.5, scale=0.4 / np.sqrt(n)), rel=1e-12
+    )
+    low90, high90 = stats.summary_ci(1.5, 0.4, n, 0.90)
+    assert low < low90 < 1.5 < high90 < high
+    for undefined in (stats.summary_ci(1.5, 0.4, 1), stats.summary_ci(1.5, np.nan, 5)):
+        assert np.isnan(undefined).all()
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_paired_ttest_is_scipys_with_the_effect_size_by_hand(seed):
+    rng = np.random.default_rng(seed)
+    a = rng.normal(1.0, 0.5, 6)
+    b = a - rng.normal(0.3, 0.4, 6)
+    out = stats.paired_ttest(a, b)
+    reference = scipy_stats.ttest_rel(a, b)
+    diff = a - b
+    assert out["t"] == pytest.approx(reference.statistic, rel=1e-12)
+    assert out["p"] == pytest.approx(reference.pvalue, rel=1e-12)
+    assert (out["ci95_low"], out["ci95_high"]) == pytest.approx(t_interval(diff, 0.95), rel=1e-12)
+    sd_diff = np.sqrt(((diff - diff.mean()) ** 2).sum() / (len(diff) - 1))
+    assert out["cohens_dz"] == pytest.approx(diff.mean() / sd_diff, rel=1e-12)
+    assert out["mean_difference"] == pytest.approx(diff.mean(), rel=1e-12)
+    assert out["sd_a"] == pytest.approx(np.sqrt(((a - a.mean()) ** 2).sum() / 5), rel=1e-12)
+    assert out["sd_b"] == pytest.approx(np.sqrt(((b - b.mean()) ** 2).sum() / 5), rel=1e-12)
+    assert out["mean_a"] == pytest.approx(a.mean()) and out["mean_b"] == pytest.approx(b.mean())
+    assert out["n"] == 6 and isinstance(out["n"], int)
+    # a - b and b - a: the same test, mirrored
+    mirrored = stats.paired_ttest(b, a)
+    assert mirrored["t"] == pytest.approx(-out["t"]) and mirrored["p"] == pytest.approx(out["p"])
+    assert mirrored["ci95_low"] == pytest.approx(-out["ci95_high"])
+    assert mirrored["cohens_dz"] == pytest.approx(-out["cohens_dz"])
+
+
+def test_paired_ttest_of_one_pair_has_means_but_no_test():
+    out = stats.paired_ttest(np.array([2.0]), np.array([0.5]))
+    assert out["n"] == 1 and out["mean_difference"] == 1.5 and out["mean_a"] == 2.0
+    assert np.isnan([out["sd_a"], out["sd_b"], out["t"], out["p"], out["ci95_low"]]).all()
+    assert np.isnan(out["cohens_dz"]) and np.isnan(out["ci95_high"])
+    empty = stats.paired_ttest(np.array([]), np.array([]))
+    assert np.isnan([empty["mean_a"], empty["mean_b"], empty["mean_difference"]]).all()
+
+
+def test_holm_is_statsmodels_and_leaves_nan_out_of_the_family():
+    rng = np.random.default_rng(4)
+    p = rng.uniform(0, 0.2, 9)
+    np.testing.assert_allclose(stats.holm(p), multipletests(p, method="holm")[1], rtol=1e-12)
+    with_nan = np.array([0.01, np.nan, 0.04, 0.03, np.nan])
+    adjusted = stats.holm(with_nan)
+    assert np.isnan(adjusted[[1, 4]]).all()
+    # the family is the three finite p-values: 0.01 x 3, then max(0.03 x 2, 0.03), 0.04 x 1 -> 0.06
+    np.testing.assert_allclose(adjusted[[0, 2, 3]], [0.03, 0.06, 0.06])
+    assert stats.holm([0.6, 0.7]).tolist() == [1.0, 1.0]  # 1.2 capped at 1, then monotone
+    assert np.isnan(stats.holm([np.nan, np.nan])).all()
+    assert stats.holm([]).shape == (0,)
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 5, 7])
+def test_smallest_sign_flip_p_is_the_exact_tests_by_enumeration(n):
+    """The two-sided sign-flip test of n positive differences: the share of the 2**n sign
+    patterns whose |mean| is at least the observed one (only all + and all -)."""
+    diff = np.arange(1.0, n + 1)
+    flips = np.array(list(itertools.product((-1.0, 1.0), repeat=n)))
+    means = np.abs((flips * diff).mean(axis=1))
+    p = np.mean(means >= abs(diff.mean()) - 1e-12)
+    assert stats.smallest_sign_flip_p(n) == pytest.approx(p)
+    assert np.isnan(stats.smallest_sign_flip_p(0))
+
+
+def _cells():
+    """Three subjects, two IMUs each, a set effect of 0.1 plus noise: cell means per set."""
+    rows = []
+    for s, offset in enumerate([0.0, 0.5, 1.0]):
+        for imu, extra in (("a", 0.0), ("b", 0.2)):
+            for rep in range(3):
+                base = offset + extra + 0.01 * rep
+                rows.append(
+                    {
+                        "subject": f"S{s}",
+                        "imu": imu,
+                        "rep": rep,
+                        "set": "front",
+                        "v": base + 0.1 + 0.02 * s,
+                    }
+                )
+                rows.append({"subject": f"S{s}", "imu": imu, "rep": rep, "set": "side", "v": base})
+    return pd.DataFrame(rows)
+
+
+def test_cell_means_and_the_subject_test_average_cells_then_subjects():
+    table = _cells()
+    cells = stats.cell_means_by_set(
+        table,
+        "v",
+        ["subject", "imu", "rep"],
+        ["subject", "imu"],
+        ["front", "side"],
+        set_column="set",
+    )
+    assert len(cells) == 6
+    by_hand = table.groupby(["subject", "imu", "set"])["v"].mean().unstack()
+    np.testing.assert_allclose(cells["mean_a"], by_hand["front"].to_numpy())
+    np.testing.assert_allclose(cells["mean_b"], by_hand["side"].to_numpy())
+    test = stats.subject_test(cells)
+    subjects = table.groupby(["subject", "set"])["v"].mean().unstack()
+    reference = scipy_stats.ttest_rel(subjects["front"], subjects["side"])
+    assert test["t"] == pytest.approx(reference.statistic) and test["n_groups"] == 3
+    assert test["p"] == pytest.approx(reference.pvalue)
+    assert test["smallest_p"] == pytest.approx(0.25)
+    missing = stats.cell_means_by_set(
+        table, "v", ["subject", "imu", "rep"], ["subject"], ["front", "top"], set_column="set"
+    )
+    assert missing.empty and list(missing.columns) == ["subject", "mean_a", "mean_b"]
+
+
+def test_paired_by_set_pairs_units_and_averages_repeated_rows():
+    table = _cells()
+    out = stats.paired_by_set(table, "v", ["subject", "imu"], ["front", "side"], "set")
+    wide = table.groupby(["subject", "imu", "set"])["v"].mean().unstack()
+    assert out["n"] == 6
+    assert out["t"] == pytest.approx(scipy_stats.ttest_rel(wide["front"], wide["side"]).statistic)
+    assert stats.paired_by_set(table, "v", ["subject"], ["front", "top"], "set")["n"] == 0
+
+
+def test_coverage_interval_is_clopper_pearson_below_five_subjects():
+    hit = np.array([1, 1, 1, 0, 1, 1, 0, 1, 1, 1], float)
+    low, high, how = stats.coverage_interval(hit, ["S1"] * 5 + ["S2"] * 5)
+    ci = scipy_stats.binomtest(8, 10).proportion_ci(0.95, method="exact")
+    assert how == "binomial" and (low, high) == pytest.approx((ci.low, ci.high), rel=1e-12)
+    assert stats.coverage_interval([], [])[2] == ""
+
+
+def test_coverage_interval_resamples_whole_subjects_from_five_on():
+    """The same draws as the function's: subjects with replacement, the share of the drawn
+    subjects' calibrations (not a mean of the subjects' shares)."""
+    subjects = np.repeat([f"S{k}" for k in range(6)], [2, 4, 3, 5, 2, 4])
+    hit = (np.arange(len(subjects)) % 3 != 0).astype(float)
+    low, high, how = stats.coverage_interval(hit, subjects, n_resamples=300, seed=7)
+    table = pd.DataFrame({"hit": hit, "subject": subjects}).groupby("subject")["hit"]
+    sums, counts = table.sum().to_numpy(), table.count().to_numpy()
+    draws = np.random.default_rng(7).integers(0, 6, size=(300, 6))
+    shares = sums[draws].sum(axis=1) / counts[draws].sum(axis=1)
+    assert how == "subjects"
+    assert (low, high) == pytest.approx(tuple(np.percentile(shares, [2.5, 97.5])), rel=1e-12)
+    assert low <= hit.mean() <= high
+    every = stats.coverage_interval(np.ones(len(subjects)), subjects)
+    assert every[:2] == (1.0, 1.0)
+
+
+# --- the claims' estimates (report/claims.py) -------------------------------------------------
+
+
+def test_cell_estimates_are_scipys_95_and_90_intervals_over_subject_means():
+    rng = np.random.default_rng(3)
+    frame = pd.DataFrame(
+        {
+            "subject": np.repeat([f"S{k}" for k in range(5)], 6),
+            "segment": np.tile(["head", "thigh"], 15),
+            "v": rng.normal(1.0, 0.3, 30),
+        }
+    )
+    cells = claims.subject_cells(frame, ["segment"], "v")
+    by_hand = frame.groupby(["subject", "segment"])["v"].mean()
+    assert len(cells) == 10
+    np.testing.assert_allclose(cells.set_index(["subject", "segment"])["v"], by_hand)
+    estimates = claims.cell_estimates(cells, ["segment"], "v").set_index("segment")
+    for segment in ("head", "thigh"):
+        values = by_hand.xs(segment, level="segment").to_numpy()
+        row = estimates.loc[segment]
+        assert row["mean"] == pytest.approx(values.mean()) and row["n"] == 5
+        assert (row["low"], row["high"]) == pytest.approx(t_interval(values, 0.95), rel=1e-12)
+        assert (row["low90"], row["high90"]) == pytest.approx(t_interval(values, 0.9), rel=1e-12)
+
+
+def test_cell_estimates_of_several_keys_keep_each_key_in_its_column():
+    cells = pd.DataFrame(
+        {
+            "subject": ["S1", "S2", "S1", "S2"],
+            "a": ["x", "x", "y", "y"],
+            "b": [1, 1, 2, 2],
+            "v": [1.0, 2.0, 3.0, 5.0],
+        }
+    )
+    estimates = claims.cell_estimates(cells, ["a", "b"], "v")
+    assert estimates[["a", "b"]].values.tolist() == [["x", 1], ["y", 2]]
+    assert estimates["mean"].tolist() == [1.5, 4.0] and estimates["n"].tolist() == [2, 2]
+
+
+def test_resampled_is_the_percentile_interval_of_the_subjects_resamples():
+    wide = pd.DataFrame({"a": [0.2, 0.9, 0.5, 0.7, 0.1], "b": [1.0, 0.3, 0.8, 0.6, 0.4]})
+    statistic = lambda v: float(np.mean(v[:, 0] > v[:, 1]))  # noqa: E731
+    value, low, high = claims.resampled(wide, statistic, seed=5)
+    values = wide.to_numpy(float)
+    draws = np.random.default_rng(5).integers(0, 5, size=(claims.N_RESAMPLES, 5))
+    by_hand = np.nanpercentile([statistic(values[rows]) for rows in draws], [2.5, 97.5])
+    assert value == pytest.approx(0.4)
+    assert (low, high) == pytest.approx(tuple(by_hand))
+    assert claims.N_RESAMPLES == 1000
+    one = claims.resampled(wide.iloc[:1], statistic)
+    assert one[0] == 0.0 and np.isnan(one[1]) and np.isnan(one[2])
