@@ -5,19 +5,24 @@ refactor that bypasses the sheet validation still cannot write outside ``--out``
 
 import errno
 import os
+import subprocess
+import sys
 from pathlib import Path, PurePosixPath
 
 import pytest
 
 from aceval.data.safety import (
     MARKER,
+    FileSet,
     UnsafeOutputError,
     atomic_file,
     check_outputs,
     check_writable,
     contained,
+    fail,
     is_within,
     path_problem,
+    remove_leftovers,
     staged_folder,
 )
 
@@ -219,3 +224,101 @@ def test_check_writable_refuses_a_folder_under_a_file_and_leaves_no_probe(tmp_pa
         check_writable([tmp_path / "afile" / "out"])
     check_writable([tmp_path / "new" / "deeper", tmp_path])
     assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]  # nothing created, no probe
+
+
+# --- the leftovers of a killed run, and nothing else, are removed -------------------------------
+
+
+def _dead_pid() -> int:
+    finished = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    return int(finished.stdout)
+
+
+def test_only_a_dead_runs_own_temporaries_are_removed(tmp_path):
+    """A killed run's '.tmp.<pid>.out.csv' file and '.out.csv.<pid>.<random>' staging folder
+    go; a live run's stay, and so do a user's hidden files that merely look alike."""
+    dead, out = _dead_pid(), tmp_path / "out.csv"
+    leftovers = [tmp_path / f".tmp.{dead}.out.csv", tmp_path / f".out.csv.{dead}.k2j4h1x0"]
+    leftovers[0].write_text("partial")
+    leftovers[1].mkdir()
+    (leftovers[1] / "half.csv").write_text("partial")
+    live = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
+    try:
+        kept = [
+            tmp_path / f".tmp.{live.pid}.out.csv",  # a run still writing
+            tmp_path / f".bak.{dead}.out.csv",  # a user's file ending like ours
+            tmp_path / f".tmp.{dead}.out.csv.bak",  # starting like ours
+            tmp_path / ".tmp.abc.out.csv",  # no process id
+            tmp_path / f".out.csv.{dead}x.k2j4h1x0",
+            tmp_path / f".tmp.{os.getpid()}.out.csv",  # this process's own
+        ]
+        for path in kept:
+            path.write_text("keep")
+        remove_leftovers(out)
+        assert not any(p.exists() for p in leftovers)
+        assert all(p.read_text() == "keep" for p in kept)
+        with pytest.raises(UnsafeOutputError, match=f"process {live.pid}.*is writing"):
+            FileSet([out])
+        assert live.poll() is None  # asking whether it is alive did not signal it
+    finally:
+        live.kill()
+        live.wait()
+    remove_leftovers(tmp_path / "missing" / "out.csv")  # no folder: nothing to do
+
+
+def test_another_users_process_counts_as_alive(monkeypatch):
+    from aceval.data import safety
+
+    def denied(pid, signal):
+        raise PermissionError(errno.EPERM, "not permitted")
+
+    monkeypatch.setattr(safety.os, "kill", denied)
+    assert safety._alive(12345)
+
+
+def test_outputs_are_staged_beside_their_target_in_new_folders(tmp_path):
+    """A folder output's staging folder is a hidden sibling named after it and this process (so a
+    killed run's is found and removed); missing parent folders are made; a file set's too."""
+    out = tmp_path / "new" / "deeper" / "out"
+    seen = []
+    staged_folder(out, False, lambda folder: seen.append(folder))
+    assert seen[0].parent == out.parent and seen[0].name.startswith(f".out.{os.getpid()}.")
+    assert (out / MARKER).read_text().startswith("written by aceval")
+    paths = [tmp_path / "a" / "b" / "t.csv", tmp_path / "c" / "u.csv"]
+    with FileSet(paths, folders=[tmp_path / "d"]) as files:
+        for path in paths:
+            files.write(path, lambda tmp: Path(tmp).write_text(Path(tmp).name))
+    assert [p.read_text() for p in paths] == [
+        f".tmp.{os.getpid()}.t.csv",
+        f".tmp.{os.getpid()}.u.csv",
+    ]
+
+
+def test_check_writable_probes_inside_the_folder_itself(tmp_path, monkeypatch):
+    import tempfile
+
+    probes = []
+    real = tempfile.mkstemp
+
+    def spy(*args, **kwargs):
+        handle, path = real(*args, **kwargs)
+        probes.append(Path(path))
+        return handle, path
+
+    monkeypatch.setattr(tempfile, "mkstemp", spy)
+    check_writable([tmp_path / "not" / "yet"])
+    assert [p.parent for p in probes] == [tmp_path] and probes[0].name.startswith(".aceval-probe.")
+    assert not probes[0].exists()
+
+
+def test_fail_names_the_command_and_the_cause_on_stderr(capsys):
+    assert fail("calibrate", ValueError("no such dataset")) == 2
+    assert fail("apply", ValueError("x"), code=1) == 1
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert captured.err == "aceval calibrate: no such dataset\naceval apply: x\n"
