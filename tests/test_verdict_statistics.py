@@ -257,3 +257,26 @@ def test_resampled_is_the_percentile_interval_of_the_subjects_resamples():
     assert claims.N_RESAMPLES == 1000
     one = claims.resampled(wide.iloc[:1], statistic)
     assert one[0] == 0.0 and np.isnan(one[1]) and np.isnan(one[2])
+
+
+def test_subject_cells_and_cell_estimates_come_sorted_whatever_the_input_order():
+    """The subjects' cells sorted by subject and cell, the estimates by cell: the tables and the
+    claims list them in that order (and sum them in it), not in the order the rows arrived."""
+    frame = pd.DataFrame(
+        {
+            "subject": ["S2", "S2", "S1", "S1", "S3"],
+            "segment": ["thigh", "head", "thigh", "head", "head"],
+            "v": [1.0, 2.0, 3.0, 4.0, 5.0],
+        }
+    )
+    cells = claims.subject_cells(frame, ["segment"], "v")
+    assert cells[["subject", "segment"]].values.tolist() == [
+        ["S1", "head"],
+        ["S1", "thigh"],
+        ["S2", "head"],
+        ["S2", "thigh"],
+        ["S3", "head"],
+    ]
+    estimates = claims.cell_estimates(cells.iloc[[1, 0, 3, 2, 4]], ["segment"], "v")  # thigh first
+    assert estimates["segment"].tolist() == ["head", "thigh"]
+    assert estimates["mean"].tolist() == [pytest.approx(11 / 3), 2.0]
