@@ -8,6 +8,7 @@ The methods are reached through one adapter, :func:`calibrations` (the registry'
 signature is in flux: only it needs changing when the methods become classes)."""
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
@@ -171,3 +172,21 @@ def test_a_method_reading_r_transposed_would_fail_this():
     assert error_angle_deg(R_after, R @ Q.T).max() < 1e-7
     assert error_angle_deg(np.swapaxes(R_after, 1, 2), np.swapaxes(R, 1, 2) @ Q.T).min() > 1.0
     assert error_angle_deg(R_after, Q @ R).min() > 1.0
+
+
+def test_the_combined_heading_lies_between_kongs_and_the_gyroscopes():
+    """The gyroscope spins about an axis turned 15 deg about the vertical from the plane's normal:
+    TRIAD (z0, then the gyroscope axis) and Kong disagree by 15 deg of heading, and the combined
+    heading, a weighted mean of the two, lies strictly between them on the same great circle."""
+    turn = Rotation.from_euler("z", 15, degrees=True).as_matrix()
+    down, right, scatters, unit_scatters, steps = body_unit(11)
+    body = (down, right, scatters, [turn @ U @ turn.T for U in unit_scatters], steps)
+    found = calibrations(sensor_unit(body, np.eye(3)), ROWS[:1])
+    kong, triad, combined = (found[name][0][0] for name in ("kong", "triad", "combined"))
+    apart = float(error_angle_deg(kong, triad))
+    to_kong, to_triad = (
+        float(error_angle_deg(combined, kong)),
+        float(error_angle_deg(combined, triad)),
+    )
+    assert 12.0 < apart < 18.0 and min(to_kong, to_triad) > 1.0
+    assert to_kong + to_triad == pytest.approx(apart, abs=0.5)

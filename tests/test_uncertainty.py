@@ -38,6 +38,10 @@ def test_combined_heading_is_the_weighted_mean_of_the_two_horizontal_axes():
     only_gyro = combined_rotation(z0, y_kong, y_gyro, 0.0, 0.7)
     assert error_angle_deg(only_gyro, R_TRUE) == pytest.approx(10.0, abs=1e-9)
     assert np.allclose(only_gyro @ y_gyro, [0, 1, 0])
+    for unusable in (y_gyro, np.full(3, np.nan)):  # an unusable gyroscope: Kong's heading alone
+        only_kong = combined_rotation(z0, y_kong, unusable, 0.6, 0.0)
+        assert np.allclose(only_kong @ y_kong, [0, 1, 0])
+    assert np.allclose(combined_rotation(z0, np.full(3, np.nan), y_gyro, 0.0, 0.7), only_gyro)
     both = combined_rotation(z0, y_kong, y_gyro, 0.5, 0.5)
     assert error_angle_deg(both, R_TRUE) == pytest.approx(0.0, abs=1e-6)
     assert np.allclose(both @ both.T, np.eye(3)) and np.linalg.det(both) == pytest.approx(1.0)
