@@ -280,3 +280,65 @@ def test_subject_cells_and_cell_estimates_come_sorted_whatever_the_input_order()
     estimates = claims.cell_estimates(cells.iloc[[1, 0, 3, 2, 4]], ["segment"], "v")  # thigh first
     assert estimates["segment"].tolist() == ["head", "thigh"]
     assert estimates["mean"].tolist() == [pytest.approx(11 / 3), 2.0]
+
+
+def _eta_by_hand(frame: pd.DataFrame, value: str, factors: list[str]) -> list[float]:
+    """Type II eta squared of each factor from dummy-coded least squares (pandas, numpy)."""
+
+    def residual(columns):
+        X = np.column_stack(
+            [np.ones(len(frame))]
+            + [pd.get_dummies(frame[c], drop_first=True).to_numpy(float) for c in columns]
+        )
+        coef = np.linalg.lstsq(X, frame[value].to_numpy(float), rcond=None)[0]
+        return float(((frame[value] - X @ coef) ** 2).sum())
+
+    total = float(((frame[value] - frame[value].mean()) ** 2).sum())
+    full = residual(factors)
+    return [(residual([g for g in factors if g != f]) - full) / total for f in factors]
+
+
+def test_variance_share_intervals_resample_whole_subjects_as_by_hand():
+    """The intervals of the shares (Obj 1-2's factors table): the 2.5th and 97.5th percentiles
+    over resamples of the subjects (sorted, drawn with the seed's generator), each drawn subject
+    bringing all its rows; the same on values scaled by 1/1000 (the shares do not depend on the
+    units)."""
+    rng = np.random.default_rng(8)
+    n = 120
+    data = pd.DataFrame(
+        {
+            "subject": rng.choice(["S3", "S1", "S2", "S4"], n),
+            "a": rng.choice(["p", "q", "r"], n),
+            "b": rng.choice(["u", "v"], n),
+        }
+    )
+    data["v"] = (data["a"] == "q") * 0.6 + (data["b"] == "u") * 0.3 + rng.normal(size=n)
+    shares = stats.variance_shares(data, "v", ["a", "b"], n_resamples=40).set_index("factor")
+    np.testing.assert_allclose(shares["eta_squared"], _eta_by_hand(data, "v", ["a", "b"]))
+    groups = [data[data["subject"] == s] for s in sorted(data["subject"].unique())]
+    picks = np.random.default_rng(0).integers(0, len(groups), (40, len(groups)))
+    draws = np.array(
+        [_eta_by_hand(pd.concat([groups[k] for k in p]), "v", ["a", "b"]) for p in picks]
+    )
+    low, high = np.percentile(draws, [2.5, 97.5], axis=0)
+    np.testing.assert_allclose(shares["low"], low, rtol=1e-9)
+    np.testing.assert_allclose(shares["high"], high, rtol=1e-9)
+    assert (shares["n"] == n).all() and (shares["n_subjects"] == 4).all()
+    small = stats.variance_shares(data.assign(v=data["v"] / 1000), "v", ["a", "b"], n_resamples=40)
+    np.testing.assert_allclose(
+        small[["eta_squared", "low", "high"]],
+        shares.reset_index()[["eta_squared", "low", "high"]],
+        rtol=1e-9,
+    )
+    without = stats.variance_shares(data, "v", ["a", "b"])  # no resamples asked: no interval
+    assert without["low"].isna().all() and without["high"].isna().all()
+
+
+def test_variance_shares_need_residual_degrees_of_freedom():
+    """A saturated design (as many rows as parameters) or a constant value has no shares."""
+    saturated = pd.DataFrame(
+        {"subject": ["S1", "S2", "S3"], "a": ["p", "q", "r"], "v": [1.0, 2.0, 4.0]}
+    )
+    assert stats.variance_shares(saturated, "v", ["a"])["eta_squared"].isna().all()
+    constant = saturated.assign(a=["p", "q", "q"], v=1.0)
+    assert stats.variance_shares(constant, "v", ["a"])["eta_squared"].isna().all()
