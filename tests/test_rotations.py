@@ -62,3 +62,11 @@ def test_vector_angle_between_unit_vectors_and_their_lines():
     stack = vector_angle_deg(np.stack([x, x]) @ R.T, np.stack([tilted, y]) @ R.T)
     np.testing.assert_allclose(stack, [30.0, 90.0])
     assert np.isnan(vector_angle_deg(x, np.full(3, np.nan)))
+
+
+def test_random_rotations_are_proper_and_reproducible_from_a_seed():
+    R = random_rotations(50, seed=3)
+    assert R.shape == (50, 3, 3) and np.allclose(np.linalg.det(R), 1.0)
+    np.testing.assert_array_equal(R, random_rotations(50, seed=3))
+    np.testing.assert_array_equal(R, Rotation.random(50, random_state=3).as_matrix())
+    assert not np.allclose(R, random_rotations(50, seed=4))

@@ -327,3 +327,30 @@ def test_the_batched_wahba_and_triad_equal_the_single_calls():
         assert np.allclose(batched[k], wahba_fit(v_ref, v_est[k], weights[k]).as_matrix())
         pair = list(triad_pair(v_ref, weights[k]))
         assert np.allclose(triads[k], triad(v_ref[pair], v_est[k][pair]))
+
+
+def test_a_unit_whose_subsets_use_different_estimates_is_flagged_weight_switch():
+    """Issue 28: unit 0 uses the gyroscope in one calibration and not in the other (every row of
+    it flagged); unit 1 always uses both, unit 2 never Kong's: neither switches."""
+    from aceval.methods.combined import _weight_switches
+
+    unit = np.array([0, 0, 1, 1, 2, 2])
+    w_kong = np.array([0.5, 0.4, 0.5, 0.6, 0.0, 0.0])
+    w_gyro = np.array([0.3, 0.0, 0.2, 0.1, 0.9, 0.8])
+    assert _weight_switches(unit, w_kong, w_gyro).tolist() == [
+        True,
+        True,
+        False,
+        False,
+        False,
+        False,
+    ]
+    assert _weight_switches(unit, w_gyro, w_kong).tolist() == [
+        True,
+        True,
+        False,
+        False,
+        False,
+        False,
+    ]
+    assert _weight_switches(np.array([], int), np.array([]), np.array([])).tolist() == []
