@@ -161,6 +161,10 @@ def test_interval_prints_the_numbers_a_claim_quotes(mean, low, high, digits, tex
     assert claims.interval(mean, low, high, digits) == text
 
 
+def test_interval_prints_two_decimals_by_default():
+    assert claims.interval(2.494, 1.925, 3.0549) == "2.49 [1.93, 3.05]"
+
+
 def test_cells_keeps_the_rows_with_subjects():
     table = pd.DataFrame({"cell": ["a", "b", "c"], "n": [5, 0, 1]})
     assert claims._cells(table)["cell"].tolist() == ["a", "c"]

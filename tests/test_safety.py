@@ -145,6 +145,11 @@ def test_check_outputs_refuses_an_output_in_an_input_or_around_it(tree):
     check_outputs({"--out": root / "x"}, {"dataset": None, "other": root / "missing"})
     # a file output containing an input is not a folder: only folder outputs are refused for it
     check_outputs({"--table": root.parent / "t.csv"}, {"dataset": root})
+    # an option not given, or an input not given, does not end the checks of the others
+    with pytest.raises(UnsafeOutputError, match="--b .* lies inside"):
+        check_outputs({"--a": None, "--b": root / "x"}, {"dataset": root})
+    with pytest.raises(UnsafeOutputError, match="lies inside the input dataset"):
+        check_outputs({"--out": root / "x"}, {"other": None, "gone": root / "no", "dataset": root})
 
 
 # --- the writers: nothing outside, nothing partial, nothing over a folder aceval did not write ----
@@ -256,15 +261,21 @@ def test_only_a_dead_runs_own_temporaries_are_removed(tmp_path):
             tmp_path / ".tmp.abc.out.csv",  # no process id
             tmp_path / f".out.csv.{dead}x.k2j4h1x0",
             tmp_path / f".tmp.{os.getpid()}.out.csv",  # this process's own
+            tmp_path / f".out.csv.{live.pid}.a8k2j4h1",  # a live run's staging folder
         ]
         for path in kept:
             path.write_text("keep")
         remove_leftovers(out)
         assert not any(p.exists() for p in leftovers)
         assert all(p.read_text() == "keep" for p in kept)
-        with pytest.raises(UnsafeOutputError, match=f"process {live.pid}.*is writing"):
+        with pytest.raises(
+            UnsafeOutputError,
+            match=rf"another aceval \(process {live.pid}\) is writing {out}: wait for it, or "
+            "choose another output",
+        ):
             FileSet([out])
-        assert live.poll() is None  # asking whether it is alive did not signal it
+        with pytest.raises(subprocess.TimeoutExpired):  # asking whether it lives did not kill it
+            live.wait(timeout=1)
     finally:
         live.kill()
         live.wait()
