@@ -96,9 +96,9 @@ def mutmut(*args: str, max_children: int) -> None:
 
 
 def table(codes: dict[str, int | None]) -> tuple[str, list[str]]:
-    """The score per package (killed or timed out / run) and the surviving mutants."""
+    """The score per package and the surviving and timed-out mutants."""
     lines = [
-        "| package | mutants | measured | killed | timeout | survived | no test | score (95 % CI) |",
+        "| package | mutants | run | killed | timeout | survived | no test | score (95 % CI) |",
         "|---|---|---|---|---|---|---|---|",
     ]
     survivors, totals = [], {KILLED: 0, TIMEOUT: 0, SURVIVED: 0, NO_TESTS: 0, "n": 0, "all": 0}
@@ -108,7 +108,7 @@ def table(codes: dict[str, int | None]) -> tuple[str, list[str]]:
         count = {
             s: sum(1 for v in measured.values() if v == s) for s in totals if s not in ("n", "all")
         }
-        survivors += sorted(k for k, v in measured.items() if v == SURVIVED)
+        survivors += sorted(k for k, v in measured.items() if v in (SURVIVED, TIMEOUT))
         for s in count:
             totals[s] += count[s]
         totals["n"] += len(measured)
@@ -119,7 +119,10 @@ def table(codes: dict[str, int | None]) -> tuple[str, list[str]]:
 
 
 def _row(name: str, n_all: int, n_measured: int, count: dict) -> str:
-    found = count[KILLED] + count[TIMEOUT]
+    """A package's row: the score is killed / (killed + survived). A timeout (its tests ran 15x
+    their clean time, mutmut's default) is counted as neither, and listed with the survivors:
+    mutmut calls it caught, but a slow fixture can stop a mutant that would survive."""
+    found = count[KILLED]
     ran = found + count[SURVIVED]
     score = "-"
     if ran:
@@ -132,6 +135,13 @@ def _row(name: str, n_all: int, n_measured: int, count: dict) -> str:
     )
 
 
+def change(name: str) -> str:
+    """The mutant's change, one line per side (``mutmut show``)."""
+    shown = subprocess.run(["mutmut", "show", name], capture_output=True, text=True).stdout
+    lines = [line[1:].strip() for line in shown.splitlines() if line[:1] in "+-"]
+    return " -> ".join(line for line in lines if not line.startswith(("++", "--")))
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sample", type=int, default=10, help="1 in N of methods and signals")
@@ -140,6 +150,8 @@ def main() -> int:
     parser.add_argument("--report-only", action="store_true")
     parser.add_argument("--before", type=Path, help="a checkout with an earlier run's mutants/")
     parser.add_argument("--survivors-only", action="store_true", help="only --before's survivors")
+    parser.add_argument("--packages", nargs="+", choices=PACKAGES, default=list(PACKAGES))
+    parser.add_argument("--changes", action="store_true", help="print each survivor's change")
     args = parser.parse_args()
     before = results(args.before / "mutants") if args.before else {}
     start = time.perf_counter()
@@ -151,7 +163,7 @@ def main() -> int:
         todo = [  # those not run, and those no test reached (again: cheap, and tests change)
             name
             for name, code in codes.items()
-            if package(name)
+            if package(name) in args.packages
             and chosen(name, args.sample)
             and (args.fresh or STATUS.get(code, NO_TESTS) == NO_TESTS)
             and not detected(before.get(name))
@@ -163,8 +175,10 @@ def main() -> int:
     codes |= {k: v for k, v in before.items() if k in codes and detected(v)}
     text, survivors = table(codes)
     print(text)
-    print(f"\n{len(survivors)} surviving mutant(s) (`mutmut show NAME` prints each):")
-    print("\n".join(survivors))
+    print(f"\n{len(survivors)} surviving or timed-out mutant(s) (`mutmut show NAME`):")
+    for name in survivors:
+        status = STATUS[codes[name]]
+        print(f"{name} ({status}): `{change(name)}`" if args.changes else f"{name} ({status})")
     print(f"\nwall time {time.perf_counter() - start:.0f} s")
     return 0
 
