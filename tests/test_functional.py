@@ -206,3 +206,36 @@ def test_the_axis_methods_fit_many_rows_as_the_single_problem_fits():
             assert fits["triad"].flag[k] == expected
         flags.add(expected)
     assert {"", "low_rho", "axis_near_vertical", "axes_disagree"} <= flags
+
+
+def test_the_lm_diagnostics_are_the_fixed_and_adaptive_fits_own():
+    """Ricci's table of the LM (published: steps, cost and distance to the optimum of both the
+    adaptive and the fixed-damping LM) reads these entries: each is that fit's own number."""
+    from aceval.methods.align_vectors import wahba_fit
+    from aceval.methods.ricci import lm_fit
+
+    rng = np.random.default_rng(5)
+    v_ref = np.eye(3)
+    v_est = (TRUE.T @ v_ref.T).T + rng.normal(0, 0.05, (3, 3))
+    v_est /= np.linalg.norm(v_est, axis=1, keepdims=True)
+    rho = np.array([0.9, 0.5, 0.7])
+    lm = fit_axes(v_ref, v_est, rho, (0, 1))["ricci_lm"]
+    adaptive, fixed = lm_fit(v_ref, v_est, rho), lm_fit(v_ref, v_est, rho, adaptive=False)
+    optimum = wahba_fit(v_ref, v_est, rho).as_matrix()
+    assert (lm["n_iterations"], lm["cost"]) == (adaptive.n_iterations, adaptive.cost)
+    assert (lm["fixed_n_iterations"], lm["fixed_cost"]) == (fixed.n_iterations, fixed.cost)
+    assert lm["fixed_converged"] == fixed.converged and lm["n_rejected"] == adaptive.n_rejected
+    assert lm["fixed_optimum_distance_deg"] == pytest.approx(error_angle_deg(fixed.R, optimum))
+    assert lm["optimum_distance_deg"] == pytest.approx(error_angle_deg(adaptive.R, optimum))
+    assert "fixed_cost" not in fit_axes(v_ref, v_est, rho, (0, 1), diagnostics=False)["ricci_lm"]
+    # the same through Kong's protocol: the fixed LM only for a calibration from all repetitions
+    z0, y = v_est[2], v_est[1]
+    assert "fixed_cost" in sagittal_fits(z0, 0.99, y, 0.6)["ricci_lm"]
+    assert "fixed_cost" not in sagittal_fits(z0, 0.99, y, 0.6, diagnostics=False)["ricci_lm"]
+    assert sagittal_fits(z0, 0.99, y, 0.6)["ricci_lm"]["fixed_cost"] > 0
+
+
+def test_a_failed_lm_is_an_entry_with_its_flag():
+    fits = fit_axes(np.eye(3)[:1], np.eye(3)[:1], np.array([0.9]), (0, 0))
+    assert set(fits) == set(AXIS_METHODS)
+    assert fits["ricci_lm"]["R"] is None and fits["ricci_lm"]["flag"]

@@ -342,3 +342,45 @@ def test_variance_shares_need_residual_degrees_of_freedom():
     assert stats.variance_shares(saturated, "v", ["a"])["eta_squared"].isna().all()
     constant = saturated.assign(a=["p", "q", "q"], v=1.0)
     assert stats.variance_shares(constant, "v", ["a"])["eta_squared"].isna().all()
+
+
+def test_coverage_interval_defaults_and_the_five_subject_boundary():
+    """The published coverage intervals use the defaults: 1000 resamples of the subjects with
+    seed 0, from five subjects on (four: Clopper-Pearson)."""
+    rng = np.random.default_rng(2)
+    subjects = np.repeat([f"S{k:02d}" for k in range(12)], rng.integers(3, 30, 12))
+    hit = (rng.uniform(size=len(subjects)) < np.linspace(0.6, 1.0, len(subjects))).astype(float)
+    table = pd.DataFrame({"hit": hit, "subject": subjects}).groupby("subject")["hit"]
+    sums, counts = table.sum().to_numpy(), table.count().to_numpy()
+    draws = np.random.default_rng(0).integers(0, 12, size=(1000, 12))
+    shares = sums[draws].sum(axis=1) / counts[draws].sum(axis=1)
+    expected = np.percentile(shares, [2.5, 97.5])
+    assert np.percentile(shares, 98.5) != expected[1]  # the case tells percentiles apart
+    low, high, how = stats.coverage_interval(hit, subjects)
+    assert how == "subjects" and (low, high) == pytest.approx(tuple(expected), rel=1e-12)
+    five = np.isin(subjects, [f"S{k:02d}" for k in range(5)])
+    assert stats.coverage_interval(hit[five], subjects[five])[2] == "subjects"
+    four = np.isin(subjects, [f"S{k:02d}" for k in range(4)])
+    assert stats.coverage_interval(hit[four], subjects[four])[2] == "binomial"
+
+
+def test_summary_ci_is_95_percent_by_default():
+    assert stats.summary_ci(1.5, 0.4, 5) == stats.summary_ci(1.5, 0.4, 5, 0.95)
+    assert stats.summary_ci(1.5, 0.4, 5)[1] == pytest.approx(1.5 + 2.776445 * 0.4 / np.sqrt(5))
+
+
+def test_variance_share_intervals_need_two_subjects_and_a_share():
+    rng = np.random.default_rng(3)
+    data = pd.DataFrame(
+        {
+            "subject": rng.choice(["S1", "S2"], 60),
+            "a": rng.choice(["p", "q"], 60),
+            "c": "same",
+            "v": rng.normal(size=60),
+        }
+    )
+    two = stats.variance_shares(data, "v", ["a", "c"], n_resamples=30).set_index("factor")
+    assert np.isfinite(two.loc["a", ["low", "high"]].astype(float)).all()
+    assert two.loc["c", ["eta_squared", "low", "high"]].isna().all()  # one level: no share
+    one = stats.variance_shares(data.assign(subject="S1"), "v", ["a"], n_resamples=30)
+    assert np.isfinite(one["eta_squared"]).all() and one[["low", "high"]].isna().all().all()
