@@ -147,6 +147,7 @@ def main() -> int:
     parser.add_argument("--sample", type=int, default=10, help="1 in N of methods and signals")
     parser.add_argument("--max-children", type=int, default=2)
     parser.add_argument("--fresh", action="store_true", help="run measured mutants again")
+    parser.add_argument("--again", action="store_true", help="run the survivors and timeouts again")
     parser.add_argument("--report-only", action="store_true")
     parser.add_argument("--before", type=Path, help="a checkout with an earlier run's mutants/")
     parser.add_argument("--survivors-only", action="store_true", help="only --before's survivors")
@@ -165,7 +166,11 @@ def main() -> int:
             for name, code in codes.items()
             if package(name) in args.packages
             and chosen(name, args.sample)
-            and (args.fresh or STATUS.get(code, NO_TESTS) == NO_TESTS)
+            and (
+                args.fresh
+                or STATUS.get(code, NO_TESTS) == NO_TESTS
+                or (args.again and STATUS.get(code) != KILLED)
+            )
             and not detected(before.get(name))
             and (not args.survivors_only or STATUS.get(before.get(name)) == SURVIVED)
         ]
