@@ -115,3 +115,26 @@ def test_triad_needs_two_axes_on_each_side():
     for v_ref, v_est in ((np.eye(3)[:1], np.eye(3)[:2]), (np.eye(3)[:2], np.eye(3)[:1])):
         with pytest.raises(TooFewAxesError, match="primary and a secondary"):
             triad(v_ref, v_est)
+
+
+def test_a_pair_without_overlap_has_one_flagged_row_per_signal():
+    from types import SimpleNamespace
+
+    from aceval.signals.reduction import pair_moments
+
+    recording = SimpleNamespace(t=np.arange(50) / FS, acc_norm=np.ones(50))
+    moving = np.ones(50, bool)
+    rows = pair_moments((recording, moving), (recording, moving), {"pair": "p"}, ("acc_norm",), 49)
+    assert rows == [
+        {
+            "pair": "p",
+            "lag_samples": 49,
+            "n_overlap": 1,
+            "flag": "no_overlap",
+            "signal": "acc_norm",
+            "window": "all",
+            "n": 0,
+        }
+    ]
+    flagged = pair_moments((recording, moving), (recording, moving), {}, ("acc_norm",), 0, "x")
+    assert [(r["window"], r["flag"], r["n"]) for r in flagged] == [("all", "x", 0)]
