@@ -384,3 +384,109 @@ def test_variance_share_intervals_need_two_subjects_and_a_share():
     assert two.loc["c", ["eta_squared", "low", "high"]].isna().all()  # one level: no share
     one = stats.variance_shares(data.assign(subject="S1"), "v", ["a"], n_resamples=30)
     assert np.isfinite(one["eta_squared"]).all() and one[["low", "high"]].isna().all().all()
+
+
+def _mixed_cells(seed: int = 4) -> pd.DataFrame:
+    """Six subjects x three cells, a subject effect and a set effect of 0.2."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    for s in range(6):
+        subject_effect = rng.normal(0, 0.15)
+        for cell in ("l", "r", "c"):
+            base = 1.0 + rng.normal(0, 0.1)
+            rows.append(
+                {
+                    "subject": f"S{s}",
+                    "cell": cell,
+                    "mean_a": base + 0.2 + subject_effect + rng.normal(0, 0.05),
+                    "mean_b": base,
+                }
+            )
+    return pd.DataFrame(rows)
+
+
+def test_mixed_model_of_cells_is_statsmodels_random_intercept_fit():
+    """Tables 7, 8 and 10's mixed rows: every entry against MixedLM fitted here (REML)."""
+    from statsmodels.regression.mixed_linear_model import MixedLM
+
+    cells = _mixed_cells()
+    out = stats.mixed_model_of_cells(cells)
+    d = (cells["mean_a"] - cells["mean_b"]).to_numpy()
+    fit = MixedLM(d, np.ones((len(d), 1)), groups=cells["subject"]).fit(reml=True)
+    low, high = fit.conf_int()[0]
+    assert set(out) == {
+        "mean_a",
+        "mean_b",
+        "mean_difference",
+        "ci95_low",
+        "ci95_high",
+        "n",
+        "n_groups",
+        "z",
+        "p",
+        "note",
+        "fit_flags",
+    }
+    assert (out["n"], out["n_groups"], out["note"], out["fit_flags"]) == (18, 6, "", "")
+    assert out["mean_a"] == pytest.approx(cells["mean_a"].mean())
+    assert out["mean_b"] == pytest.approx(cells["mean_b"].mean())
+    assert out["mean_difference"] == pytest.approx(fit.params[0], rel=1e-9)
+    assert (out["ci95_low"], out["ci95_high"]) == pytest.approx((low, high), rel=1e-9)
+    assert out["z"] == pytest.approx(fit.tvalues[0], rel=1e-9)
+    assert out["p"] == pytest.approx(fit.pvalues[0], rel=1e-9)
+    empty = stats.mixed_model_of_cells(cells.iloc[:0])
+    assert empty["n"] == 0 and empty["n_groups"] == 0 and np.isnan(empty["mean_b"])
+    assert np.isnan(empty["mean_a"]) and empty["note"].startswith("not fitted")
+
+
+@pytest.mark.parametrize(
+    "message, flags, tested",
+    [
+        (
+            "MixedLM optimization failed, trying a different optimizer may help.",
+            "not_converged",
+            False,
+        ),
+        ("Gradient optimization failed, |grad| = 0.3", "not_converged", False),
+        (
+            "The Hessian matrix at the estimated parameter values is not positive definite.",
+            "hessian_not_pd",
+            False,
+        ),
+        ("The MLE may be on the boundary of the parameter space.", "boundary", True),
+    ],
+)
+def test_mixed_model_flags_how_statsmodels_says_the_fit_ended(monkeypatch, message, flags, tested):
+    """Each ConvergenceWarning statsmodels gives becomes its flag, exactly; a fit that did not
+    converge or has no positive-definite Hessian has no p, a boundary fit keeps its p."""
+    import warnings
+
+    from statsmodels.regression.mixed_linear_model import MixedLM
+    from statsmodels.tools.sm_exceptions import ConvergenceWarning
+
+    real = MixedLM.fit
+
+    def warned(self, *args, **kwargs):
+        fit = real(self, *args, **kwargs)
+        warnings.warn(message, ConvergenceWarning, stacklevel=2)
+        return fit
+
+    monkeypatch.setattr(MixedLM, "fit", warned)
+    out = stats.mixed_model_of_cells(_mixed_cells())
+    assert out["fit_flags"] == flags and np.isfinite(out["mean_difference"])
+    assert np.isfinite(out["p"]) == tested and np.isfinite(out["ci95_low"]) == tested
+
+
+def test_resampled_defaults_seed_zero_and_two_subjects_give_an_interval():
+    rng = np.random.default_rng(6)
+    wide = pd.DataFrame({"a": rng.normal(1.0, 0.3, 12), "b": rng.normal(0.5, 0.2, 12)})
+    statistic = lambda v: float(np.nanmean(v[:, 0] - v[:, 1]))  # noqa: E731
+    value, low, high = claims.resampled(wide, statistic)
+    draws = np.random.default_rng(0).integers(0, 12, size=(claims.N_RESAMPLES, 12))
+    stats_by_hand = [statistic(wide.to_numpy()[rows]) for rows in draws]
+    expected = np.percentile(stats_by_hand, [2.5, 97.5])
+    assert not np.isclose(np.percentile(stats_by_hand, 3.5), expected[0])  # percentiles differ
+    assert (low, high) == pytest.approx(tuple(expected), rel=1e-12)
+    assert value == pytest.approx(statistic(wide.to_numpy()))
+    two = claims.resampled(wide.iloc[:2], statistic)
+    assert np.isfinite(two[1]) and np.isfinite(two[2]) and two[1] <= two[0] <= two[2]
