@@ -190,3 +190,33 @@ def test_the_combined_heading_lies_between_kongs_and_the_gyroscopes():
     )
     assert 12.0 < apart < 18.0 and min(to_kong, to_triad) > 1.0
     assert to_kong + to_triad == pytest.approx(apart, abs=0.5)
+
+
+def test_a_resample_of_every_repetition_once_is_the_calibration_itself():
+    """The bootstrap's resamples are calibrated as the method calibrates: weights 1, 1, 1 give
+    each method's own calibration from all repetitions (Ricci's resamples are the closed-form
+    optimum its LM reaches to within 0.01 deg)."""
+    units = sensor_unit(body_unit(7), Rotation.random(random_state=7).as_matrix())
+    fitted = calibrations(units, ROWS[:1])
+    resampled = calibrations(units, [[1, 1, 1]], resample=True)
+    assert set(resampled) == set(fitted)
+    for name, (R, _) in resampled.items():
+        tolerance = 0.01 if name == "ricci_lm" else 1e-9
+        assert error_angle_deg(R[0], fitted[name][0][0]) < tolerance, name
+
+
+def test_a_flagged_kong_plane_leaves_the_combined_heading_to_the_gyroscope():
+    """Accelerations in no plane (Kong flags not_planar): the combined heading is the
+    gyroscope's alone, TRIAD's with z0 kept."""
+    down, right, scatters, unit_scatters, steps = body_unit(2)
+    body = (down, right, [np.eye(3) * np.trace(S) / 3 for S in scatters], unit_scatters, steps)
+    found = calibrations(sensor_unit(body, np.eye(3)), ROWS[:1])
+    assert found["kong"][1][0] != ""
+    assert error_angle_deg(found["combined"][0][0], found["triad"][0][0]) < 1e-9
+
+
+def test_the_step_harmonic_heading_says_when_the_recordings_disagree_on_the_step():
+    units = sensor_unit(body_unit(4), np.eye(3))
+    units = Units(**{**units.__dict__, "step_disagrees": np.ones_like(units.step_disagrees)})
+    flag = calibrations(units, ROWS[:1])["step_harmonic"][1][0]
+    assert "step_frequency_disagrees" in flag.split(";")

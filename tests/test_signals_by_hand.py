@@ -138,3 +138,12 @@ def test_a_pair_without_overlap_has_one_flagged_row_per_signal():
     ]
     flagged = pair_moments((recording, moving), (recording, moving), {}, ("acc_norm",), 0, "x")
     assert [(r["window"], r["flag"], r["n"]) for r in flagged] == [("all", "x", 0)]
+
+
+def test_the_spread_of_the_repetitions_axes_ignores_their_sign():
+    from aceval.methods.statistics import axis_spread_deg
+
+    tilt = np.radians(10.0)
+    phases = np.array([[[0.0, 1.0, 0.0], [0.0, -np.cos(tilt), np.sin(tilt)], [np.nan] * 3]])
+    spread = axis_spread_deg(phases, np.array([[0.0, 1.0, 0.0]]), np.array([[True, True, True]]))
+    assert spread[0] == pytest.approx(5.0)  # the median of 0 and 10 deg, the flipped axis 10

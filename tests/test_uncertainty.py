@@ -354,3 +354,20 @@ def test_a_unit_whose_subsets_use_different_estimates_is_flagged_weight_switch()
         False,
     ]
     assert _weight_switches(np.array([], int), np.array([]), np.array([])).tolist() == []
+
+
+def test_cones_are_each_units_own_95th_percentile():
+    """Two units, their resamples 1..20 deg and 21..40 deg about the vertical from R: each cone
+    is its own unit's 95th percentile (a flagged resample counts 180 deg)."""
+    from aceval.methods.uncertainty import cones
+
+    R = np.stack([np.eye(3), R_TRUE])
+    angles = np.stack([np.arange(1.0, 21.0), np.arange(21.0, 41.0)])
+    turns = Rotation.from_rotvec(np.radians(angles)[..., None] * [0, 0, 1]).as_matrix()
+    resampled = turns @ R[:, None]
+    cone95, share = cones(resampled, R)
+    np.testing.assert_allclose(cone95, np.percentile(angles, 95, axis=1))
+    np.testing.assert_allclose(share, 1.0)
+    resampled[1, 0] = np.nan  # one undetermined resample of the second unit: 180 deg
+    with_flag = np.where(np.arange(20) == 0, 180.0, angles[1])
+    assert cones(resampled, R)[0][1] == pytest.approx(np.percentile(with_flag, 95))
