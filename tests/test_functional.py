@@ -185,10 +185,14 @@ def test_the_axis_methods_fit_many_rows_as_the_single_problem_fits():
         v_est, w = np.array([z0, axes[k]]), np.array([0.95, rho[k]])
         vertical = np.degrees(np.arccos(min(1.0, abs(z0 @ axes[k]))))
         expected = (
-            "low_rho" if rho[k] < limits.min_rho
-            else "axis_near_vertical" if vertical < limits.min_vertical_angle_deg
-            else "axes_disagree" if spread[k] > limits.max_spread_deg else ""
-        )  # fmt: skip
+            "low_rho"
+            if rho[k] < limits.min_rho
+            else "axis_near_vertical"
+            if vertical < limits.min_vertical_angle_deg
+            else "axes_disagree"
+            if spread[k] > limits.max_spread_deg
+            else ""
+        )
         single = lm_fit(SAGITTAL_REFERENCE, v_est, w)
         np.testing.assert_allclose(fits["ricci_lm"].R[k], single.R, atol=1e-9)
         assert fits["ricci_lm"].columns["n_iterations"][k] == single.n_iterations
@@ -239,3 +243,23 @@ def test_a_failed_lm_is_an_entry_with_its_flag():
     fits = fit_axes(np.eye(3)[:1], np.eye(3)[:1], np.array([0.9]), (0, 0))
     assert set(fits) == set(AXIS_METHODS)
     assert fits["ricci_lm"]["R"] is None and fits["ricci_lm"]["flag"]
+
+
+def test_functional_fits_flag_too_few_reliable_or_inconsistent_axes():
+    axes = pd.DataFrame(
+        {
+            "reference": ["+x", "+y", "+z"],
+            "axis_x": [1.0, 0.0, 0.0],
+            "axis_y": [0.0, 1.0, 0.0],
+            "axis_z": [0.0, 0.0, 1.0],
+            "rho": [0.9, 0.8, 0.7],
+        }
+    )
+    from aceval.methods.functional import functional_fits
+
+    assert not any(fit.get("flag") for fit in functional_fits(axes, random_starts=0).values())
+    low = functional_fits(axes.assign(rho=[0.9, 0.2, 0.1]), random_starts=0)
+    assert {fit["flag"] for fit in low.values()} == {"low_rho"}
+    assert "(0.90, 0.20, 0.10)" in low["triad"]["message"]
+    mirrored = functional_fits(axes.assign(axis_z=[0.0, 0.0, -1.0]), random_starts=0)
+    assert {fit["flag"] for fit in mirrored.values()} == {"axes_inconsistent"}

@@ -279,3 +279,17 @@ def test_the_walk_has_a_measured_lower_leg_and_the_assumed_one_on_request():
     walks = [t6_walk(np.random.default_rng(k), body, 100.0, 1.0)[0] for k in range(30)]
     mean_yaw = [np.mean(w.angle("shank_r")[2][len(w.t) // 3 : 2 * len(w.t) // 3]) for w in walks]
     assert np.degrees(np.std(mean_yaw)) > 2.0  # the lower leg's heading varies per repetition
+
+
+def test_the_walking_recordings_get_their_step_scatter_and_no_other_test_does(kong_physiological):
+    """The reduction pools each subject's walking repetitions for the step frequency and adds
+    the step-band scatter to every walking recording it calibrates (the step-harmonic heading
+    reads nothing else); cadence 110 steps/min simulated."""
+    dataset = load_dataset(kong_physiological)
+    summaries = summarise_recordings(dataset)
+    walking = summaries["test"] == "T6"
+    steps = summaries[[f"h{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]]
+    calibrated = walking & summaries["imu"].isin(["IMU4", "IMU5", "IMU6"])
+    assert calibrated.any() and np.isfinite(steps[calibrated].to_numpy(float)).all()
+    assert np.isnan(steps[~walking].to_numpy(float)).all()
+    assert summaries.loc[calibrated, "step_hz"].between(110 / 60 * 0.9, 110 / 60 * 1.1).all()
