@@ -4,8 +4,9 @@ recordings by Q (``d_sensor' = Q d_sensor``) must turn its calibration R (sensor
 resamples, and the peers (run in their own environments). A method that mixed up R and R^T, or
 read a sensor axis where it should read a body one, fails this whatever the data.
 
-The methods are reached through one adapter, :func:`calibrations` (the registry's call
-signature is in flux: only it needs changing when the methods become classes)."""
+The methods are reached through one adapter, :func:`calibrations` (the registry's classes,
+fitted in their order), and the units are built and turned by :func:`sensor_unit` and
+:func:`rotated` (the sufficient statistics as :mod:`aceval.methods.sufficient` declares them)."""
 
 import numpy as np
 import pytest
@@ -14,8 +15,9 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from aceval.data.rotations import error_angle_deg
-from aceval.methods.registry import METHODS
-from aceval.methods.statistics import SCATTER, Units, pool
+from aceval.methods import registry
+from aceval.methods.step_harmonic import STEP_SCATTER
+from aceval.methods.sufficient import Units, pool
 
 from .synthetic import pitch_motion
 
@@ -23,18 +25,23 @@ from .synthetic import pitch_motion
 
 
 def calibrations(units: Units, weights, resample: bool = False) -> dict[str, tuple]:
-    """``{method: (R (B, 3, 3), flag (B,))}`` of every registered method, fitted in the registry's
-    order on the rows ``weights`` (B, R) of the single unit ``units`` (bootstrap resamples with
-    ``resample``)."""
+    """``{method: (R (B, 3, 3), flag (B,))}`` of every method of the registry (each after the ones
+    it needs) on the rows ``weights`` (B, R) of the single unit ``units``; with ``resample``, the
+    bootstrap resamples of the methods that have them."""
     weights = np.atleast_2d(np.asarray(weights, float))
     pooled = pool(units, np.zeros(len(weights), int), weights, subsets=not resample)
+    classes = registry.classes()
     fitted = {}
-    for method in METHODS:
-        call = method.resample if resample else method.fit
-        if call is None:
+    for name in registry.fit_order(classes):
+        method = classes[name]()
+        if resample and not classes[name].has_resample():
             continue
-        fitted[method.name] = call(pooled, fitted)
-    return {name: (fit.R, fit.flag) for name, fit in fitted.items()}
+        fitted[name] = (method.resample if resample else method.fit)(pooled, fitted)
+    return {name: (fit.rotation_, fit.flag_) for name, fit in fitted.items()}
+
+
+def expected_methods(resample: bool) -> set[str]:
+    return {n for n, c in registry.classes().items() if c.has_resample() or not resample}
 
 
 # --- a walking unit known in the body frame ---------------------------------------------------
@@ -61,11 +68,12 @@ def body_unit(seed: int, n_reps: int = 3):
     return down / np.linalg.norm(down), right, scatters, unit_scatters, steps
 
 
-def sensor_unit(body, mounting: np.ndarray) -> Units:
-    """The body-frame unit seen by a sensor mounted with ``mounting`` (sensor -> body)."""
+def sensor_unit(body, mounting: np.ndarray, step_disagrees: bool = False) -> Units:
+    """The body-frame unit seen by a sensor mounted with ``mounting`` (sensor -> body), a walking
+    test (its step-band scatters too, at a step frequency of 1.8 Hz)."""
     down, right, scatters, unit_scatters, steps = body
     M = mounting
-    return Units.of_repetitions(
+    units = Units.of_repetitions(
         M.T @ down,
         M.T @ right,
         [M.T @ S @ M for S in scatters],
@@ -74,23 +82,25 @@ def sensor_unit(body, mounting: np.ndarray) -> Units:
         rho_static=0.95,
         first_phase="gait",
         segment="thigh",
-        steps=[M.T @ H @ M for H in steps],
     )
+    n = len(steps)
+    walking = {
+        "steps": np.stack([M.T @ H @ M for H in steps])[None],
+        "step_hz": np.full((1, n), 1.8),
+        "step_disagrees": np.full((1, n), float(step_disagrees)),
+    }
+    statistics = (*units.statistics, STEP_SCATTER)
+    return Units(**{**units.__dict__, "statistics": statistics, "values": units.values | walking})
 
 
 def rotated(units: Units, Q: np.ndarray) -> Units:
-    """The same unit after turning the sensor by Q: every sensor-frame statistic rotated."""
-    sandwich = lambda S: Q @ S @ Q.T  # noqa: E731
-    return Units.of_repetitions(
-        Q @ units.z0[0],
-        Q @ units.right[0],
-        [sandwich(S) for S in units.scatters[0]],
-        units.n_samples[0],
-        [sandwich(m[SCATTER].reshape(3, 3)) for m in units.moments[0]],
-        rho_static=units.rho_static[0],
-        first_phase=units.first_phase[0],
-        segment=units.segment[0],
-        steps=[sandwich(H) for H in units.steps[0]],
+    """The same unit after turning the sensor by Q: every sensor-frame statistic rotated (each
+    part by its declared shape: a vector Q v, a 3x3 scatter Q S Q^T)."""
+    shapes = {name: part.shape for s in units.statistics for name, part in s.parts.items()}
+    turn = {(3,): lambda v: v @ Q.T, (3, 3): lambda S: Q @ S @ Q.T}
+    values = {k: turn.get(shapes.get(k), lambda x: x)(v) for k, v in units.values.items()}
+    return Units(
+        **{**units.__dict__, "z0": units.z0 @ Q.T, "right": units.right @ Q.T, "values": values}
     )
 
 
@@ -108,9 +118,7 @@ quaternions = st.tuples(*[st.floats(-1, 1) for _ in range(4)]).filter(
 
 
 def assert_equivariant(before: dict, after: dict, Q: np.ndarray) -> None:
-    assert set(before) == {m.name for m in METHODS if m.fit is not None} or set(before) == {
-        m.name for m in METHODS if m.resample is not None
-    }
+    assert set(before) in (expected_methods(False), expected_methods(True))
     for name, (R, flag) in before.items():
         R_after, flag_after = after[name]
         assert flag.tolist() == flag_after.tolist(), name
@@ -136,7 +144,7 @@ def test_the_adapter_reaches_every_method_and_each_recovers_a_known_mounting():
         [np.diag([1.0, 0.1, 0.0])] * 3,
     )
     found = calibrations(sensor_unit(body, mounting), ROWS)
-    assert list(found) == [m.name for m in METHODS]
+    assert set(found) == set(registry.own())
     for name, (R, flag) in found.items():
         assert (flag == "").all(), (name, flag)
         assert error_angle_deg(R, mounting).max() < 1e-6, name
@@ -216,7 +224,6 @@ def test_a_flagged_kong_plane_leaves_the_combined_heading_to_the_gyroscope():
 
 
 def test_the_step_harmonic_heading_says_when_the_recordings_disagree_on_the_step():
-    units = sensor_unit(body_unit(4), np.eye(3))
-    units = Units(**{**units.__dict__, "step_disagrees": np.ones_like(units.step_disagrees)})
+    units = sensor_unit(body_unit(4), np.eye(3), step_disagrees=True)
     flag = calibrations(units, ROWS[:1])["step_harmonic"][1][0]
     assert "step_frequency_disagrees" in flag.split(";")

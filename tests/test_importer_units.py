@@ -12,8 +12,7 @@ from scipy.io import savemat
 
 from aceval.data.contract import GRAVITY, OPTIONAL_SHEETS, SHEETS, DatasetError
 from aceval.data.dataset import load_dataset, read_sheets
-from aceval.importers import gaitmap, hugadb, qmt, vicon, xsens
-from aceval.importers.common import FormatError
+from aceval.importers import FormatError, gaitmap, hugadb, qmt, vicon, xsens
 
 from .minidataset import make_dataset
 
@@ -84,7 +83,7 @@ def test_xsens_export_values_pass_through_in_si(tmp_path):
     path = tmp_path / "S01-000_00B40C47.txt"
     path.write_text(header + "\n" + "\n".join(lines) + "\n")
     fields, values = xsens.read_mt_export(path)
-    assert xsens.sampling_rate(fields, path) == 100.0
+    assert xsens.export_rate(fields, values, path) == 100.0
     assert values[["Acc_X", "Acc_Y", "Acc_Z"]].to_numpy().tolist() == [
         [9.652746, 1.5, -1.25],
         [0.0, 0.0, -9.81],

@@ -6,7 +6,7 @@ import pytest
 
 from aceval.data.errors import TooFewAxesError
 from aceval.methods import step_harmonic
-from aceval.methods.statistics import Pooled
+from aceval.methods.sufficient import Pooled
 from aceval.methods.triad import triad
 from aceval.signals import checks
 from aceval.signals.alignment import aligned
@@ -105,10 +105,11 @@ def test_a_recording_without_movement_has_no_step_frequency_of_its_own():
 def test_step_harmonic_applies_to_walking_and_to_a_too_short_walking_test():
     pooled = Pooled.of_axes([0, 0, 1.0], 0.9, [0, 1.0, 0], 0.8)
     gait = Pooled(**{**pooled.__dict__, "first_phase": np.array(["gait"], dtype=object)})
-    assert step_harmonic.applies(gait).tolist() == [True]  # flagged not_applicable, with a note
-    assert step_harmonic.applies(pooled).tolist() == [False]
-    fit = step_harmonic.fit(gait)
-    assert fit.flag.tolist() == ["not_applicable"] and fit.columns["note"][0]
+    method = step_harmonic.StepHarmonic()
+    assert method.applies(gait).tolist() == [True]  # flagged not_applicable, with a note
+    assert method.applies(pooled).tolist() == [False]
+    fit = method.fit(gait, {})
+    assert fit.flag_.tolist() == ["not_applicable"] and fit.diagnostics_["note"][0]
 
 
 def test_triad_needs_two_axes_on_each_side():
@@ -141,7 +142,7 @@ def test_a_pair_without_overlap_has_one_flagged_row_per_signal():
 
 
 def test_the_spread_of_the_repetitions_axes_ignores_their_sign():
-    from aceval.methods.statistics import axis_spread_deg
+    from aceval.methods.sufficient import axis_spread_deg
 
     tilt = np.radians(10.0)
     phases = np.array([[[0.0, 1.0, 0.0], [0.0, -np.cos(tilt), np.sin(tilt)], [np.nan] * 3]])

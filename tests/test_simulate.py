@@ -170,7 +170,7 @@ def test_the_simulated_trunk_mountings_have_the_stated_spread(kong_physiological
     angles here: an RMS between 3 and 25 deg holds with probability 0.997 at SD 10 (chi-square,
     6 df) and fails at SD 1 (issue 44: 10 -> 1 deg passed every test before)."""
     from aceval.data.rotations import error_angle_deg
-    from aceval.simulate.kong import IMUS, SUBJECTS
+    from aceval.simulate.kong_dataset import IMUS, SUBJECTS
 
     dataset = load_dataset(kong_physiological)
     placements = kong_placements(Anthropometry(SUBJECTS[0][2] / 100.0))

@@ -14,8 +14,8 @@ from scipy.spatial.transform import Rotation
 
 from aceval.data.contract import GRAVITY
 from aceval.simulate.body import Anthropometry, kong_placements, random_mount
-from aceval.simulate.common import SimOptions
 from aceval.simulate.engine import ImuErrorModel
+from aceval.simulate.options import SimOptions
 
 from .runner import REPO
 
