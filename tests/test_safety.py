@@ -252,7 +252,9 @@ def test_only_a_dead_runs_own_temporaries_are_removed(tmp_path):
     leftovers[0].write_text("partial")
     leftovers[1].mkdir()
     (leftovers[1] / "half.csv").write_text("partial")
-    live = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
+    # a process that would die of any signal but 0 (SIGHUP too, even when started under nohup)
+    holds = "import signal, time; signal.signal(signal.SIGHUP, signal.SIG_DFL); time.sleep(30)"
+    live = subprocess.Popen([sys.executable, "-c", holds])
     try:
         kept = [
             tmp_path / f".tmp.{live.pid}.out.csv",  # a run still writing

@@ -304,27 +304,28 @@ def test_variance_share_intervals_resample_whole_subjects_as_by_hand():
     bringing all its rows; the same on values scaled by 1/1000 (the shares do not depend on the
     units)."""
     rng = np.random.default_rng(8)
-    n = 120
+    n = 160
     data = pd.DataFrame(
         {
-            "subject": rng.choice(["S3", "S1", "S2", "S4"], n),
+            "subject": rng.choice([f"S{k}" for k in (3, 1, 7, 2, 8, 4, 6, 5)], n),
             "a": rng.choice(["p", "q", "r"], n),
             "b": rng.choice(["u", "v"], n),
         }
     )
     data["v"] = (data["a"] == "q") * 0.6 + (data["b"] == "u") * 0.3 + rng.normal(size=n)
-    shares = stats.variance_shares(data, "v", ["a", "b"], n_resamples=40).set_index("factor")
+    shares = stats.variance_shares(data, "v", ["a", "b"], n_resamples=30).set_index("factor")
     np.testing.assert_allclose(shares["eta_squared"], _eta_by_hand(data, "v", ["a", "b"]))
     groups = [data[data["subject"] == s] for s in sorted(data["subject"].unique())]
-    picks = np.random.default_rng(0).integers(0, len(groups), (40, len(groups)))
+    picks = np.random.default_rng(0).integers(0, len(groups), (30, len(groups)))
     draws = np.array(
         [_eta_by_hand(pd.concat([groups[k] for k in p]), "v", ["a", "b"]) for p in picks]
     )
     low, high = np.percentile(draws, [2.5, 97.5], axis=0)
+    assert (np.percentile(draws, 98.5, axis=0) != high).all()  # the case tells them apart
     np.testing.assert_allclose(shares["low"], low, rtol=1e-9)
     np.testing.assert_allclose(shares["high"], high, rtol=1e-9)
-    assert (shares["n"] == n).all() and (shares["n_subjects"] == 4).all()
-    small = stats.variance_shares(data.assign(v=data["v"] / 1000), "v", ["a", "b"], n_resamples=40)
+    assert (shares["n"] == n).all() and (shares["n_subjects"] == 8).all()
+    small = stats.variance_shares(data.assign(v=data["v"] / 1000), "v", ["a", "b"], n_resamples=30)
     np.testing.assert_allclose(
         small[["eta_squared", "low", "high"]],
         shares.reset_index()[["eta_squared", "low", "high"]],
