@@ -476,6 +476,7 @@ def test_mixed_model_flags_how_statsmodels_says_the_fit_ended(monkeypatch, messa
     out = stats.mixed_model_of_cells(_mixed_cells())
     assert out["fit_flags"] == flags and np.isfinite(out["mean_difference"])
     assert np.isfinite(out["p"]) == tested and np.isfinite(out["ci95_low"]) == tested
+    assert np.isfinite(out["ci95_high"]) == tested and np.isfinite(out["z"]) == tested
 
 
 def test_resampled_defaults_seed_zero_and_two_subjects_give_an_interval():
@@ -491,3 +492,23 @@ def test_resampled_defaults_seed_zero_and_two_subjects_give_an_interval():
     assert value == pytest.approx(statistic(wide.to_numpy()))
     two = claims.resampled(wide.iloc[:2], statistic)
     assert np.isfinite(two[1]) and np.isfinite(two[2]) and two[1] <= two[0] <= two[2]
+
+
+def test_two_pairs_are_a_test_and_their_sds_are_numbers():
+    a, b = np.array([1.0, 2.5]), np.array([0.5, 1.0])
+    out = stats.paired_ttest(a, b)
+    reference = scipy_stats.ttest_rel(a, b)
+    assert out["t"] == pytest.approx(reference.statistic) and out["p"] == pytest.approx(
+        reference.pvalue
+    )
+    assert out["sd_a"] == pytest.approx(np.std(a, ddof=1)) and out["sd_b"] == pytest.approx(
+        np.std(b, ddof=1)
+    )
+
+
+def test_the_mixed_model_needs_two_subjects_and_more_cells_than_subjects():
+    cells = _mixed_cells()
+    two = stats.mixed_model_of_cells(cells[cells["subject"].isin(["S0", "S1"])])
+    assert two["note"] == "" and np.isfinite(two["mean_difference"]) and two["n_groups"] == 2
+    one_each = stats.mixed_model_of_cells(cells.drop_duplicates("subject"))
+    assert one_each["note"].startswith("not fitted") and np.isnan(one_each["p"])
