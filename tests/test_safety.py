@@ -192,7 +192,7 @@ def test_staged_folder_replaces_only_a_folder_aceval_wrote_and_only_with_force(t
 
 
 def test_atomic_file_leaves_the_old_file_when_writing_fails(tmp_path):
-    path = tmp_path / "deep" / "t.csv"
+    path = tmp_path / "deep" / "deeper" / "t.csv"  # two folders to make
     atomic_file(path, lambda tmp: Path(tmp).write_text("one"))
     assert path.read_text() == "one"
 
