@@ -512,3 +512,4 @@ def test_the_mixed_model_needs_two_subjects_and_more_cells_than_subjects():
     assert two["note"] == "" and np.isfinite(two["mean_difference"]) and two["n_groups"] == 2
     one_each = stats.mixed_model_of_cells(cells.drop_duplicates("subject"))
     assert one_each["note"].startswith("not fitted") and np.isnan(one_each["p"])
+    assert one_each["fit_flags"] == ""  # not fitted: no flag of a fit
