@@ -153,21 +153,22 @@ def test_the_adapter_reaches_every_method_and_each_recovers_a_known_mounting():
 @settings(max_examples=25, deadline=None)
 @given(mounting=quaternions, turn=quaternions, seed=st.integers(0, 2**16))
 def test_every_method_turns_with_the_sensor(mounting, turn, seed):
-    M = Rotation.from_quat(mounting).as_matrix()
+    turned_by(mounting, turn, seed, ROWS, resample=False)
+
+
+def turned_by(mounting, turn, seed, rows, resample: bool) -> None:
+    """A unit of mounting and noise ``seed`` before and after the turn: R' = R Q^T."""
     Q = Rotation.from_quat(turn).as_matrix()
-    units = sensor_unit(body_unit(seed), M)
-    assert_equivariant(calibrations(units, ROWS), calibrations(rotated(units, Q), ROWS), Q)
+    units = sensor_unit(body_unit(seed), Rotation.from_quat(mounting).as_matrix())
+    before = calibrations(units, rows, resample=resample)
+    assert_equivariant(before, calibrations(rotated(units, Q), rows, resample=resample), Q)
 
 
 @settings(max_examples=10, deadline=None)
 @given(mounting=quaternions, turn=quaternions, seed=st.integers(0, 2**16))
 def test_every_methods_resamples_turn_with_the_sensor(mounting, turn, seed):
     """The bootstrap resamples behind the uncertainty: the same draws, rotated."""
-    M = Rotation.from_quat(mounting).as_matrix()
-    Q = Rotation.from_quat(turn).as_matrix()
-    units = sensor_unit(body_unit(seed), M)
-    before = calibrations(units, RESAMPLES, resample=True)
-    assert_equivariant(before, calibrations(rotated(units, Q), RESAMPLES, resample=True), Q)
+    turned_by(mounting, turn, seed, RESAMPLES, resample=True)
 
 
 def test_a_method_reading_r_transposed_would_fail_this():

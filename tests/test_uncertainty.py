@@ -337,22 +337,9 @@ def test_a_unit_whose_subsets_use_different_estimates_is_flagged_weight_switch()
     unit = np.array([0, 0, 1, 1, 2, 2])
     w_kong = np.array([0.5, 0.4, 0.5, 0.6, 0.0, 0.0])
     w_gyro = np.array([0.3, 0.0, 0.2, 0.1, 0.9, 0.8])
-    assert _weight_switches(unit, w_kong, w_gyro).tolist() == [
-        True,
-        True,
-        False,
-        False,
-        False,
-        False,
-    ]
-    assert _weight_switches(unit, w_gyro, w_kong).tolist() == [
-        True,
-        True,
-        False,
-        False,
-        False,
-        False,
-    ]
+    switched = [True, True, False, False, False, False]
+    assert _weight_switches(unit, w_kong, w_gyro).tolist() == switched
+    assert _weight_switches(unit, w_gyro, w_kong).tolist() == switched
     assert _weight_switches(np.array([], int), np.array([]), np.array([])).tolist() == []
 
 
