@@ -66,11 +66,14 @@ def assert_turned(before, after, Q: np.ndarray, keys: list[str], flagged: bool =
     assert len(before) == len(after) > 0
     before, after = before.set_index(keys).sort_index(), after.set_index(keys).sort_index()
     assert before.index.equals(after.index)
-    assert before["flag"].fillna("").tolist() == after["flag"].fillna("").tolist()
+    assert (
+        before["flag"].astype(object).fillna("").tolist()
+        == after["flag"].astype(object).fillna("").tolist()
+    )
     R, R_after = rotations(before), rotations(after)
     finite = np.isfinite(R).all(axis=(1, 2))
     assert (finite == np.isfinite(R_after).all(axis=(1, 2))).all()
-    finite &= flagged | (before["flag"].fillna("") == "").to_numpy()
+    finite &= flagged | (before["flag"].astype(object).fillna("") == "").to_numpy()
     assert finite.sum() >= 2, "too few calibrations to test"
     angle = error_angle_deg(R_after[finite], R[finite] @ Q.T)
     worst = before[finite].assign(angle=angle).sort_values("angle").tail(3)
