@@ -16,7 +16,8 @@ in every test, as a lab records) is broken one way at a time and calibrated:
   right thigh-right shank, right thigh-left thigh, right shank-left shank, right foot-right shank);
   caught when every calibration of both IMUs is flagged;
 * ``random``: one IMU's recordings of one of its tests replaced by a rigid random 3-D rotation
-  (every IMU and test of the frontal set); counted per Kong calibration (every subset) of it;
+  (every IMU and test of the frontal set); counted per Kong calibration (every subset) of it,
+  and per calibration from all repetitions (every method) flagged ``heading_undetermined``;
 * ``static``: the static trial's vertical turned 10/20/45/90 deg about the declared right axis
   (every IMU); caught when the IMU is flagged ``static_not_standing``;
 * ``acc_x, acc_y swapped`` (a mirrored frame), every IMU of the frontal set: caught when every
@@ -39,6 +40,7 @@ from scipy.spatial.transform import Rotation
 
 from aceval.calibrate.pipeline import calibrate
 from aceval.calibrate.plan import imu_checks
+from aceval.calibrate.table import has_flag
 from aceval.data.dataset import load_dataset
 from aceval.data.rotations import AXIS_VECTORS
 from aceval.signals.reduction import reduce_recordings
@@ -208,6 +210,15 @@ def defects(root: Path, counts: Counter, found: dict) -> None:
         counts[name] += len(kong)
         counts[name + " caught"] += int(names.map(bool).sum())
         found.setdefault(name, set()).update(set(names.explode().dropna()))
+        full = calibrations[
+            (calibrations["imu"] == imu)
+            & (calibrations["test"] == test)
+            & (calibrations["sensor_set"] == "frontal")
+            & calibrations["cone_deg"].notna()
+        ]  # every method's calibration from all repetitions, with its cone
+        name = f"random in {test}: heading_undetermined (all methods, all repetitions)"
+        counts[name] += len(full)
+        counts[name + " caught"] += int(has_flag(full["flag"], "heading_undetermined").sum())
 
 
 def main() -> None:
@@ -228,7 +239,8 @@ def main() -> None:
                 root = Path(tmp) / f"kong_{seed}_{repetitions}"
                 subprocess.run(
                     [sys.executable, "-m", "aceval", "simulate", "kong", "--out", str(root),
-                     "--subjects", "1", "--repetitions", str(repetitions), "--seed", str(seed)],
+                     "--format", "csv", "--subjects", "1", "--repetitions", str(repetitions),
+                     "--seed", str(seed)],
                     check=True, capture_output=True,
                 )  # fmt: skip
                 defects(root, counts, found)

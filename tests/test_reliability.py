@@ -335,7 +335,7 @@ def test_truth_errors_measure_against_both_truths_and_carry_the_truths_flag():
     sheet = pd.DataFrame(
         [
             {**key, "truth_uncertainty_deg": 7.0, "flag": "methods_differ;truth_unstable",
-             "long_axis_check_deg": 0.5, "marker_frame_long_axis_check_deg": 14.0,
+             "long_axis_check_deg": 0.5, "marker_frame_long_axis_check_deg": 4.0,
              "marker_frame_split_half_deg": 1.0, "methods_differ_deg": 25.0,
              "twist_mean_deg": 8.0, "lever_arm_m": 0.09, "pair_heading_deg": 6.0,
              **{f"marker_frame_{c}": v for c, v in zip(R_COLUMNS, marker_frame)}}
@@ -349,7 +349,7 @@ def test_truth_errors_measure_against_both_truths_and_carry_the_truths_flag():
     text = "\n".join(summary.truth_section({"truth_errors": table}))
     assert (
         "13.0 deg (truth +- 7.0, long-axis check 0.5)" in text
-        and "(its long-axis check 14.0)" in text
+        and "(its long-axis check 4.0)" in text
         and "truth flagged methods_differ;truth_unstable" in text
     )
     # issue 28: a marker-frame truth whose own vertical check fails is not used
@@ -359,6 +359,13 @@ def test_truth_errors_measure_against_both_truths_and_carry_the_truths_flag():
     assert np.isnan(failing["error_marker_frame_deg"]) and failing["error_deg"] == 13.0
     text = "\n".join(summary.truth_section({"truth_errors": pd.DataFrame([failing])}))
     assert "the marker-frame truth not used (its vertical check 12.0 deg > 5)" in text
+    # issue 39: nor one whose long-axis check fails (NeuRA's left thigh asks for 14.4 deg)
+    twisted = methods_comparison.truth_errors(
+        calibrations, sheet.assign(marker_frame_long_axis_check_deg=14.0)
+    ).iloc[0]
+    assert np.isnan(twisted["error_marker_frame_deg"]) and twisted["error_deg"] == 13.0
+    text = "\n".join(summary.truth_section({"truth_errors": pd.DataFrame([twisted])}))
+    assert "the marker-frame truth not used (its long-axis check 14.0 deg > 5)" in text
 
 
 def test_loose_reference_angles_between_right_axes_and_verticals():

@@ -35,7 +35,7 @@ from aceval.methods import registry
 from aceval.methods.interface import CalibrationMethod, Fit
 from aceval.methods.kong import KongLimits
 from aceval.methods.sufficient import Pooled, pool
-from aceval.methods.uncertainty import bootstrap_cones
+from aceval.methods.uncertainty import calibration_cones
 from aceval.signals.checks import direction_checks
 
 #: a subset's calibration farther than this from its unit's calibration from all repetitions is
@@ -81,9 +81,10 @@ def calibrate_sagittal(
     r11..r33, the method's diagnostics, the sensor checks' evidence, ``rho_static`` and
     ``rho_motion`` (the reliability of the static and gyroscope axes, Ricci Eq. 2), ``z0_tests``
     (the static test(s) z0 came from), the cone of the calibrations from all repetitions
-    (``cone95_deg``), ``flag`` ('' when valid) and ``error_deg``, ``error_vertical_share`` left
-    empty (calibration knows no truth). ``axes``: one row per (subject, set, IMU, test) with the
-    axis and rho of all its repetitions.
+    (``cone_deg`` and its terms: :func:`aceval.methods.uncertainty.calibration_cones`), ``flag``
+    ('' when valid; ``heading_undetermined`` where that cone is no cone) and ``error_deg``,
+    ``error_vertical_share`` left empty (calibration knows no truth). ``axes``: one row per
+    (subject, set, IMU, test) with the axis and rho of all its repetitions.
     """
     plan = build_plan(dataset, summaries, subsets, retest_k, sensors)
     if not len(plan.units):
@@ -104,7 +105,14 @@ def calibrate_sagittal(
         fit = _checked(plan, plan.subsets[policy], fitted[policy][name].result)
         checked[name] = flag_unstable(fit, rows, retest_k)
         R_full[name] = checked[name].R[_full_rows(rows)]
-    cones = bootstrap_cones(plan.units, plan.identity["seed"].to_numpy(), R_full)
+    imu = plan.identity[["subject", "sensor_set", "imu"]].astype(str).agg("|".join, axis=1)
+    kong = registry.paper_method("kong2016")  # Kong's plane: every heading's conditioning
+    normal_ratio = np.full(len(plan.units), np.nan)
+    if kong in checked:
+        normal_ratio = checked[kong].columns["normal_ratio"][_full_rows(pooled[policy_of[kong]])]
+    cones = calibration_cones(
+        plan.units, plan.identity["seed"].to_numpy(), R_full, imu.to_numpy(), normal_ratio
+    )
     for order, name in enumerate(checked):
         policy = policy_of[name]
         rows = pooled[policy]

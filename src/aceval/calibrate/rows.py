@@ -10,9 +10,9 @@ import pandas as pd
 
 from aceval.calibrate.plan import Plan, Subsets
 from aceval.data.contract import R_COLUMNS
-from aceval.methods.interface import Fit
+from aceval.methods.interface import Fit, combine_flags
 from aceval.methods.sufficient import Pooled
-from aceval.methods.uncertainty import load_model, model_cones
+from aceval.methods.uncertainty import undetermined
 
 
 def error_placeholders(R) -> dict:
@@ -62,8 +62,10 @@ FIT_COLUMNS = [
     "weight_gyro",
     "spread95_deg",
     "spread_vertical_share",
-    "cone95_deg",
-    "cone_model",
+    "heading_signals_deg",
+    "heading_tests_deg",
+    "conditioning_deg",
+    "cone_deg",
     "step_ratio",
     "step_hz",
     "full_set_angle_deg",
@@ -103,10 +105,12 @@ TABLE_COLUMNS = [
     "sensor_flag",
     "error_deg",
     "error_vertical_share",
-    "cone95_deg",
-    "cone_model",
+    "cone_deg",
     "spread95_deg",
     "spread_vertical_share",
+    "heading_signals_deg",
+    "heading_tests_deg",
+    "conditioning_deg",
     "axis_spread_deg",
     *[
         c
@@ -115,10 +119,12 @@ TABLE_COLUMNS = [
         not in (
             "first_phase_agreement",
             "right_axis_angle_deg",
-            "cone95_deg",
-            "cone_model",
+            "cone_deg",
             "spread95_deg",
             "spread_vertical_share",
+            "heading_signals_deg",
+            "heading_tests_deg",
+            "conditioning_deg",
         )
     ],
 ]
@@ -139,9 +145,10 @@ def calibration_rows(
     """The calibrations table's rows of one method's ``fit`` of ``subsets`` (pooled as ``pooled``),
     those ``chosen`` (default all): identity, R, flag, the method's diagnostics, the statistics
     they came from and, on the rows from all repetitions (``full``: each unit's row), the
-    spread between its repetitions (``cones``: method -> (spread95_deg, spread_vertical_share),
-    one per unit, :func:`aceval.methods.uncertainty.bootstrap_cones`) and the model's 95 % cone
-    from it (``cone95_deg``, ``cone_model``: :func:`aceval.methods.uncertainty.model_cones`). The
+    uncertainty (``cones``: method -> column -> one value per unit, :func:`aceval.methods.
+    uncertainty.calibration_cones`: the spread between its repetitions, the other estimates'
+    disagreement, the conditioning and the cone ``cone_deg``), flagged ``heading_undetermined``
+    where the cone is no cone (:func:`aceval.methods.uncertainty.undetermined`). The
     columns ``_unit``, ``_block`` (0: a method fitted on every subset, ``block`` False; else 1:
     all repetitions, 2: a test-retest subset), ``_subset`` and ``_method`` (``order``) sort the
     table.
@@ -172,14 +179,14 @@ def calibration_rows(
     columns |= fit.columns
     if method in cones:
         at = full[unit] == np.arange(len(unit))
-        for name, values in zip(("spread95_deg", "spread_vertical_share"), cones[method]):
+        for name, values in cones[method].items():
             columns[name] = np.where(at, values[unit], np.nan)
-        columns["cone95_deg"], columns["cone_model"] = model_cones(
-            columns["spread95_deg"],
-            np.full(len(unit), method),
-            identity["test"].to_numpy(),
-            identity["segment"].to_numpy(),
-            load_model(),
+        # a calibration from all repetitions whose cone is no cone (beyond 90 deg, or no spread)
+        calibrated = at & np.isfinite(fit.R).all(axis=(1, 2))
+        lost = calibrated & undetermined(columns["cone_deg"], columns["spread95_deg"])
+        columns["flag"] = np.array(
+            [combine_flags(f, "heading_undetermined") if u else f for f, u in zip(fit.flag, lost)],
+            dtype=object,
         )
     first = np.searchsorted(unit, unit)  # the units' rows are contiguous, in unit order
     columns |= {

@@ -35,7 +35,7 @@ from aceval.data.rotations import error_angle_deg
 from aceval.methods import registry
 
 #: the uncertainty of a calibration (deg): the cone column of :mod:`aceval.methods.uncertainty`
-CONE = "cone95_deg"
+CONE = "cone_deg"
 #: beyond this uncertainty (deg) a calibration's heading is not determined: it is not used
 MAX_CONE_DEG = 90.0
 #: the IMU of a decision

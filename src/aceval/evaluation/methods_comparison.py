@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from aceval.calibrate.table import full_set_rows, unflagged
+from aceval.calibrate.table import full_set_rows, has_flag, unflagged
 from aceval.data.contract import R_COLUMNS
 from aceval.data.rotations import error_angle_deg, vector_angle_deg, vertical_share
 from aceval.evaluation.conditioning import heading_status
@@ -68,8 +68,8 @@ def methods_table(
         )
         .reset_index()
     )
-    if "cone95_deg" in data:  # the 95 % cone (aceval.methods.uncertainty), where it has one
-        cones = data.groupby(keys)["cone95_deg"].median().rename("cone95_median_deg")
+    if "cone_deg" in data:  # the uncertainty cone (aceval.methods.uncertainty), where it has one
+        cones = data.groupby(keys)["cone_deg"].median().rename("cone_median_deg")
         table = table.merge(cones.reset_index(), on=keys, how="left")
     retest = (
         retest_table(calibrations, test_retest_k, retest_units) if test_retest_k else pd.DataFrame()
@@ -165,7 +165,7 @@ def retest_table(
     """Every method's test-retest (Kong Obj 4, Eq. 15, beyond Kong's own method): the angle (deg)
     between its calibrations from two distinct subsets of ``k`` repetitions, averaged per unit
     (subject x set x IMU, :func:`retest_units`), then mean, SD, median and 95th percentile over
-    the units, per segment, test, sensor set and method; beside it the median 95 % bootstrap cone
+    the units, per segment, test, sensor set and method; beside it the median uncertainty cone
     of the unflagged calibrations from all repetitions (methods with one). Repeatability, not
     accuracy: it needs no ground truth. ``units``: the units of the methods it holds, computed
     beforehand (the workflow's per-subject files); the other methods' from ``calibrations``.
@@ -187,10 +187,10 @@ def retest_table(
         .agg(mean="mean", sd="std", median="median", p95=_p95, n="count")
         .reset_index()
     )
-    if "cone95_deg" in calibrations:  # beside it, the 95 % cone of the full-set calibrations
+    if "cone_deg" in calibrations:  # beside it, the cone of the full-set calibrations
         full = full_set_rows(calibrations)
         full = full[unflagged(full)]
-        cones = full.groupby(keys)["cone95_deg"].median().rename("cone95_median_deg")
+        cones = full.groupby(keys)["cone_deg"].median().rename("cone_median_deg")
         table = table.merge(cones.reset_index(), on=keys, how="left")
     table = _with_price(table, calibrations, keys)
     return _method_order(_with_not_applicable(table, calibrations, keys), keys[:3])
@@ -199,10 +199,12 @@ def retest_table(
 def uncertainty_table(
     calibrations: pd.DataFrame, method_sheet: pd.DataFrame | None = None
 ) -> pd.DataFrame:
-    """How often the truth falls inside a calibration's 95 % cone (:mod:`aceval.methods.
-    uncertainty`: the repetitions' spread, the tilt of z0 and the heading bias learned from
-    simulation), per segment, test and method and (``segment`` and ``test`` 'all') per method,
-    over the unflagged calibrations from all repetitions with a cone and a truth: ``n``,
+    """How often the truth falls inside a calibration's uncertainty cone (``cone_deg``,
+    :mod:`aceval.methods.uncertainty`: what the recording shows of its uncertainty, scaled by
+    constants fitted across simulator variants), per segment, test and method and (``segment``
+    and ``test`` 'all') per method, over the unflagged calibrations from all repetitions with a
+    cone and a truth (``n_undetermined``: those flagged ``heading_undetermined`` beside them, a
+    cone beyond 90 deg: left out, never counted covered): ``n``,
     ``n_subjects``, the median cone, the repetitions' spread alone and the error (deg),
     ``coverage`` (error <= cone) with its 95 % interval (``coverage_low``, ``coverage_high``,
     ``interval``: resampled subjects, or binomial with few subjects,
@@ -210,15 +212,14 @@ def uncertainty_table(
     alone: what the bootstrap covers without the model), and, on real data with a measured truth
     (``method_sheet``), ``coverage_with_truth`` (error minus the truth's own uncertainty <= cone).
     """
-    from aceval.evaluation.stats import coverage_interval
-
     columns = [
         "segment",
         "test",
         "method",
         "n",
+        "n_undetermined",
         "n_subjects",
-        "cone95_median_deg",
+        "cone_median_deg",
         "spread95_median_deg",
         "error_median_deg",
         "coverage",
@@ -228,10 +229,12 @@ def uncertainty_table(
         "spread_coverage",
         "coverage_with_truth",
     ]
-    if "cone95_deg" not in calibrations:
+    if "cone_deg" not in calibrations:
         return pd.DataFrame(columns=columns)
+    full = full_set_rows(calibrations)
+    lost = full[has_flag(full["flag"], "heading_undetermined") & np.isfinite(full["error_deg"])]
     data = full_set_errors(calibrations)
-    data = data[np.isfinite(data["cone95_deg"].astype(float))]
+    data = data[np.isfinite(data["cone_deg"].astype(float))]
     if data.empty:
         return pd.DataFrame(columns=columns)
     truth_sd = np.full(len(data), np.nan)
@@ -241,40 +244,48 @@ def uncertainty_table(
         truth_sd = data[key].astype({"subject": str}).merge(sheet, on=key, how="left")
         truth_sd = truth_sd["truth_uncertainty_deg"].to_numpy(float)
     data = data.assign(
-        hit=data["error_deg"] <= data["cone95_deg"],
+        hit=data["error_deg"] <= data["cone_deg"],
         spread_hit=data["error_deg"] <= data["spread95_deg"],
         truth_hit=np.where(
-            np.isfinite(truth_sd), data["error_deg"] - truth_sd <= data["cone95_deg"], np.nan
+            np.isfinite(truth_sd), data["error_deg"] - truth_sd <= data["cone_deg"], np.nan
         ),
     )
-    rows = []
     groups = [
         *data.groupby(["segment", "test", "method"], sort=False),
         *((("all", "all", m), g) for m, g in data.groupby("method", sort=False)),
     ]
-    for (segment, test, method), group in groups:
-        low, high, how = coverage_interval(group["hit"], group["subject"])
-        rows.append(
-            {
-                "segment": segment,
-                "test": test,
-                "method": method,
-                "n": len(group),
-                "n_subjects": group["subject"].nunique(),
-                "cone95_median_deg": group["cone95_deg"].median(),
-                "spread95_median_deg": group["spread95_deg"].median(),
-                "error_median_deg": group["error_deg"].median(),
-                "coverage": group["hit"].mean(),
-                "coverage_low": low,
-                "coverage_high": high,
-                "interval": how,
-                "spread_coverage": group["spread_hit"].mean(),
-                "coverage_with_truth": group["truth_hit"].mean(),
-            }
-        )
+    lost = {
+        **lost.groupby(["segment", "test", "method"]).size().to_dict(),
+        **{("all", "all", m): n for m, n in lost.groupby("method").size().items()},
+    }
+    rows = [_coverage_row(key, group, lost.get(key, 0)) for key, group in groups]
     table = pd.DataFrame(rows, columns=columns)
     cells = _method_order(table[table["segment"] != "all"], ["segment", "test"])
     return pd.concat([cells, _method_order(table[table["segment"] == "all"], [])])[columns]
+
+
+def _coverage_row(key: tuple, group: pd.DataFrame, n_undetermined: int) -> dict:
+    """One row of :func:`uncertainty_table`: ``key`` (segment, test, method) and its group."""
+    from aceval.evaluation.stats import coverage_interval
+
+    low, high, how = coverage_interval(group["hit"], group["subject"])
+    return {
+        "segment": key[0],
+        "test": key[1],
+        "method": key[2],
+        "n": len(group),
+        "n_undetermined": int(n_undetermined),
+        "n_subjects": group["subject"].nunique(),
+        "cone_median_deg": group["cone_deg"].median(),
+        "spread95_median_deg": group["spread95_deg"].median(),
+        "error_median_deg": group["error_deg"].median(),
+        "coverage": group["hit"].mean(),
+        "coverage_low": low,
+        "coverage_high": high,
+        "interval": how,
+        "spread_coverage": group["spread_hit"].mean(),
+        "coverage_with_truth": group["truth_hit"].mean(),
+    }
 
 
 def with_truth(calibrations: pd.DataFrame, ground_truth: pd.DataFrame | None) -> pd.DataFrame:
@@ -381,13 +392,48 @@ def truth_warning(calibrations: pd.DataFrame) -> str:
     )
 
 
-#: the marker-frame truth is used only where its own check passes: the tilt between the
-#: accelerometer's vertical and the one its angular-velocity fit alone gives
-#: (``marker_frame_vertical_check_deg``). A choice between what it reads on the committed data
-#: (2026-11-24): NeuRA's pelvis and thighs 1.7-2.7 deg, gaitmap's left foot 2.3, against NeuRA's
-#: shanks 8.7-18.5 and right foot 13.0, where the marker frame twists about the segment (issue 28);
-#: NeuRA's left foot (5.0) and gaitmap's right foot (5.8) sit between and are left out
+#: the marker-frame truth is used only where both its own checks pass (:func:`marker_frame_usable`):
+#: its vertical check, the tilt between the accelerometer's vertical and the one its
+#: angular-velocity fit alone gives (``marker_frame_vertical_check_deg``), and its long-axis check,
+#: the heading correction the angular velocity of the segment's long axis asks of it
+#: (``marker_frame_long_axis_check_deg``, :func:`aceval.data.truth.long_axis_heading_deg`; where
+#: the segment has a long axis). The limits are a choice between what they read on the committed
+#: data (2026-11-24, issue 28): vertical checks of NeuRA's pelvis and thighs 1.7-2.7 deg, gaitmap's
+#: left foot 2.3 and NeuRA's left foot 4.98 (which passes) against NeuRA's shanks 8.7-18.5 and
+#: right foot 13.0, where the marker frame twists about the segment; gaitmap's right foot (5.9)
+#: fails it. Long-axis checks of the passing sensors 1.0-4.7 deg, but NeuRA's left thigh 14.4
+#: (issue 39: it sits 12.9 deg from the acceleration truth, which its own long-axis check puts
+#: within 1.5), which the long-axis limit leaves out
 MAX_MARKER_FRAME_VERTICAL_DEG = 5.0
+MAX_MARKER_FRAME_LONG_AXIS_DEG = 5.0
+
+
+def marker_frame_usable(vertical_check_deg, long_axis_check_deg) -> np.ndarray:
+    """True where the marker-frame truth passes both its checks
+    (:data:`MAX_MARKER_FRAME_VERTICAL_DEG`, :data:`MAX_MARKER_FRAME_LONG_AXIS_DEG`; a check that
+    was not made, NaN, does not fail it).
+    """
+    vertical = np.asarray(vertical_check_deg, float)
+    long_axis = np.asarray(long_axis_check_deg, float)
+    return ~(vertical > MAX_MARKER_FRAME_VERTICAL_DEG) & ~(
+        long_axis > MAX_MARKER_FRAME_LONG_AXIS_DEG
+    )
+
+
+def marker_frame_verdict(vertical_check_deg: float, long_axis_check_deg: float) -> str:
+    """Why the marker-frame truth is not used for a sensor ('' where it is): the check(s) it
+    fails, with their readings and limits.
+    """
+    failed = []
+    if vertical_check_deg > MAX_MARKER_FRAME_VERTICAL_DEG:
+        failed.append(
+            f"its vertical check {vertical_check_deg:.1f} deg > {MAX_MARKER_FRAME_VERTICAL_DEG:g}"
+        )
+    if long_axis_check_deg > MAX_MARKER_FRAME_LONG_AXIS_DEG:
+        failed.append(
+            f"its long-axis check {long_axis_check_deg:.1f} deg > {MAX_MARKER_FRAME_LONG_AXIS_DEG:g}"
+        )
+    return "; ".join(failed)
 
 
 def truth_errors(calibrations: pd.DataFrame, method_sheet: pd.DataFrame | None) -> pd.DataFrame:
@@ -395,9 +441,9 @@ def truth_errors(calibrations: pd.DataFrame, method_sheet: pd.DataFrame | None) 
     test and method (each from all repetitions), the error against the truth beside the truth's
     own uncertainty (``truth_uncertainty_deg``: its strides, points and time offsets,
     :func:`aceval.importers.vicon.truth_rows`), its flag and its independent long-axis check, the
-    error against the second, marker-frame truth where that truth's own vertical check passes
-    (:data:`MAX_MARKER_FRAME_VERTICAL_DEG`; else NaN, column ``marker_frame_vertical_check_deg``
-    says why) with its long-axis check, the two truths' difference, the marker frame's twist,
+    error against the second, marker-frame truth where that truth's own vertical and long-axis
+    checks pass (:func:`marker_frame_usable`; else NaN, columns ``marker_frame_vertical_check_deg``
+    and ``marker_frame_long_axis_check_deg`` say why), the two truths' difference, the marker frame's twist,
     where the sensor sits (lever arm from the segment's point), two sensors on one segment
     (their truths against their gyroscopes: heading and tilt) and the method's conditioning
     (Kong: the smallest/middle eigenvalue ratio and the planarity; ``heading`` says
@@ -441,8 +487,11 @@ def truth_errors(calibrations: pd.DataFrame, method_sheet: pd.DataFrame | None) 
     R = data[R_COLUMNS].to_numpy(float).reshape(-1, 3, 3)
     if "marker_frame_vertical_check_deg" not in data:  # a truth sheet without the check
         data["marker_frame_vertical_check_deg"] = np.nan
-    checked = data["marker_frame_vertical_check_deg"].to_numpy(float)
-    valid = np.isfinite(R).all(axis=(1, 2)) & ~(checked > MAX_MARKER_FRAME_VERTICAL_DEG)
+    if "marker_frame_long_axis_check_deg" not in data:
+        data["marker_frame_long_axis_check_deg"] = np.nan
+    valid = np.isfinite(R).all(axis=(1, 2)) & marker_frame_usable(
+        data["marker_frame_vertical_check_deg"], data["marker_frame_long_axis_check_deg"]
+    )
     data["error_marker_frame_deg"] = np.nan
     data.loc[valid, "error_marker_frame_deg"] = error_angle_deg(R[valid], marker[valid])
     data["truth_flag"] = data["flag_truth"].astype(object).fillna("")

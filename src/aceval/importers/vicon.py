@@ -372,11 +372,12 @@ def _uncertainty(sensor: dict, new: dict, standing, bout, fs_hz: float, lag: int
     """The truth's uncertainty (deg): ``truth_stride_se_deg`` (the strides' own headings,
     :func:`aceval.data.truth.acceleration_truth`), ``truth_points_deg`` (the largest change of the
     heading when another point of the segment is matched: its frame markers and the middle of
-    its long axis, those whose horizontal acceleration over the bout has at least
-    :data:`MIN_POINT_POWER` of the chosen point's: a point that hardly accelerates, such as the
-    hip centre on the thigh, cannot fix a heading) and ``truth_lags_deg`` (the largest change at
-    one sample more or less of time offset), and ``truth_uncertainty_deg``, the three combined as
-    a root sum of squares.
+    its long axis other than the chosen point itself, those whose horizontal acceleration over
+    the bout has at least :data:`MIN_POINT_POWER` of the chosen point's: a point that hardly
+    accelerates, such as the hip centre on the thigh, cannot fix a heading; NaN where no other
+    point does, ``truth_n_points`` says how many did) and ``truth_lags_deg`` (the largest change
+    at one sample more or less of time offset), and ``truth_uncertainty_deg``, the three (or the
+    two without a points term) combined as a root sum of squares.
     """
     from aceval.data.truth import acceleration_truth, point_acceleration
 
@@ -392,8 +393,12 @@ def _uncertainty(sensor: dict, new: dict, standing, bout, fs_hz: float, lag: int
     others = list(sensor.get("points", {}).values())
     if sensor.get("long_axis"):
         others.append((sensor["long_axis"][0] + sensor["long_axis"][1]) / 2)
+    # the chosen point itself (a frame marker or joint centre, e.g. the knee centre of the thigh)
+    # changes nothing: it is not another point
+    others = [p for p in others if not np.array_equal(p, sensor["point"])]
     enough = MIN_POINT_POWER * power(sensor["point"])
-    points = max((change(p, 0) for p in others if power(p) >= enough), default=np.nan)
+    others = [p for p in others if power(p) >= enough]
+    points = max((change(p, 0) for p in others), default=np.nan)
     lags = max(change(sensor["point"], shift) for shift in (-1, 1))
     parts = np.array([new["stride_se_deg"], points, lags])
     return {
@@ -401,6 +406,7 @@ def _uncertainty(sensor: dict, new: dict, standing, bout, fs_hz: float, lag: int
         "truth_stride_se_deg": new["stride_se_deg"],
         "truth_n_strides": new["n_strides"],
         "truth_points_deg": points,
+        "truth_n_points": len(others),
         "truth_lags_deg": lags,
         "truth_uncertainty_deg": float(np.sqrt(np.nansum(parts**2))),
     }

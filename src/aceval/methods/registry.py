@@ -41,7 +41,10 @@ class Method:
     line, for the command line and the docs), ``implementation`` ('module:Class' of aceval's own
     method; '' for a peer), ``paper`` (the paper whose method it is, e.g. 'kong2016': its
     analyses read this method's calibrations), ``functional_design`` (Ricci's functional design
-    fits it too: :func:`aceval.methods.functional.fit_axes`), ``peer`` (a peer's facts).
+    fits it too: :func:`aceval.methods.functional.fit_axes`), ``peer`` (a peer's facts),
+    ``signal`` (what its heading comes from: 'acc' the accelerations' plane, 'gyr' the
+    gyroscope's axis, 'step' the step's direction, 'acc+gyr' both; estimates from different
+    signals of one unit check each other in its uncertainty, :mod:`aceval.methods.uncertainty`).
     """
 
     name: str
@@ -50,6 +53,7 @@ class Method:
     paper: str = ""
     functional_design: bool = False
     peer: Peer | None = None
+    signal: str = ""
 
     def load(self) -> type:
         """The method's class (imported on first use)."""
@@ -66,6 +70,7 @@ METHODS: list[Method] = [
         "motion test's accelerations (every subset of repetitions)",
         "aceval.methods.kong:Kong",
         paper="kong2016",
+        signal="acc",
     ),
     Method(
         "ricci_lm",
@@ -74,30 +79,35 @@ METHODS: list[Method] = [
         "aceval.methods.ricci:RicciLM",
         paper="ricci2014",
         functional_design=True,
+        signal="gyr",
     ),
     Method(
         "align_vectors",
         "the closed-form optimum of Ricci's weighted cost (SciPy's Rotation.align_vectors)",
         "aceval.methods.align_vectors:AlignVectors",
         functional_design=True,
+        signal="gyr",
     ),
     Method(
         "triad",
         "TRIAD: z0 kept exactly, body y from the gyroscope's principal axis",
         "aceval.methods.triad:Triad",
         functional_design=True,
+        signal="gyr",
     ),
     Method(
         "combined",
         "Kong's plane normal and the gyroscope's principal axis, weighted by their conditioning "
         "(beyond the papers)",
         "aceval.methods.combined:Combined",
+        signal="acc+gyr",
     ),
     Method(
         "step_harmonic",
         "walking: body x from the horizontal acceleration at the step frequency (beyond the "
         "papers)",
         "aceval.methods.step_harmonic:StepHarmonic",
+        signal="step",
     ),
     Method(
         "gaitmap_pca",
@@ -169,6 +179,11 @@ def ordered(found) -> list[str]:
     by name).
     """
     return sorted(set(found), key=lambda name: (rank(name), name))
+
+
+def signals() -> dict[str, str]:
+    """What each of aceval's own methods' heading comes from (``signal``), by method name."""
+    return {m.name: m.signal for m in METHODS if m.signal}
 
 
 def paper_method(paper: str) -> str:

@@ -1,7 +1,27 @@
-"""An uncertainty with a calibration: a bootstrap over its repetitions (beyond the papers), for
-every calibration aceval makes from a motion test's repetitions, by every method of the registry
-with a ``resample`` (:mod:`aceval.methods.registry`; not the peers', which run in their own
-environments, nor Ricci's functional design, whose axes pool all trials of several tests).
+"""An uncertainty with a calibration (beyond the papers): for every calibration aceval makes from
+all repetitions of a motion test, by every method of the registry with a ``resample``
+(:mod:`aceval.methods.registry`; not the peers', which run in their own environments, nor Ricci's
+functional design, whose axes pool all trials of several tests), a cone about it whose every term
+the recording itself shows (:func:`calibration_cones`; docs/uncertainty.md):
+
+* the spread of its repetitions (the bootstrap below);
+* how far the recording's other estimates of the same heading lie: the other signals' calibrations
+  of the same IMU in the same test (the accelerations' plane, the gyroscope's axis, the step's
+  direction) and the same method's calibrations of the IMU from its other tests
+  (:func:`heading_terms`);
+* how well the motion fixes the heading: Kong's smallest/middle eigenvalue ratio of the
+  accelerations (a plane normal is decided only by how much the in-plane spread exceeds the
+  out-of-plane one);
+* two a-priori terms that no recording of one sensor shows: the tilt of z0 from the
+  accelerometer's datasheet bias and, for the foot, how far its own plane of motion turns from
+  the body's (the foot progression angle).
+
+Their scales are constants in :data:`CONE_MODEL`, fitted across simulator variants and checked on
+real truths by :mod:`aceval.evaluation.coverage` (``results/coverage``). A cone beyond
+:data:`UNDETERMINED_CONE_DEG`, or one whose spread cannot be estimated, is no cone: the calibration
+is flagged ``heading_undetermined`` (:func:`undetermined`).
+
+The bootstrap:
 
 Every repetition of a motion test is reduced to a few sums (:mod:`aceval.methods.sufficient`), so a
 calibration from any resample of repetitions costs a few weighted 3x3 sums and one ``eigh``.
@@ -22,15 +42,14 @@ uncertainty`` measures the cone's coverage against the ground truth.
 
 from __future__ import annotations
 
-import functools
-from pathlib import Path
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 
 import numpy as np
-import pandas as pd
 
-from aceval.data.rotations import relative_rotvec, rotvec_vertical_share
+from aceval.data.rotations import error_angle_deg, relative_rotvec, rotvec_vertical_share
 from aceval.methods.interface import CalibrationMethod
-from aceval.methods.registry import classes, fit_order
+from aceval.methods.registry import classes, fit_order, signals
 from aceval.methods.sufficient import Units, pool
 
 #: resamples per calibration (the 95th percentile of 200 angles: its 10th largest)
@@ -45,9 +64,11 @@ ACC_OFFSET_MG = 60.0
 TILT_SD_DEG = float(np.sqrt(2) * np.degrees(np.arctan(ACC_OFFSET_MG / 3 * 1e-3)))
 #: a 1-D spread's 95th percentile over its SD (the bootstrap's spread is mostly heading)
 Z95 = 1.959964
-#: the model learned from simulations (:mod:`aceval.evaluation.coverage`): per method, test and
-#: segment the heading bias ``tau_deg`` no resampling sees, and per method the factor ``q``
-MODEL_PATH = Path(__file__).parent / "cone_model.csv"
+#: a calibration whose cone is wider than this (deg) has no determined heading: flagged
+#: ``heading_undetermined`` (a heading 90 deg off swaps forward and sideways)
+UNDETERMINED_CONE_DEG = 90.0
+#: a spread needs at least this many repetitions to resample (one gives a spread of 0)
+MIN_REPETITIONS = 2
 
 
 def resample_weights(n_rep: int, n_boot: int = N_BOOT, seed: int = 0) -> np.ndarray:
@@ -57,10 +78,10 @@ def resample_weights(n_rep: int, n_boot: int = N_BOOT, seed: int = 0) -> np.ndar
 
 
 def cones(resampled: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(cone95_deg, cone_vertical_share)`` (U,) of each unit's resampled calibrations (U, n_boot,
-    3, 3) about its calibration ``R`` (U, 3, 3); NaN where ``R`` is. A resample the method would
-    flag (not finite) counts as 180 deg away: the calibration is undetermined there, and
-    leaving it out would narrow the cone (so a cone is 180 deg when more than 5 % are).
+    """``(spread95_deg, spread_vertical_share)`` (U,) of each unit's resampled calibrations (U,
+    n_boot, 3, 3) about its calibration ``R`` (U, 3, 3); NaN where ``R`` is. A resample the method
+    would flag (not finite) counts as 180 deg away: the calibration is undetermined there, and
+    leaving it out would narrow the spread (so a spread is 180 deg when more than 5 % are).
     """
     n_units, n_boot = resampled.shape[:2]
     ok = np.isfinite(resampled).all(axis=(2, 3)) & np.isfinite(R).all(axis=(1, 2))[:, None]
@@ -85,9 +106,10 @@ def bootstrap_cones(
     R_full: dict[str, np.ndarray],
     n_boot: int = N_BOOT,
 ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """The 95 % cone of each method's calibration of each unit from all its repetitions:
-    ``{method: (cone95_deg (U,), cone_vertical_share (U,))}`` for the methods of ``R_full``
-    (method -> (U, 3, 3), NaN where none) that resample (:mod:`aceval.methods.registry`).
+    """The 95th percentile of the bootstrap's spread about each method's calibration of each unit
+    from all its repetitions: ``{method: (spread95_deg (U,), spread_vertical_share (U,))}`` for the
+    methods of ``R_full`` (method -> (U, 3, 3), NaN where none) that resample
+    (:mod:`aceval.methods.registry`).
 
     Each unit draws ``n_boot`` resamples of its own repetitions from its own ``seeds`` (U,) (the
     same cones on every run and in any job); every method calibrates the same resamples, after
@@ -111,77 +133,165 @@ def bootstrap_cones(
     return out
 
 
-# --- the cone: the repetitions' spread, the tilt and the shared heading bias -----------------
+# --- the cone: what the recording shows, scaled by constants fitted across simulator variants ---
+
+#: which signal each method's heading comes from (the registry's ``signal``): estimates from
+#: different signals of the same unit are independent checks of each other (the combined heading,
+#: between the accelerations' plane and the gyroscope's axis, is checked against both)
+SIGNAL = signals()
+#: the estimate each other method is compared with, per signal: its first method in the
+#: registry's order (Kong's plane, Ricci's LM, the step harmonic)
+REFERENCE = {s: next(m for m, own in SIGNAL.items() if own == s) for s in ("acc", "gyr", "step")}
+#: how far a segment's own plane of motion turns from the body's sagittal plane (deg, RMS), which
+#: no recording of the segment alone shows: the foot's progression angle, 7 +- 3 deg toe-out
+#: (Perry & Burnfield 2010, *Gait Analysis*, Ch. 4; the simulator's, docs/simulation.md)
+SEGMENT_PLANE_DEG = {"foot": float(np.hypot(7.0, 3.0))}
 
 
-def fit_model(rows: pd.DataFrame) -> pd.DataFrame:
-    """The model of a 95 % cone, ``q * sqrt((spread95 / Z95)^2 + TILT_SD^2 + tau^2)``, learned
-    from calibrations with a truth (``rows``: method, test, segment, ``spread95_deg``,
-    ``error_deg``): per (method, test, segment), ``tau_deg``, the RMS error the spread and the
-    tilt leave unexplained, ``sqrt(max(mean(error^2) - mean(spread_sd^2) - TILT_SD^2, 0))``; per
-    method, ``q``, the 95th percentile of the errors over their modelled RMS; and per method a
-    row with test and segment '*' whose ``tau_deg`` is the largest of its cells (for a test or
-    segment it never saw). ``n`` the calibrations behind each row.
+@dataclass(frozen=True)
+class ConeModel:
+    """``cone = q[method] * sqrt((spread95 / Z95)^2 + TILT_SD^2 + plane^2 + (signals * d_signals)^2
+    + (tests * d_tests)^2 + (conditioning * c)^2)`` (deg): ``d_signals`` and ``d_tests`` the
+    disagreements of :func:`heading_terms`, ``c = atan(sqrt(normal_ratio))`` (deg) of Kong's plane,
+    ``plane`` :data:`SEGMENT_PLANE_DEG`. ``q`` per method (``q_other`` for a method without one):
+    the factor that turns the combined RMS into a 95 % cone. Fitted by
+    :func:`aceval.evaluation.coverage.fit_cone_model`.
     """
-    data = rows.assign(spread_sd=rows["spread95_deg"] / Z95)
-    cells = (
-        data.groupby(["method", "test", "segment"], sort=True)
-        .apply(
-            lambda g: pd.Series(
-                {
-                    "tau_deg": np.sqrt(
-                        max(
-                            np.mean(g["error_deg"] ** 2)
-                            - np.mean(g["spread_sd"] ** 2)
-                            - TILT_SD_DEG**2,
-                            0.0,
-                        )
-                    ),
-                    "n": len(g),
-                }
-            ),
-            include_groups=False,
-        )
-        .reset_index()
-    )
-    data = data.merge(cells[["method", "test", "segment", "tau_deg"]])
-    rms = np.sqrt(data["spread_sd"] ** 2 + TILT_SD_DEG**2 + data["tau_deg"] ** 2)
-    q = (data["error_deg"] / rms).groupby(data["method"]).quantile(LEVEL).rename("q")
-    fallback = cells.groupby("method").agg(tau_deg=("tau_deg", "max"), n=("n", "sum")).reset_index()
-    table = pd.concat([cells, fallback.assign(test="*", segment="*")], ignore_index=True)
-    return table.merge(q.reset_index(), on="method")[
-        ["method", "test", "segment", "tau_deg", "q", "n"]
-    ]
+
+    signals: float
+    tests: float
+    conditioning: float
+    q: Mapping[str, float] = field(default_factory=dict)
+    q_other: float = 2.0
+
+    def factor(self, method) -> np.ndarray:
+        """``q`` of each method in ``method`` (array of names)."""
+        return np.array([self.q.get(m, self.q_other) for m in np.atleast_1d(method)], float)
 
 
-@functools.lru_cache(maxsize=1)
-def load_model(path=MODEL_PATH) -> pd.DataFrame | None:
-    """The learned model (:func:`fit_model`), read once, or None where none has been learned."""
-    return pd.read_csv(path) if Path(path).is_file() else None
+#: fitted by ``python -m aceval.evaluation.coverage study`` (2026-11-27, results/coverage/model.csv,
+#: fit 'all'; docs/uncertainty.md): nine simulator variants and the real truths of NeuRA and
+#: gaitmap_feet; tests/test_coverage.py checks that these are the committed study's constants
+CONE_MODEL = ConeModel(
+    signals=0.5,
+    tests=0.25,
+    conditioning=0.3,
+    q={
+        "kong": 1.7530,
+        "ricci_lm": 1.6351,
+        "align_vectors": 1.6351,
+        "triad": 1.6619,
+        "combined": 1.8419,
+        "step_harmonic": 1.6199,
+    },
+    q_other=1.8419,
+)
 
 
-def model_cones(spread95, method, test, segment, model: pd.DataFrame | None):
-    """``(cone95_deg, source)`` of calibrations with bootstrap spreads ``spread95`` (deg) by
-    ``method`` from ``test`` on ``segment`` (arrays): the model's cone, ``source`` 'cell' where
-    the model learned that method, test and segment, 'method' where it falls back on the
-    method's largest ``tau`` (a test or segment the simulations do not have), '' (and NaN) where
-    it has no such method or the spread is NaN.
+def heading_terms(
+    R_full: Mapping[str, np.ndarray], imu: np.ndarray, normal_ratio: np.ndarray
+) -> dict[str, np.ndarray]:
+    """What the recording shows of the heading's uncertainty, per unit (IMU x test; ``imu`` (U,)
+    labels the units' IMUs) from every method's calibration from all repetitions (``R_full``:
+    method -> (U, 3, 3), NaN where none), in deg:
+
+    * ``{method}_signals``: the median angle to the other signals' calibrations of the same unit
+      (:data:`SIGNAL`, :data:`REFERENCE`); NaN where there is none;
+    * ``{method}_tests``: the median angle to the same method's calibrations of the same IMU from
+      its other tests; NaN where it has none;
+    * ``conditioning``: ``atan(sqrt(normal_ratio))`` of Kong's plane of the unit (the tilt an
+      out-of-plane spread that correlates with the in-plane one can give the normal); NaN where
+      Kong has no plane.
+    """
+    imu = np.asarray(imu)
+    n = len(imu)
+    ok = {m: np.isfinite(R).all(axis=(1, 2)) for m, R in R_full.items()}
+    out = {"conditioning": np.degrees(np.arctan(np.sqrt(np.clip(normal_ratio, 0.0, None))))}
+    same_imu = imu[:, None] == imu[None, :]
+    for method, R in R_full.items():
+        references = [m for s, m in REFERENCE.items() if m in R_full and s != SIGNAL.get(method)]
+        angles = np.full((len(references), n), np.nan)
+        for k, other in enumerate(references):
+            both = ok[method] & ok[other]
+            angles[k, both] = error_angle_deg(R[both], R_full[other][both])
+        out[f"{method}_signals"] = _nanmedian(angles, axis=0)
+        pairs = np.full((n, n), np.nan)
+        both = ok[method][:, None] & ok[method][None, :]
+        rows, cols = np.nonzero(same_imu & ~np.eye(n, dtype=bool) & both)
+        pairs[rows, cols] = error_angle_deg(R[rows], R[cols])
+        out[f"{method}_tests"] = _nanmedian(pairs, axis=1)
+    return out
+
+
+def _nanmedian(values: np.ndarray, axis: int) -> np.ndarray:
+    """np.nanmedian without its warning on all-NaN slices (NaN there)."""
+    some = np.isfinite(values).any(axis=axis)
+    out = np.full(some.shape, np.nan)
+    if some.any():
+        out[some] = np.nanmedian(np.compress(some, values, axis=1 - axis), axis=axis)
+    return out
+
+
+def model_cones(spread95, signals, tests, conditioning, segment, method, model=CONE_MODEL):
+    """The cone (deg) of calibrations with these terms (arrays; :class:`ConeModel`): a missing
+    disagreement (no other estimate) or conditioning counts 0; NaN where the spread is NaN; at
+    most 180 deg.
     """
     spread95 = np.asarray(spread95, float)
-    n = len(spread95)
-    cone, source = np.full(n, np.nan), np.full(n, "", dtype=object)
-    if model is None or n == 0:
-        return cone, source
-    keys = pd.DataFrame({"method": method, "test": test, "segment": segment})
-    learned = ["tau_deg", "q"]
-    cell = keys.merge(model, on=["method", "test", "segment"], how="left")[learned]
-    fallback = model[(model["test"] == "*") & (model["segment"] == "*")]
-    fallback = keys[["method"]].merge(fallback, on="method", how="left")[learned]
-    in_cell = cell["tau_deg"].notna().to_numpy()
-    row = np.where(in_cell[:, None], cell.to_numpy(float), fallback.to_numpy(float))
-    cone = row[:, 1] * np.sqrt((spread95 / Z95) ** 2 + TILT_SD_DEG**2 + row[:, 0] ** 2)
-    source = np.where(in_cell, "cell", np.where(np.isfinite(row[:, 0]), "method", "")).astype(
-        object
+    plane = np.array([SEGMENT_PLANE_DEG.get(s, 0.0) for s in np.atleast_1d(segment)], float)
+    rms = np.sqrt(
+        (spread95 / Z95) ** 2
+        + TILT_SD_DEG**2
+        + plane**2
+        + (model.signals * np.nan_to_num(np.asarray(signals, float))) ** 2
+        + (model.tests * np.nan_to_num(np.asarray(tests, float))) ** 2
+        + (model.conditioning * np.nan_to_num(np.asarray(conditioning, float))) ** 2
     )
-    source[~np.isfinite(cone)] = ""
-    return np.minimum(cone, 180.0), source
+    return np.minimum(model.factor(method) * rms, 180.0)
+
+
+def undetermined(cone, spread95) -> np.ndarray:
+    """True where a calibration's heading is undetermined: its cone beyond
+    :data:`UNDETERMINED_CONE_DEG` or not estimable (NaN: too few repetitions to resample).
+    """
+    cone = np.asarray(cone, float)
+    return ~(cone <= UNDETERMINED_CONE_DEG) | ~np.isfinite(np.asarray(spread95, float))
+
+
+def calibration_cones(
+    units: Units,
+    seeds: np.ndarray,
+    R_full: dict[str, np.ndarray],
+    imu: np.ndarray,
+    normal_ratio: np.ndarray,
+) -> dict[str, dict[str, np.ndarray]]:
+    """Every term and the cone of each method's calibration of each unit from all its
+    repetitions: ``{method: {column: (U,)}}`` with ``spread95_deg``, ``spread_vertical_share``
+    (:func:`bootstrap_cones`; NaN with fewer than :data:`MIN_REPETITIONS`),
+    ``heading_signals_deg``, ``heading_tests_deg``, ``conditioning_deg`` (:func:`heading_terms`;
+    ``imu`` (U,) labels each unit's IMU, ``normal_ratio`` (U,) is Kong's) and ``cone_deg``
+    (:func:`model_cones`), for the methods of ``R_full`` that resample.
+    """
+    spreads = bootstrap_cones(units, seeds, R_full)
+    terms = heading_terms(R_full, imu, normal_ratio)
+    few = units.present.sum(axis=1) < MIN_REPETITIONS
+    out = {}
+    for method, (spread, share) in spreads.items():
+        spread = np.where(few, np.nan, spread)
+        columns = {
+            "spread95_deg": spread,
+            "spread_vertical_share": share,
+            "heading_signals_deg": terms[f"{method}_signals"],
+            "heading_tests_deg": terms[f"{method}_tests"],
+            "conditioning_deg": terms["conditioning"],
+        }
+        columns["cone_deg"] = model_cones(
+            spread,
+            columns["heading_signals_deg"],
+            columns["heading_tests_deg"],
+            columns["conditioning_deg"],
+            units.segment,
+            np.full(len(spread), method),
+        )
+        out[method] = columns
+    return out

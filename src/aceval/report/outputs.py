@@ -494,14 +494,31 @@ _ENTRIES = [
         "methods",
         "beyond the papers (an uncertainty with every calibration)",
         ("calibrations",),
-        "The 95 % cone of a calibration (the spread of its resampled repetitions, the tilt of z0 "
-        "from the accelerometer's bias and the heading bias learned from simulation: "
-        "docs/uncertainty.md) against its error to the ground truth: coverage, the share of "
-        "calibrations whose error lies inside their cone, with its 95 % interval; beside it the "
-        "coverage of the repetitions' spread alone",
+        "The uncertainty cone of a calibration (`cone_deg`: the spread of its resampled "
+        "repetitions, the other estimates' disagreement, the motion's conditioning, the tilt of "
+        "z0 from the accelerometer's bias: docs/uncertainty.md) against its error to the ground "
+        "truth: coverage, the share of calibrations whose error lies inside their cone, with its "
+        "95 % interval; beside it the coverage of the repetitions' spread alone",
         "calibrations from all repetitions of both sensor sets (unflagged, with a cone); rows "
         "'all': the method over every segment and test",
         _named("evaluation.methods_comparison.uncertainty_table", "calibrations", "truth_method"),
+        _named_markdown,
+    ),
+    Output(
+        "flag_value",
+        "table",
+        "retest",
+        "beyond the papers (what each flag is worth)",
+        ("calibrations",),
+        "What each flag removes and whether the calibrations it removes are worse: per flag and "
+        "method, the calibrations from all repetitions it flags (and those it alone removes), "
+        "and the median distance of flagged and unflagged ones to the ground truth, or without "
+        "one to the consensus of the other methods' unflagged calibrations "
+        "(aceval.evaluation.flag_value)",
+        "calibrations from all repetitions (every method, the peers included); p: one-sided "
+        "Mann-Whitney, flagged farther than unflagged (calibrations are not independent units: "
+        "a screen, not a verdict)",
+        _named("evaluation.flag_value.flag_value_table", "calibrations"),
         _named_markdown,
     ),
     Output(

@@ -11,7 +11,12 @@ import numpy as np
 import pandas as pd
 
 from aceval.calibrate.table import kong_rows, unflagged
-from aceval.evaluation.methods_comparison import MAX_MARKER_FRAME_VERTICAL_DEG
+from aceval.evaluation.cone_fit import CELL, MAX_CONE_OVER_ERROR, MIN_CELL, POOLED
+from aceval.evaluation.methods_comparison import (
+    MAX_MARKER_FRAME_LONG_AXIS_DEG,
+    MAX_MARKER_FRAME_VERTICAL_DEG,
+    marker_frame_verdict,
+)
 from aceval.methods import registry
 from aceval.methods.kong import KongLimits
 from aceval.report.claims import (
@@ -208,31 +213,28 @@ def retest_section(tables: dict) -> list[str]:
     return lines + [""]
 
 
-#: what a method's cone must do on kong_sim to be called a 95 % cone (issue 28): its pooled
-#: coverage within this range, every test x segment cell at least the minimum, and its median
-#: at most this many times the median error
-CONE_COVERAGE, MIN_CELL_COVERAGE, MAX_CONE_OVER_ERROR = (0.90, 0.99), 0.80, 3.0
-
-
 def uncertainty_section(tables: dict) -> list[str]:
-    """Table ``uncertainty``: how often the truth lies inside each calibration's 95 % cone, per
-    method, with its interval, beside what the repetitions' spread alone covers.
+    """Table ``uncertainty``: how often the truth lies inside each calibration's uncertainty cone,
+    per method, with its interval, beside what the repetitions' spread alone covers.
     """
     table = tables.get("uncertainty")
     if table is None or table.empty:
         return []
     lines = [
-        "## How far to trust one calibration: the 95 % cone",
+        "## How far to trust one calibration: the uncertainty cone",
         "",
-        "Each calibration from all repetitions carries `cone95_deg`: the spread between its "
-        "resampled repetitions (`spread95_deg`), the tilt of z0 from the accelerometer's "
-        "datasheet bias and a heading bias per method, test and segment learned from simulations "
-        "with other seeds, combined (docs/uncertainty.md; aceval.methods.uncertainty). Against "
-        "the ground truth (table `uncertainty`):",
+        "Each calibration from all repetitions carries `cone_deg`, an uncertainty cone: the "
+        "spread between its resampled repetitions (`spread95_deg`), how far the recording's other "
+        "estimates of its heading lie (the other signals' calibrations and its other tests'), how "
+        "well the motion fixes the heading (Kong's eigenvalue ratio), the tilt of z0 from the "
+        "accelerometer's datasheet bias and the foot's progression angle, combined with "
+        "constants fitted across simulator variants and real truths (docs/uncertainty.md; "
+        "results/coverage). A cone beyond 90 deg is none: that calibration is flagged "
+        "`heading_undetermined`. Against the ground truth (table `uncertainty`):",
         "",
     ]
     pooled = table[table["segment"] == "all"]
-    cells = table[(table["segment"] != "all") & (table["n"] >= 5)]
+    cells = table[(table["segment"] != "all") & (table["n"] >= MIN_CELL)]
     for _, r in pooled.iterrows():
         worst = cells[cells["method"] == r["method"]]["coverage"].min()
         lines.append(
@@ -241,7 +243,7 @@ def uncertainty_section(tables: dict) -> list[str]:
             f"({r['interval']} interval), "
             + (f"its worst cell {worst:.0%}" if pd.notna(worst) else "no cell with 5 calibrations")
             + f"; median cone "
-            f"{r['cone95_median_deg']:.2f} deg against median error {r['error_median_deg']:.2f} "
+            f"{r['cone_median_deg']:.2f} deg against median error {r['error_median_deg']:.2f} "
             f"deg; the repetitions' spread alone covers {r['spread_coverage']:.0%}"
             + (
                 f"; with the truth's own uncertainty {r['coverage_with_truth']:.0%}"
@@ -252,26 +254,26 @@ def uncertainty_section(tables: dict) -> list[str]:
         )
     lines += [
         "",
-        f"A method's cone is a 95 % cone where it covers {CONE_COVERAGE[0]:.0%}-"
-        f"{CONE_COVERAGE[1]:.0%} pooled, at least {MIN_CELL_COVERAGE:.0%} in every test x "
-        f"segment cell and is at most {MAX_CONE_OVER_ERROR:g} times the error (median), on "
-        "simulations it did not learn from; what it learned depends on the simulator, so on real "
-        "recordings it is a measured claim, not a given.",
+        f"A method's cone is called a 95 % cone here where it covers {POOLED[0]:.0%}-"
+        f"{POOLED[1]:.0%} pooled, at least {CELL:.0%} in every test x segment cell and is at "
+        f"most {MAX_CONE_OVER_ERROR:g} times the error (median); elsewhere it is an uncertainty "
+        "cone whose coverage this table measures.",
         "",
     ]
     return lines
 
 
 def _cone_verdict(pooled: pd.Series, worst_cell: float) -> str:
-    """Whether a method's cone is a 95 % cone on this dataset (:data:`CONE_COVERAGE` pooled,
-    :data:`MIN_CELL_COVERAGE` in every cell, :data:`MAX_CONE_OVER_ERROR`), or what it misses.
+    """Whether a method's cone is a 95 % cone on this dataset (the criteria of
+    :mod:`aceval.evaluation.cone_fit`: pooled, in every cell, against the error), or what it
+    misses.
     """
-    ratio = pooled["cone95_median_deg"] / pooled["error_median_deg"]
+    ratio = pooled["cone_median_deg"] / pooled["error_median_deg"]
     misses = [
-        f"pooled {pooled['coverage']:.0%} outside {CONE_COVERAGE[0]:.0%}-{CONE_COVERAGE[1]:.0%}"
-        if not CONE_COVERAGE[0] <= pooled["coverage"] <= CONE_COVERAGE[1]
+        f"pooled {pooled['coverage']:.0%} outside {POOLED[0]:.0%}-{POOLED[1]:.0%}"
+        if not POOLED[0] <= pooled["coverage"] <= POOLED[1]
         else "",
-        f"a cell at {worst_cell:.0%}" if worst_cell < MIN_CELL_COVERAGE else "",
+        f"a cell at {worst_cell:.0%}" if worst_cell < CELL else "",
         "no test x segment cell with 5 calibrations to judge" if pd.isna(worst_cell) else "",
         f"cone {ratio:.1f} times the error" if ratio > MAX_CONE_OVER_ERROR else "",
     ]
@@ -323,8 +325,8 @@ def recommendation_section(tables: dict) -> list[str]:
         evidence = f"median {what} {best['median']:.2f} deg, n = {_of(best)}"
         if truth and pd.notna(best.get("retest_median_deg", np.nan)):
             evidence += f"; test-retest {best['retest_median_deg']:.2f} deg"
-        if pd.notna(best.get("cone95_median_deg", np.nan)):
-            evidence += f"; cone {best['cone95_median_deg']:.2f} deg"
+        if pd.notna(best.get("cone_median_deg", np.nan)):
+            evidence += f"; cone {best['cone_median_deg']:.2f} deg"
         truth_rows = _truth_rows(tables, segment)
         if truth and len(truth_rows):  # the truth is a measurement: its own uncertainty beside
             evidence += (
@@ -430,10 +432,10 @@ def _marker_frame(r) -> str:
             if np.isfinite(r["marker_frame_long_axis_check_deg"])
             else ""
         )
-    return (
-        f"the marker-frame truth not used (its vertical check {r['marker_frame_vertical_check_deg']:.1f}"
-        f" deg > {MAX_MARKER_FRAME_VERTICAL_DEG:g})"
+    why = marker_frame_verdict(
+        r["marker_frame_vertical_check_deg"], r["marker_frame_long_axis_check_deg"]
     )
+    return f"the marker-frame truth not used ({why})"
 
 
 def truth_section(tables: dict) -> list[str]:
@@ -452,8 +454,9 @@ def truth_section(tables: dict) -> list[str]:
         "centre's) with that truth's own uncertainty (its strides, points and time offsets) and "
         "the heading correction an independent check asks of it (the angular velocity of the "
         "segment's long axis), then the error to the second, "
-        "marker-frame truth (only where its own vertical check passes: within "
-        f"{MAX_MARKER_FRAME_VERTICAL_DEG:g} deg), the two truths' difference and the marker frame's "
+        "marker-frame truth (only where its own vertical and long-axis checks pass: within "
+        f"{MAX_MARKER_FRAME_VERTICAL_DEG:g} and {MAX_MARKER_FRAME_LONG_AXIS_DEG:g} deg), the two "
+        "truths' difference and the marker frame's "
         "mean twist about the segment's long axis while walking, where the sensor sits (from the "
         "segment's point), and the conditioning of Kong's plane (smallest/middle eigenvalue ratio; "
         "above 0.5 the heading is undetermined). Table `truth_errors` has every method.",

@@ -14,7 +14,12 @@ from aceval.simulate.body import Anthropometry, kong_placements, random_mount
 from aceval.simulate.engine import euler_pitch_roll_yaw
 from aceval.simulate.kong_protocol import PROTOCOL, t6_walk
 from aceval.simulate.motion import segment_poses
-from aceval.simulate.options import SimOptions, sensor_signals
+from aceval.simulate.options import (
+    SHAKING_PEAK_G,
+    SimOptions,
+    heel_strike_shaking,
+    sensor_signals,
+)
 
 IMUS = [  # Kong Sec. 2.3 and Fig. 4
     ("IMU1", "head", "center", "upper_body"),
@@ -163,9 +168,11 @@ def _write_subject(seed, subjects, runs, meta, options, k: int, writer: DatasetW
         for segment, yaw in offsets.items():
             posture.add(segment, yaw=yaw)
         R_seg, origin = segment_poses(posture, body, fixed_ankle)
+        shake_rng = np.random.default_rng([seed, 3, k, j])  # its own: the other draws unchanged
         for sensor_set in meta["sensor_sets"]:
             for imu, segment, _, region in IMUS:
                 wobble = WOBBLE_DEG[segment.split("_")[0]][sensor_set == "lateral"]
+                shaking = _shaking(shake_rng, posture, segment, options.impacts)
                 gyr, acc = sensor_signals(
                     run_rng,
                     R_seg[segment],
@@ -176,5 +183,17 @@ def _write_subject(seed, subjects, runs, meta, options, k: int, writer: DatasetW
                     wobble,
                     options,
                     ACC_RANGE_G[region],
+                    shaking=shaking,
                 )
                 writer.recording(subject, sensor_set, test, rep, imu, gyr, acc)
+
+
+def _shaking(rng, posture, segment: str, scale: float):
+    """The heel strike's shaking of a sensor on ``segment`` ('shank_r', ...) in a walk (None
+    where there is none: ``scale`` 0, not a leg segment, no heel strike).
+    """
+    kind, _, side = segment.partition("_")
+    strikes = posture.strikes.get(side)
+    if scale <= 0 or kind not in SHAKING_PEAK_G or strikes is None or not len(strikes):
+        return None
+    return heel_strike_shaking(rng, posture.t, strikes, scale * SHAKING_PEAK_G[kind])

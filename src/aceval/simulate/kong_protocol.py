@@ -221,6 +221,9 @@ def t6_walk(rng, body, fs, offplane, measured: bool = True):
         posture.add(f"thigh_{s}", roll=hip_roll)
         if measured:
             _lower_leg(rng, posture, s, sign, gait, angle, hip_roll, offplane)
+    for s, shift in (("r", 0.0), ("l", 0.5)):  # heel strike where the side's phase is whole
+        strikes = pause + (np.arange(np.floor(t[-1] / stride) + 2) - shift) * stride
+        posture.strikes[s] = strikes[np.interp(strikes, t, gait, left=0.0, right=0.0) > 0.5]
     stride_wave = 2 * np.pi * phase_r
     # pelvis: rotation +-4 deg, obliquity +-3 deg, tilt +-1.5 deg at step frequency (Perry &
     # Burnfield 2010); trunk counter-rotates; COM moves +-2.5 cm vertically and +-2 cm sideways

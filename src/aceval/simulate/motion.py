@@ -36,13 +36,16 @@ class Posture:
     """Absolute segment angles (rad) over time and the position of the hip centre (m, world).
 
     ``angles[segment] = (pitch, roll, yaw)``, arrays of the time grid's length (or scalars).
-    ``envelope`` (0-1) marks when segments move, to scale soft-tissue wobble.
+    ``envelope`` (0-1) marks when segments move, to scale soft-tissue wobble. ``strikes``: the
+    heel strikes' times (s) per side ('r', 'l') of a walk, for the heel-strike shaking
+    (:func:`aceval.simulate.options.heel_strike_shaking`).
     """
 
     t: np.ndarray
     angles: dict = field(default_factory=dict)
     hip: np.ndarray | None = None
     envelope: np.ndarray | None = None
+    strikes: dict = field(default_factory=dict)
 
     def angle(self, segment: str):
         """(pitch, roll, yaw) of ``segment`` (rad); zeros when it was never moved."""

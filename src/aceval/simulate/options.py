@@ -29,6 +29,10 @@ class SimOptions:
     wobble: float = 1.0
     #: scale of the sensors' constant biases (1 = the datasheet's, :class:`ImuErrorModel`)
     sensor_bias: float = 1.0
+    #: scale of the heel strike's shaking of the leg sensors in walking
+    #: (:func:`heel_strike_shaking`; 0 = none, as in the committed datasets; 1 = the walk whose
+    #: planarity sits in the real recordings' range, docs/simulation.md)
+    impacts: float = 0.0
     #: the walk's lower-leg variability: 'measured' (set from real walking, docs/simulation.md)
     #: or 'assumed' (a sagittal lower leg, as before 2026-11-24: the old datasets exactly)
     variability: str = "measured"
@@ -50,12 +54,15 @@ def sensor_signals(
     options,
     acc_range_g,
     error_model=ImuErrorModel(),
+    shaking=None,
 ):
     """Measured (gyr rad/s, acc m/s^2) of a sensor mounted with ``mount`` (sensor -> segment) at
     ``position`` (segment frame, m) on a segment with pose ``R_seg``/``origin`` on the fine grid.
 
     Soft-tissue wobble: a small rotation of the sensor on its segment, 0.5-3 Hz, RMS ``wobble_deg``
-    while the segment moves (scaled by the movement ``envelope``), zero at rest.
+    while the segment moves (scaled by the movement ``envelope``), zero at rest. ``shaking``: a
+    displacement of the sensor on its soft tissue (m, world frame, on the fine grid), e.g.
+    :func:`heel_strike_shaking`.
     """
     R_ws = R_seg @ mount
     amplitude = np.radians(wobble_deg) * options.wobble
@@ -65,6 +72,8 @@ def sensor_signals(
         rotvec = np.column_stack([band_noise(rng, t, 0.5, 3.0) for _ in range(3)]) / np.sqrt(3)
         R_ws = R_ws @ small_rotations(amplitude * envelope[:, None] * rotvec)
     p_w = origin + R_seg @ np.asarray(position, dtype=float)
+    if shaking is not None:
+        p_w = p_w + shaking
     gyr, acc = measure(R_ws, p_w, options.fs_hz)
     return error_model.apply(
         rng,
@@ -75,3 +84,33 @@ def sensor_signals(
         enabled=options.noise,
         bias_scale=options.sensor_bias,
     )
+
+
+#: the heel strike's shaking of a leg sensor on its soft tissue (:func:`heel_strike_shaking`):
+#: peak acceleration (g) by segment, frequency (Hz) and the SD (s) of its Gaussian envelope.
+#: Soft tissue of the leg rings at tens of Hz after heel strike, damped within about 0.1 s
+#: (Wakeling & Nigg 2001, J Appl Physiol 90:412); the impact reaches the tibia as a transient of a
+#: few g in walking, less higher up the leg (Lafortune et al. 1996, J Biomech 29:1531). The peaks
+#: are set so that the simulated walk's planarity falls in the real recordings' range
+#: (docs/simulation.md, "Real and simulated variability"); the shaking is a variant of the
+#: coverage study (aceval.evaluation.coverage), off in the committed datasets
+SHAKING_PEAK_G = {"foot": 3.5, "shank": 2.5, "thigh": 0.5}
+SHAKING_HZ, SHAKING_SD_S = 15.0, 0.02
+
+
+def heel_strike_shaking(rng, t: np.ndarray, strikes, peak_g: float) -> np.ndarray:
+    """(M, 3) displacement (m, world) of a sensor shaken at every heel strike (times ``strikes``,
+    s) on the fine grid ``t``: a Gaussian-windowed oscillation of :data:`SHAKING_HZ` centred
+    two SDs after the strike, each in its own random direction, with peak acceleration
+    ``peak_g``. Smooth (its derivatives are exact on the grid) and zero between strikes.
+    """
+    omega = 2 * np.pi * SHAKING_HZ
+    amplitude = peak_g * 9.81 / omega**2
+    out = np.zeros((len(t), 3))
+    for strike in np.asarray(strikes, float):
+        direction = rng.normal(size=3)
+        direction /= np.linalg.norm(direction)
+        lag = t - strike - 2 * SHAKING_SD_S
+        pulse = np.exp(-0.5 * (lag / SHAKING_SD_S) ** 2) * np.sin(omega * lag)
+        out += amplitude * pulse[:, None] * direction
+    return out
