@@ -33,10 +33,10 @@ def _row(method, heading_deg, cone=2.0, test="T6", flag="", error=np.nan, n_reps
 
 def test_two_methods_further_apart_than_their_cones_are_both_flagged_of_many_the_outlier():
     two = flag_disagreements(pd.DataFrame([_row("kong", 0), _row("triad", 5)]))
-    assert two["flag"].tolist() == ["methods_disagree"] * 2  # 5 deg > 2 + 2
+    assert two["flag"].tolist() == ["methods_disagree"] * 2  # 5 deg > hypot(2, 2) = 2.83
     assert two["methods_spread_deg"].round(6).tolist() == [5.0, 5.0]
-    near = flag_disagreements(pd.DataFrame([_row("kong", 0), _row("triad", 3.9)]))
-    assert near["flag"].tolist() == ["", ""]  # within 2 + 2
+    near = flag_disagreements(pd.DataFrame([_row("kong", 0), _row("triad", 2.8)]))
+    assert near["flag"].tolist() == ["", ""]  # within hypot(2, 2)
     many = flag_disagreements(
         pd.DataFrame(
             [_row("kong", 0), _row("triad", 1), _row("combined", 0.5), _row("ricci_lm", 20)]

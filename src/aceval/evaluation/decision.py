@@ -4,9 +4,10 @@ papers.
 * :func:`flag_disagreements`: the methods agree, or say so. Per calibration unit (one IMU in one
   test), every method's unflagged calibration from all its repetitions (the peers' too) against
   every other's: two calibrations further apart than their uncertainties allow
-  (``cone_a + cone_b``: each cone covers its own error at its level, so two calibrations of one
-  mounting lie within their sum; a peer has no uncertainty of its own and is allowed the widest
-  of aceval's on that unit) disagree, and a calibration that disagrees with more than half of the
+  (``sqrt(cone_a^2 + cone_b^2)``: each cone bounds its own error, and two methods' errors on the
+  same recordings share their z0 and their samples, so they are not negatively correlated and
+  their difference is at most as wide as the two in quadrature; a peer has no uncertainty of its
+  own and is allowed the widest of aceval's on that unit) disagree, and a calibration that disagrees with more than half of the
   others is flagged ``methods_disagree`` (two methods that disagree are both flagged; of many, the
   outliers). ``methods_spread_deg``: its largest angle to another method's calibration.
 * :func:`decision_table`: per IMU, the calibration to use: of its unflagged calibrations from all
@@ -33,11 +34,12 @@ from aceval.calibrate.table import (
 )
 from aceval.data.rotations import error_angle_deg
 from aceval.methods import registry
+from aceval.methods.uncertainty import UNDETERMINED_CONE_DEG
 
 #: the uncertainty of a calibration (deg): the cone column of :mod:`aceval.methods.uncertainty`
 CONE = "cone_deg"
 #: beyond this uncertainty (deg) a calibration's heading is not determined: it is not used
-MAX_CONE_DEG = 90.0
+MAX_CONE_DEG = UNDETERMINED_CONE_DEG
 #: the IMU of a decision
 IMU_KEY = ["subject", "sensor_set", "imu"]
 DECISION_COLUMNS = [
@@ -83,7 +85,7 @@ def flag_disagreements(calibrations: pd.DataFrame) -> pd.DataFrame:
         peer = unit["method"].map(lambda m: registry.method(m).peer is not None).to_numpy()
         widest = np.nanmax(own[~peer]) if np.isfinite(own[~peer]).any() else np.nan
         own = np.where(peer & ~np.isfinite(own), widest, own)
-        apart = angles > own[:, None] + own[None, :]  # NaN allowance: not judged
+        apart = angles > np.hypot(own[:, None], own[None, :])  # NaN allowance: not judged
         np.fill_diagonal(angles, np.nan)
         spread[unit.index] = np.nanmax(angles, axis=1)
         disagree[unit.index] = apart.sum(axis=1) > (len(unit) - 1) / 2
