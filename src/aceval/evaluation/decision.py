@@ -3,13 +3,14 @@ papers.
 
 * :func:`flag_disagreements`: the methods agree, or say so. Per calibration unit (one IMU in one
   test), every method's unflagged calibration from all its repetitions (the peers' too) against
-  every other's: two calibrations further apart than their uncertainties allow
-  (``sqrt(cone_a^2 + cone_b^2)``: each cone bounds its own error, and two methods' errors on the
-  same recordings share their z0 and their samples, so they are not negatively correlated and
-  their difference is at most as wide as the two in quadrature; a peer has no uncertainty of its
-  own and is allowed the widest of aceval's on that unit) disagree, and a calibration that disagrees with more than half of the
-  others is flagged ``methods_disagree`` (two methods that disagree are both flagged; of many, the
-  outliers). ``methods_spread_deg``: its largest angle to another method's calibration.
+  every other's: two calibrations further apart than their uncertainties allow (``sqrt(cone_a^2 +
+  cone_b^2)``: each cone bounds its own error, and two methods' errors on the same recordings
+  share their z0 and their samples, so they are not negatively correlated and their difference is
+  at most as wide as the two in quadrature; a peer has no uncertainty of its own and is allowed
+  the widest of aceval's on that unit) disagree, and a calibration that disagrees with more than
+  half of the others is flagged ``methods_disagree`` (two methods that disagree are both flagged;
+  of many, the outliers). ``methods_spread_deg``: its largest angle to another method's
+  calibration.
 * :func:`decision_table`: per IMU, the calibration to use: of its unflagged calibrations from all
   repetitions (every method, every test that calibrates it) with an uncertainty measured on the
   recording (a peer has none: it is a cross-check, chosen only where nothing else is unflagged,
