@@ -371,25 +371,50 @@ def best_tests(calibrations: pd.DataFrame) -> pd.DataFrame:
 
 #: a ground truth disagreeing by more than this with most IMUs' calibrations is suspect
 SUSPECT_TRUTH_DEG = 90.0
+#: an IMU whose calibrations are all farther than this from the truth (deg), about a horizontal
+#: axis (the error's vertical share below :data:`REVERSED_MAX_VERTICAL_SHARE`), shows the
+#: signature of an accelerometer read with the other sign: z0 and the forward axis turned over,
+#: y kept by the declared right axis (180 deg about the body's right axis)
+REVERSED_ACC_DEG = 150.0
+REVERSED_MAX_VERTICAL_SHARE = 0.3
 
 
 def truth_warning(calibrations: pd.DataFrame) -> str:
-    """A warning when, for most IMUs with a ground truth, the median error of their valid
-    calibrations from all repetitions (:func:`full_set_errors`) exceeds 90 deg: a transposed
-    matrix (sensor <- body instead of body <- sensor) or rows given to the wrong IMUs is likelier
-    than a method that far off. '' otherwise.
+    """Warnings (lines) from the median error of each IMU's valid calibrations from all
+    repetitions (:func:`full_set_errors`): IMUs about 180 deg off about a horizontal axis
+    (:data:`REVERSED_ACC_DEG`: an accelerometer read with the other sign; named, however few),
+    and, when most IMUs are more than 90 deg off otherwise, a transposed matrix (sensor <- body
+    instead of body <- sensor) or rows given to the wrong IMUs, likelier than a method that far
+    off. '' when neither.
     """
     if "error_deg" not in calibrations:
         return ""
     data = full_set_errors(calibrations)
-    per_imu = data.groupby(["subject", "sensor_set", "imu"])["error_deg"].median()
-    if per_imu.empty or (per_imu > SUSPECT_TRUTH_DEG).mean() <= 0.5:
+    grouped = data.groupby(["subject", "sensor_set", "imu"])
+    per_imu = grouped["error_deg"].median()
+    if per_imu.empty:
         return ""
-    return (
-        f"WARNING: for {int((per_imu > SUSPECT_TRUTH_DEG).sum())} of {len(per_imu)} IMUs every method "
-        f"is more than {SUSPECT_TRUTH_DEG:g} deg from ground_truth.tsv: is the truth transposed (R must "
-        f"map sensor to body, d_body = R d_sensor) or given to the wrong IMUs?"
-    )
+    share = grouped["error_vertical_share"].median()
+    reversed_ = (per_imu > REVERSED_ACC_DEG) & (share < REVERSED_MAX_VERTICAL_SHARE)
+    lines = []
+    if reversed_.any():
+        names = ", ".join(" ".join(map(str, key)) for key in reversed_.index[reversed_][:6])
+        more = " ..." if reversed_.sum() > 6 else ""
+        lines.append(
+            f"WARNING: for {int(reversed_.sum())} of {len(per_imu)} IMUs ({names}{more}) every "
+            f"method is more than {REVERSED_ACC_DEG:g} deg from ground_truth.tsv, turned about a "
+            "horizontal axis: the signature of an accelerometer read with the other sign. Does "
+            "it read up at rest (specific force: dataset.yaml acc_at_rest: up, the default) or "
+            "down (gravity: acc_at_rest: down)? Or is one sensor's accelerometer reversed?"
+        )
+    far = (per_imu > SUSPECT_TRUTH_DEG) & ~reversed_
+    if far.mean() > 0.5:
+        lines.append(
+            f"WARNING: for {int(far.sum())} of {len(per_imu)} IMUs every method is more than "
+            f"{SUSPECT_TRUTH_DEG:g} deg from ground_truth.tsv: is the truth transposed (R must "
+            "map sensor to body, d_body = R d_sensor) or given to the wrong IMUs?"
+        )
+    return "\n".join(lines)
 
 
 #: the marker-frame truth is used only where both its own checks pass (:func:`marker_frame_usable`):

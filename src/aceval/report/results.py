@@ -17,14 +17,25 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from aceval.data.contract import R_COLUMNS, file_problem
+from aceval.data.errors import InputError
 from aceval.data.safety import FileSet, atomic_file
 from aceval.report.outputs import Output, outputs_of
 
+#: the name columns of aceval's tables, read as text: a subject '001' stays '001' (a CSV reader
+#: left to guess reads the number 1, and '1' and '01' become one subject)
+NAME_DTYPES = {c: str for c in ("subject", "sensor_set", "imu", "imu_b", "test", "segment", "side")}
+#: the columns a calibrations table (of `aceval calibrate`, or a peer's) must have
+CALIBRATION_TABLE_COLUMNS = ["subject", "sensor_set", "imu", "test", "repetitions", "n_reps"]
+CALIBRATION_TABLE_COLUMNS += ["method", *R_COLUMNS, "flag"]
 
-def read_tables(paths, keep: Callable | None = None) -> pd.DataFrame | None:
+
+def read_tables(paths, keep: Callable | None = None, required=()) -> pd.DataFrame | None:
     """The CSV tables at ``paths`` concatenated (an empty file, e.g. a subject with nothing to
     calibrate, is skipped but keeps its columns when all are empty); None for no paths. ``keep``:
-    a table -> its rows to hold, applied file by file (memory holds no more).
+    a table -> its rows to hold, applied file by file (memory holds no more). The name columns
+    are read as text (:data:`NAME_DTYPES`). InputError naming the file and the cause when one is
+    missing, not a CSV table, or lacks one of the ``required`` columns.
 
     Each file is parsed in one piece (``low_memory=False``): one type per column from the whole
     file, and no chunk arrays left to fragment the heap (at 200 subjects the correlations held
@@ -34,10 +45,21 @@ def read_tables(paths, keep: Callable | None = None) -> pd.DataFrame | None:
         return None
     parts = []
     for path in paths:
+        if problem := file_problem(path):
+            raise InputError(f"{path}: {problem}")
         try:
-            part = pd.read_csv(path, low_memory=False)
+            part = pd.read_csv(path, low_memory=False, dtype=NAME_DTYPES)
         except pd.errors.EmptyDataError:
             continue
+        except (UnicodeDecodeError, pd.errors.ParserError, ValueError) as exc:
+            cause = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise InputError(f"{path}: cannot be read as a CSV table ({cause})") from None
+        missing = [c for c in required if c not in part.columns]
+        if missing:
+            raise InputError(
+                f"{path}: missing column(s) {', '.join(missing)}: not a table of the kind this "
+                f"option takes (the columns are {', '.join(map(str, part.columns))[:80]!r})"
+            )
         parts.append(keep(part) if keep is not None and len(part) else part)
     non_empty = [p for p in parts if len(p)] or parts[:1]
     return pd.concat(non_empty, ignore_index=True) if non_empty else pd.DataFrame()
@@ -84,7 +106,9 @@ def ground_truth_sheet(root) -> pd.DataFrame | None:
     path = Path(root) / "ground_truth.tsv"
     if not path.is_file():
         return None
-    return pd.read_csv(path, sep="\t").set_index(["subject", "sensor_set", "imu"])
+    return pd.read_csv(path, sep="\t", dtype=NAME_DTYPES).set_index(
+        ["subject", "sensor_set", "imu"]
+    )
 
 
 def build_data(
