@@ -538,9 +538,9 @@ CASES = [
         "two rows pointing at one file",
         lambda lab: edit(lab / "recordings.tsv", "T1_R2_IMU2.csv", "T1_R1_IMU2.csv"),
         validate,
-        0,
+        1,
         ("recordings.tsv line", "also the file of line"),
-        "warning",
+        "error",
     ),
     Case(
         "duplicate ground-truth rows",

@@ -250,7 +250,7 @@ def _calibrate_into(args, dataset, files) -> int:
     unusable = summaries[summaries["flag"] != ""] if len(summaries) else summaries
     for message in unusable.get("message", []):
         print(f"aceval calibrate: left out {message}", file=sys.stderr)
-    sensors = imu_checks(dataset, summaries) if len(summaries) else {}
+    sensors = imu_checks(dataset, summaries, pairs) if len(summaries) else {}
     calibrations, axes = (
         calibrate(dataset, summaries, args.subsets, retest_k=args.retest_k, sensors=sensors)
         if len(summaries)

@@ -394,7 +394,7 @@ def _check_calibrates(calibrates, tests, imu_names, report: ValidationReport) ->
 
 def _unique_recordings(recordings: pd.DataFrame, report: ValidationReport) -> pd.DataFrame:
     """recordings.tsv with ``rep`` as a number ('01' and '1' are one repetition), a repeated
-    recording an error (the first kept), a file serving two recordings a warning.
+    recording an error (the first kept), and a file serving two recordings an error.
     """
     recordings = recordings.assign(
         rep=pd.to_numeric(recordings["rep"], errors="coerce").astype("Int64")
@@ -412,10 +412,11 @@ def _unique_recordings(recordings: pd.DataFrame, report: ValidationReport) -> pd
     same_file = recordings["path"].map(os.path.normpath)
     for index in recordings.index[same_file.duplicated(keep="first")]:
         first = recordings.index[same_file == same_file[index]][0]
-        report.warning(
+        report.error(
             f"recordings.tsv {_line(index)}",
             f"path {recordings.loc[index, 'path']!r} is also the file "
-            f"of {_line(first)}: one file serves two recordings",
+            f"of {_line(first)}: one file serves two recordings (one sensor's samples would "
+            "count for another sensor, or twice); give each recording its own file",
         )
     return recordings
 
