@@ -38,6 +38,7 @@ from aceval.data.contract import (
 from aceval.data.names import check_names, subject_key, unique_subjects
 from aceval.data.names import sheet_line as _line
 from aceval.data.recording_checks import (
+    as_recording,
     check_header,
     check_recording,
     known_recordings,
@@ -173,9 +174,7 @@ class Dataset:
                 f"{int(bad.sum())} rows with NaN, inf or non-numeric values "
                 f"(first at {position(path, int(np.flatnonzero(bad)[0]))})",
             )
-        return Recording(
-            values[:, 0], values[:, 1:4] * self.acc_scale, values[:, 4:7] * self.gyr_scale, full
-        )
+        return as_recording(values, self.acc_scale, self.gyr_scale, full)
 
     def ground_truth_matrix(self, subject: str, sensor_set: str, imu: str) -> np.ndarray | None:
         """The true R (3x3, sensor -> body) of an IMU from ground_truth.tsv; None without one."""

@@ -54,9 +54,16 @@ def read_checked(dataset, row, report: ValidationReport) -> Recording | None:
     check_values(dataset, row, values, report)
     if len(report.errors) > errors:
         return None
-    return Recording(
-        values[:, 0], values[:, 1:4] * dataset.acc_scale, values[:, 4:7] * dataset.gyr_scale, path
-    )
+    return as_recording(values, dataset.acc_scale, dataset.gyr_scale, path)
+
+
+def as_recording(values: np.ndarray, acc_scale: float, gyr_scale: float, path) -> Recording:
+    """The :class:`Recording` of a file's (N, 7) values, converted to SI in place: its t, acc
+    and gyr are views of the one array (a long recording is held once, not three times).
+    """
+    values[:, 1:4] *= acc_scale
+    values[:, 4:7] *= gyr_scale
+    return Recording(values[:, 0], values[:, 1:4], values[:, 4:7], path)
 
 
 def check_recording(dataset, row, report: ValidationReport) -> None:
@@ -291,17 +298,21 @@ def plateau_limit(signal: np.ndarray, run: int = PLATEAU_RUN) -> float | None:
     """The |value| (in the signal's units) at which an (N, 3) signal is clipped, found from the data
     alone: the largest |value| of an axis held for ``run`` or more consecutive samples (a smooth
     signal passes its peak in one sample; a clipped one sits on the rail). The lowest such level over
-    the axes, or None when no axis has a plateau at its extreme.
+    the axes, or None when no axis has a plateau at its extreme. Axis by axis, from the runs of
+    samples at the peak (a few bytes per sample).
     """
-    magnitude = np.abs(np.asarray(signal, dtype=float))
-    if len(magnitude) < run:
+    signal = np.asarray(signal, dtype=float)
+    if len(signal) < run:
         return None
-    peak = magnitude.max(axis=0)
-    at_peak = magnitude >= peak * (1 - 1e-9)
-    # a window of ``run`` samples all at the peak <=> a plateau (window sums from a cumulative sum)
-    count = np.concatenate([np.zeros((1, magnitude.shape[1]), int), np.cumsum(at_peak, axis=0)])
-    clipped = ((count[run:] - count[:-run]) == run).any(axis=0) & (peak > 0)
-    return float(peak[clipped].min()) if clipped.any() else None
+    levels = []
+    for k in range(signal.shape[1]):
+        magnitude = np.abs(signal[:, k])
+        peak = magnitude.max()
+        at_peak = (magnitude >= peak * (1 - 1e-9)).astype(np.int8)
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], at_peak, [0]])))
+        if peak > 0 and (edges[1::2] - edges[::2]).max(initial=0) >= run:
+            levels.append(float(peak))
+    return min(levels) if levels else None
 
 
 def known_recordings(dataset) -> pd.DataFrame:

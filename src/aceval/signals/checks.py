@@ -95,18 +95,35 @@ THIRD_MOMENT_COLUMNS = ["w3_" + "".join("xyz"[a] for a in t) for t in _TRIPLES]
 _TENSOR_ENTRIES = [(v, *p) for v, t in enumerate(_TRIPLES) for p in set(itertools.permutations(t))]
 
 
+#: samples per chunk of :func:`agreement_moments`: its windows are summed chunk by chunk, so its
+#: memory is bounded by a chunk, whatever the recording's length (one chunk up to 33 min at 100 Hz)
+CHUNK_SAMPLES = 200_000
+
+
 def agreement_moments(acc: np.ndarray, gyr: np.ndarray, fs_hz: float) -> dict:
     """Sums over the slow-motion windows of one recording (columns ``AGREEMENT_COLUMNS``): the
     cross-moment C = sum (Delta x a) r^T (3x3), sum |Delta x a|^2, sum |r|^2 and the summed
-    direction change (deg). ``acc`` m/s^2, ``gyr`` rad/s, both (N, 3).
+    direction change (deg). ``acc`` m/s^2, ``gyr`` rad/s, both (N, 3). Long recordings are
+    summed in chunks of :data:`CHUNK_SAMPLES` windows (each read with the samples around it
+    that its windows and filters reach).
     """
     k = max(1, int(round(WINDOW_S * fs_hz)))
-    zero = dict.fromkeys(AGREEMENT_COLUMNS, 0.0)
-    if len(acc) <= k:
-        return zero
+    total = np.zeros(len(AGREEMENT_COLUMNS))
+    n_windows, halo = len(acc) - k, 2 * k + 2
+    for first in range(0, max(n_windows, 0), CHUNK_SAMPLES):
+        last = min(n_windows, first + CHUNK_SAMPLES)
+        lo, hi = max(0, first - halo), min(len(acc), last + k + halo)
+        total += _window_sums(acc[lo:hi], gyr[lo:hi], fs_hz, k, first - lo, last - lo)
+    return dict(zip(AGREEMENT_COLUMNS, total.tolist()))
+
+
+def _window_sums(acc, gyr, fs_hz: float, k: int, first: int, last: int) -> np.ndarray:
+    """:func:`agreement_moments`' sums (in ``AGREEMENT_COLUMNS`` order) over the windows of
+    ``k`` samples starting at ``first`` to ``last`` (exclusive) of the samples given.
+    """
     norm = np.linalg.norm(acc, axis=1)
     direction = acc / np.where(norm > 0, norm, 1.0)[:, None]
-    start = np.arange(len(acc) - k)
+    start = np.arange(first, last)
     cumulative = np.vstack([np.zeros(3), np.cumsum(gyr, axis=0) / fs_hz])
     rotation = (cumulative[k:] - cumulative[:-k])[start]  # rad, over [start, start + k)
     deviation = maximum_filter1d(np.abs(norm - GRAVITY), k + 1, origin=-(k // 2))[start]
@@ -129,15 +146,10 @@ def agreement_moments(acc: np.ndarray, gyr: np.ndarray, fs_hz: float) -> dict:
         & (size_ratio > SIZE_RATIO_BAND[0])
         & (size_ratio < SIZE_RATIO_BAND[1])
     )
-    if not slow.any():
-        return zero
     seen, r = seen[slow], rotation[slow]
-    out = dict(zip(AGREEMENT_COLUMNS[:9], (seen.T @ r).ravel()))
-    return out | {
-        "ga_ww": float(np.sum(seen * seen)),
-        "ga_rr": float(np.sum(r * r)),
-        "ga_turn_deg": float(turn[slow].sum()),
-    }
+    return np.concatenate(
+        [(seen.T @ r).ravel(), [np.sum(seen * seen), np.sum(r * r), turn[slow].sum()]]
+    )
 
 
 def gyro_acc_agreement(summed: np.ndarray) -> tuple[float, float]:
