@@ -22,6 +22,7 @@ staging folders and temporary files runs (:func:`exit_cleanly_on_sigterm`).
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import os
 import re
@@ -210,7 +211,8 @@ def staged_folder(out: str | Path, force: bool, write) -> None:
     claim(out)
     staging = new_temporary(out, folder=True)
     try:
-        write(staging)
+        with naming(out):
+            write(staging)
         (staging / MARKER).write_text("written by aceval; `--force` may replace this folder\n")
         if out.exists():
             shutil.rmtree(out)
@@ -252,10 +254,24 @@ def atomic_file(path: str | Path, write) -> None:
     claim(path)
     tmp = new_temporary(path)
     try:
-        write(tmp)
+        with naming(path):
+            write(tmp)
         tmp.replace(path)
     finally:
         release(tmp)
+
+
+@contextlib.contextmanager
+def naming(output: Path):
+    """An OSError that names no file (a write failing on a full disk) is said to be about
+    ``output``, the output being written.
+    """
+    try:
+        yield
+    except OSError as exc:
+        if exc.filename is None:
+            exc.filename = str(output)
+        raise
 
 
 def check_writable(folders) -> None:
@@ -399,7 +415,8 @@ class FileSet:
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         self.staged[path] = self.temporary(path)
-        write(self.staged[path])
+        with naming(path):
+            write(self.staged[path])
 
     def __enter__(self) -> FileSet:
         return self
