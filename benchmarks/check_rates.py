@@ -10,6 +10,8 @@ calibrate --subsets full` does, and each flag is counted: on how many IMUs (subj
 fires on at least one calibration, and on how many calibrations. On the simulated datasets every
 flag is a false alarm; on the real ones a flag may be a real defect (the count is what a user sees).
 
+``signal-defects``: as ``defects``, the checks of a sensor's signals only (:func:`signal_defects`).
+
 ``signals``: per recording of each dataset, the stuck-channel and spike checks as it is and with
 a channel stuck or a spike put in (:func:`signals`).
 
@@ -337,7 +339,7 @@ def signals(roots: list[str]) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("mode", choices=["clean", "defects", "signals"])
+    parser.add_argument("mode", choices=["clean", "defects", "signal-defects", "signals"])
     parser.add_argument("datasets", nargs="*")
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--repetitions", type=int, nargs="+", default=[3, 5])
@@ -360,7 +362,15 @@ def main() -> None:
                      "--seed", str(seed)],
                     check=True, capture_output=True,
                 )  # fmt: skip
-                defects(root, counts, found)
+                if args.mode == "defects":
+                    defects(root, counts, found)
+                else:  # the checks of a sensor's signals only (their defects need no calibration)
+                    dataset = load_dataset(root)
+                    summaries, pairs = reduced_of(dataset)
+                    checks = imu_checks(dataset, summaries, pairs)
+                    for verdict in checks.values():
+                        _caught(counts, "clean IMUs (no flag expected)", verdict["flag"] != "")
+                    signal_defects(dataset, summaries, pairs, checks, counts)
     rows = [
         {"defect": name, "caught": f"{counts[name + ' caught']}/{counts[name]}",
          "flags": ", ".join(sorted(found.get(name, set())))}

@@ -1090,9 +1090,7 @@ def test_sigterm_leaves_no_partial_output(tmp_path):
         stderr=subprocess.PIPE,
     )
     deadline = time.time() + 30
-    while time.time() < deadline and not any(
-        p.name.endswith(".sim") for p in tmp_path.iterdir()
-    ):
+    while time.time() < deadline and not any(p.name.endswith(".sim") for p in tmp_path.iterdir()):
         time.sleep(0.05)  # wait until the staging folder exists
     assert any(p.name.endswith(".sim") for p in tmp_path.iterdir()), (
         "simulate never started writing"

@@ -3,16 +3,20 @@
 Raw recordings are only ever read. Every command's outputs are checked before anything is written:
 
 * no output may be, or lie inside, an input dataset or source folder, and a folder output may not
-  contain one (replacing it would delete the input);
+  contain one (replacing it would delete the input); the same against every recording of an
+  input dataset by its resolved path (:func:`check_recordings`: a data folder linked from
+  elsewhere counts where it is), and against the command's other outputs
+  (:func:`check_distinct`); a folder output may not be a symbolic link;
 * a folder output (``simulate``, ``import``, ``apply``) is written into a hidden staging folder
   beside it and moved into place when complete, with a marker file :data:`MARKER`; ``--force``
   replaces an existing non-empty folder only when it holds that marker, i.e. aceval wrote it;
 * a file output is written to a hidden temporary file and renamed into place; the files of one
   command (``calibrate``'s nine) are staged together and renamed into place together when all are
   written (:class:`FileSet`), so a failed or stopped run leaves none of them;
-* every output folder is checked for writing before the work (:func:`check_writable`), and the
-  leftovers of a killed run (its hidden temporaries, named with its process id) are removed by the
-  next run that writes the same output;
+* every output folder is checked for writing before the work (:func:`check_writable`); a run's
+  hidden temporaries are named for their output in full and locked by the run while it lives
+  (:func:`new_temporary`): the next run writing the same output removes a dead run's leftovers
+  and refuses to write beside a live one (:func:`claim`), and touches no other output's;
 * a relative path read from a sheet (``recordings.tsv``) must stay inside its dataset, and every
   file written under an output folder must land inside it (:func:`contained`).
 
