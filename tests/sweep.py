@@ -233,9 +233,10 @@ def judged(
     sensor_set: str = "frontal",
 ) -> str:
     """A calibrate run on a broken copy: ``flag`` when every calibration of ``imus`` (``method``,
-    from all repetitions) carries one of ``flags`` or the IMU was left out with its reason on
-    screen (``says``); ``correct`` when its numbers are those of the clean copy (within
-    :data:`WRONG_DEG`); ``silent_wrong`` otherwise.
+    from all repetitions) carries one of ``flags``, or the IMU was left out with its reason on
+    screen (``says``), or each of its calibrations that is farther than :data:`WRONG_DEG` from
+    the clean copy's is flagged (by any check); ``correct`` when its numbers are those of the
+    clean copy; ``silent_wrong`` when an unflagged one is not.
     """
     if result.code is None:
         return "hang"
@@ -259,8 +260,10 @@ def judged(
         merged = rows.merge(reference, on=key, suffixes=("", "_clean"))
         for _, row in merged.iterrows():
             clean_R = row[[f"{c}_clean" for c in R_COLUMNS]].to_numpy(float).reshape(3, 3)
-            if row["flag"] == "" and angle_deg(matrix(row), clean_R) > WRONG_DEG:
-                return "silent_wrong"
+            if angle_deg(matrix(row), clean_R) > WRONG_DEG:
+                if row["flag"] == "":
+                    return "silent_wrong"
+                outcome = "flag"  # wrong, but flagged (by whichever check)
     return outcome
 
 
@@ -380,9 +383,11 @@ def _(ws, tmp):
 
 
 def spike(table: pd.DataFrame, g: float) -> pd.DataFrame:
-    """One sample of ``g`` g on acc_x, where the segment turns fastest (inside the movement)."""
+    """One sample of ``g`` g on acc_y (IMU4's declared right axis: out of the plane of its
+    movement, where one sample turns Kong's plane most), where the segment turns fastest (inside
+    the movement)."""
     table = table.copy()
-    table.loc[int(np.argmax(np.linalg.norm(table[GYR].to_numpy(float), axis=1))), "acc_x"] = g
+    table.loc[int(np.argmax(np.linalg.norm(table[GYR].to_numpy(float), axis=1))), "acc_y"] = g
     return table
 
 

@@ -8,9 +8,10 @@ import pandas as pd
 import pytest
 from scipy.spatial.transform import Rotation
 
+from aceval.data.contract import R_COLUMNS
 from aceval.data.errors import StuckChannelError
 from aceval.data.recording_checks import acc_spikes, plateau_limit, stuck_channel
-from aceval.evaluation.methods_comparison import truth_warning
+from aceval.evaluation.methods_comparison import truth_warning, with_truth
 from aceval.signals.checks import (
     GYRO_BIAS_LIMIT_DEG_S,
     REST_GYRO_COLUMNS,
@@ -127,11 +128,29 @@ def test_two_sensors_of_a_segment_agree_on_the_accelerometer_sign_unless_one_is_
 
 
 def test_the_truth_warning_names_a_reversed_accelerometer_however_few():
-    rows = []
-    for imu, error, share in (("IMU2", 2.0, 0.5), ("IMU4", 178.0, 0.02), ("IMU5", 3.0, 0.4)):
-        rows.append({"subject": "S1", "sensor_set": "frontal", "imu": imu, "test": "T3",
-                     "method": "kong", "n_reps": 3, "repetitions": "R1+R2+R3", "flag": "",
-                     "error_deg": error, "error_vertical_share": share})  # fmt: skip
-    warning = truth_warning(pd.DataFrame(rows))
+    """One IMU's calibrations are its truth turned 180 deg about the body's right axis (what an
+    accelerometer read with the other sign gives): named, and a transposed truth not blamed; a
+    transposed truth is still told as such."""
+    axes = np.array([[0.6, 0.0, 0.8], [0.0, 0.6, -0.8], [0.8, -0.6, 0.0]])
+    mounts = Rotation.from_rotvec(np.radians([[60.0], [70.0], [80.0]]) * axes).as_matrix()
+    truths = dict(zip(["IMU2", "IMU4", "IMU5"], mounts))  # transposed: 120-160 deg off
+    truth = pd.DataFrame(
+        [{"subject": "S1", "sensor_set": "frontal", "imu": imu, **dict(zip(R_COLUMNS, R.ravel()))}
+         for imu, R in truths.items()]
+    ).set_index(["subject", "sensor_set", "imu"])  # fmt: skip
+
+    def table(estimate) -> pd.DataFrame:
+        rows = [
+            {"subject": "S1", "sensor_set": "frontal", "imu": imu, "test": "T3", "method": m,
+             "n_reps": 3, "repetitions": "R1+R2+R3", "flag": "",
+             **dict(zip(R_COLUMNS, estimate(imu, R).ravel()))}
+            for imu, R in truths.items() for m in ("kong", "triad")
+        ]  # fmt: skip
+        return with_truth(pd.DataFrame(rows), truth)
+
+    one = table(lambda imu, R: np.diag([-1.0, 1.0, -1.0]) @ R if imu == "IMU4" else R)
+    warning = truth_warning(one, truth)
     assert "S1 frontal IMU4" in warning and "acc_at_rest" in warning
-    assert "transposed" not in warning
+    assert "IMU2" not in warning and "transposed" not in warning
+    assert truth_warning(table(lambda imu, R: R), truth) == ""
+    assert "transposed" in truth_warning(table(lambda imu, R: R.T), truth)

@@ -272,7 +272,8 @@ def _calibrate_into(args, dataset, files) -> int:
         )
     _write_calibrate_outputs(args, files, tables, report, dataset)
     _say_findings(report, sensors)
-    print(calibration_screen(calibrations, len(unusable), args.out), file=sys.stderr)
+    screen = calibration_screen(calibrations, len(unusable), args.out, dataset.ground_truth)
+    print(screen, file=sys.stderr)
     return 0
 
 

@@ -126,7 +126,8 @@ def build_data(
     """The ``data`` dict the builders read: the tidy tables (the ``peers``' calibrations joined
     to aceval's, through every gate aceval's rows pass (:func:`aceval.evaluation.peer_gates.
     gate_peers`: ``recordings``, the one pass's summaries, for their direction vote) and with
-    their error to the ground truth), the dataset's truth and reference sheets,
+    their error to the ground truth), the dataset's truth (``ground_truth``) and
+    reference sheets,
     its ``paper_names`` (this dataset's test names -> the paper's), sensor sets and Obj 4's k;
     ``retest_units``: aceval's methods' test-retest units, computed per subject
     (:func:`aceval.evaluation.methods_comparison.retest_units`; None: from the calibrations).
@@ -137,6 +138,7 @@ def build_data(
     from aceval.evaluation.peer_gates import gate_peers
 
     meta = dataset_meta(root)
+    truth = ground_truth_sheet(root)
     if peers is not None and len(peers):
         dataset = load_dataset(root)
         peers = gate_peers(
@@ -154,7 +156,7 @@ def build_data(
             calibrations.drop(columns=errors, errors="ignore").assign(
                 error_deg=np.nan, error_vertical_share=np.nan
             ),
-            ground_truth_sheet(root),
+            truth,
         )
     if calibrations is not None and len(calibrations):
         calibrations = flag_disagreements(calibrations)
@@ -165,6 +167,7 @@ def build_data(
         "correlations": correlations,
         "angles": angles,
         "retest_units": retest_units,
+        "ground_truth": truth,
         "truth_method": dataset_sheet(root, "ground_truth_method.tsv"),
         "loose_reference": dataset_sheet(root, "loose_reference.tsv"),
         "sensor_sets": list(meta["sensor_sets"])[:2],
@@ -271,7 +274,8 @@ def summary_text(tables: dict, analyses: list[str], data: dict, notes: list[str]
     meta = data["meta"]
     calibrations = data.get("calibrations") if "kong" in analyses else None
     notes = [f"- {line}" for line in notes if line]
-    if calibrations is not None and (warning := truth_warning(calibrations)):
+    truth = data.get("ground_truth")
+    if calibrations is not None and (warning := truth_warning(calibrations, truth)):
         notes.append(f"- {warning}")
     return summary.to_markdown(
         summary.claims(tables, data),
