@@ -862,23 +862,25 @@ def count_files(folder: Path) -> int:
     "simulate --out res.4000000 (a pid no process has) and --out res side by side",
 )
 def _(ws, tmp):
-    first = subprocess.Popen(
-        [sys.executable, "-m", "aceval", "simulate", "box", "--out", str(tmp / "res.4000000")],
+    first = subprocess.Popen(  # a Kong simulation: still writing when the second one starts
+        [sys.executable, "-m", "aceval", "simulate", "kong", "--subjects", "1", "--out",
+         str(tmp / "res.4000000")],
         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
     deadline = time.time() + 60
     while time.time() < deadline and not [p for p in tmp.iterdir() if p.name.startswith(".")]:
         time.sleep(0.02)  # until the first has its staging folder
     second = aceval("simulate", "box", "--out", tmp / "res")
-    first.wait(timeout=300)
-    reference = aceval("simulate", "box", "--out", tmp / "reference")
-    expected = count_files(tmp / "reference")
+    first.wait(timeout=600)
+    made = [
+        aceval("simulate", "kong", "--subjects", 1, "--out", tmp / "kong").code,
+        aceval("simulate", "box", "--out", tmp / "box").code,
+    ]
     if second.traceback or "Traceback" in first.stderr.read():
         return "traceback"
-    complete = [
-        count_files(tmp / n) == expected for n in ("res.4000000", "res") if (tmp / n).is_dir()
-    ]
-    return "correct" if reference.code == 0 and complete == [True, True] else "partial"
+    expected = {"res.4000000": count_files(tmp / "kong"), "res": count_files(tmp / "box")}
+    complete = [count_files(tmp / n) == expected[n] for n in expected if (tmp / n).is_dir()]
+    return "correct" if made == [0, 0] and complete == [True, True] else "partial"
 
 
 @case("partial or lost outputs", "correct", "kill -9 of a run writing out.1, then --out out")

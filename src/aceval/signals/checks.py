@@ -522,14 +522,23 @@ def acc_sign_agreement(pairs: pd.DataFrame) -> dict[tuple[str, str, str], float]
     return out
 
 
+#: the accelerometer-sign agreement of two sensors of a segment is judged when it is at least
+#: this far from 0 (:func:`acc_sign_agreement`): it rests on the motion out of the sagittal plane,
+#: which the head of Kong's protocol barely has (-0.0004 to 0.022 on the six 1-subject
+#: simulations of benchmarks/check_rates.py, the other IMUs 0.05 or more)
+ACC_SIGN_MIN_AGREEMENT = 0.03
+
+
 def acc_sign_problem(agreement: float) -> str:
-    """'' when the two sensors of a segment agree on the accelerometer's sign (or there is no
-    pair), else the cause.
+    """'' when the two sensors of a segment agree on the accelerometer's sign, when there is no
+    pair, or too little motion out of the plane to tell (:data:`ACC_SIGN_MIN_AGREEMENT`); else
+    the cause.
     """
-    if not agreement < 0:
+    if not agreement < -ACC_SIGN_MIN_AGREEMENT:
         return ""
     return (
         "its accelerometer and that of the other sensor on the segment (the other sensor set) "
-        f"disagree on the sign of gravity (agreement {agreement:.2f} < 0): one of them reads it "
-        "reversed (dataset.yaml acc_at_rest, or that sensor's export)"
+        f"disagree on the sign of gravity (agreement {agreement:.2f} < "
+        f"-{ACC_SIGN_MIN_AGREEMENT:g}): one of them reads it reversed (dataset.yaml "
+        "acc_at_rest, or that sensor's export)"
     )
