@@ -441,26 +441,21 @@ def _(ws, tmp):
     return apply_judged(ws, tmp, lab, out, "IMU4")
 
 
-@case("silent wrong numbers", "warning", "the full-set row deleted by hand, apply")
-def _(ws, tmp):
-    lab = ws.copy("kong", tmp)
-    table = calibrations(ws.clean_calibrations("kong"))
-    full = full_sets(table)
-    drop = full[(full["imu"] == "IMU4") & (full["sensor_set"] == "frontal")].index
-    edited = tmp / "edited.csv"
-    table.drop(index=drop).to_csv(edited, index=False)
-    return apply_judged(ws, tmp, lab, edited, "IMU4", ("IMU4", "--allow-subset"))
+for _extra, _says in (((), ("IMU4", "--allow-subset")), (("--allow-subset",), ("IMU4", "subset"))):
 
-
-@case("silent wrong numbers", "warning", "the full-set row deleted by hand, apply --allow-subset")
-def _(ws, tmp):
-    lab = ws.copy("kong", tmp)
-    table = calibrations(ws.clean_calibrations("kong"))
-    full = full_sets(table)
-    drop = full[(full["imu"] == "IMU4") & (full["sensor_set"] == "frontal")].index
-    edited = tmp / "edited.csv"
-    table.drop(index=drop).to_csv(edited, index=False)
-    return apply_judged(ws, tmp, lab, edited, "IMU4", ("IMU4", "subset"), "--allow-subset")
+    @case(
+        "silent wrong numbers",
+        "warning",
+        f"the full-set row deleted by hand, apply {' '.join(_extra)}".strip(),
+    )
+    def _(ws, tmp, extra=_extra, says=_says):
+        lab = ws.copy("kong", tmp)
+        table = calibrations(ws.clean_calibrations("kong"))
+        full = full_sets(table)
+        drop = full[(full["imu"] == "IMU4") & (full["sensor_set"] == "frontal")].index
+        edited = tmp / "edited.csv"
+        table.drop(index=drop).to_csv(edited, index=False)
+        return apply_judged(ws, tmp, lab, edited, "IMU4", says, *extra)
 
 
 for _g in (16.0, 8.0):
@@ -538,6 +533,19 @@ def _(ws, tmp):
     return judged(result, out, ws.clean_calibrations("kong"), ("IMU4",), ("static_disagree",))
 
 
+def run_on(ws, tmp, command: str, lab: Path, dataset: str, *apply_extra) -> Result:
+    """``aceval validate``, ``calibrate`` or ``apply`` (the clean ``dataset``'s calibrations)
+    of ``lab``."""
+    if command == "validate":
+        return aceval("validate", lab)
+    if command == "calibrate":
+        return aceval("calibrate", lab, "--out", tmp / "out.csv")
+    calibrations_csv = ws.clean_calibrations(dataset)
+    return aceval(
+        "apply", lab, "--calibrations", calibrations_csv, "--out", tmp / "copy", *apply_extra
+    )
+
+
 def imu3_reads_imu2(lab: Path) -> None:
     table = sheet(lab / "recordings.tsv")
     for test in ("T1",):
@@ -556,14 +564,7 @@ for _command in ("validate", "calibrate", "apply"):
         lab = ws.copy("kong", tmp)
         imu3_reads_imu2(lab)
         before = checksums(lab)
-        if command == "validate":
-            result = aceval("validate", lab)
-        elif command == "calibrate":
-            result = aceval("calibrate", lab, "--out", tmp / "out.csv")
-        else:
-            result = aceval(
-                "apply", lab, "--calibrations", ws.clean_calibrations("kong"), "--out", tmp / "copy"
-            )
+        result = run_on(ws, tmp, command, lab, "kong")
         if checksums(lab) != before:
             return "input_changed"
         if result.code == 0 and command == "apply":
@@ -736,15 +737,7 @@ for _command in ("validate", "calibrate", "apply", "simulate"):
         table = sheet(lab / "recordings.tsv")
         table.loc[3, "path"] = f"data/{LONG}.csv"
         write_sheet(table, lab / "recordings.tsv")
-        if command == "validate":
-            result = aceval("validate", lab)
-        elif command == "calibrate":
-            result = aceval("calibrate", lab, "--out", tmp / "out.csv")
-        else:
-            result = aceval(
-                "apply", lab, "--calibrations", ws.clean_calibrations("small"), "--out",
-                tmp / "copy", "--other-dataset",
-            )  # fmt: skip
+        result = run_on(ws, tmp, command, lab, "small", "--other-dataset")
         return refusal(result, ("too long",))
 
 
