@@ -440,14 +440,13 @@ def apply(args) -> int:
             dataset, calibrations, args.method, args.test, args.allow_subset
         )
         if (chosen["calibration"] == "none").all():
+            reasons = chosen[["subject", "sensor_set", "imu", "why"]].itertuples(index=False)
+            why = [f"  {' '.join(map(str, r[:3]))}: {r[3]}" for r in reasons]
             raise ApplyError(
                 f"{args.calibrations} has no valid {args.method} calibration"
                 + (f" from test {args.test}" if args.test else "")
-                + " to apply: "
-                + "; ".join(
-                    f"{' '.join(map(str, r[:3]))}: {r[-1]}"
-                    for r in chosen[["subject", "sensor_set", "imu", "why"]].itertuples(index=False)
-                )[:2000]
+                + " to apply:\n"
+                + "\n".join(why)
             )
         check_rotations(chosen[chosen["calibration"] != "none"], args.calibrations)
     except ApplyError as exc:
