@@ -208,18 +208,39 @@ def recording_columns(path: Path) -> list[str]:
             names = list(pq.read_schema(path).names)
         except Exception as exc:  # pyarrow raises its own types for a damaged file
             raise ValueError(f"cannot be read as Parquet: {exc}") from None
-    else:  # read as recording_values reads it: what one accepts (a BOM, compression), both do
-        try:
-            names = [str(c).strip() for c in pd.read_csv(path, sep=",", nrows=0).columns]
-        except (OSError, EOFError):
-            raise
-        except Exception as exc:  # pandas raises many types for a damaged or binary file
-            raise ValueError(
-                f"cannot be read as CSV: {str(exc).splitlines()[0] if str(exc) else exc!r}"
-            ) from None
+    else:  # what recording_values accepts (a BOM, a compression the name says), this does
+        names = _csv_header(path)
     if twice := duplicated_columns(names):
         raise ValueError(twice)
     return names
+
+
+def _csv_header(path: Path) -> list[str]:
+    """The first line of a CSV recording as column names, read as :func:`recording_values`'
+    reader reads it: a UTF-8 byte-order mark dropped, the file decompressed by its name's
+    suffix (gzip, bz2, xz: the first line only, as fast as a plain file; any other compression
+    pandas knows through pandas).
+    """
+    import bz2
+    import csv
+    import gzip
+    import lzma
+
+    openers = {".gz": gzip.open, ".bz2": bz2.open, ".xz": lzma.open}
+    if path.suffix in (".zip", ".zst", ".tar"):
+        try:
+            return [str(c).strip() for c in pd.read_csv(path, sep=",", nrows=0).columns]
+        except Exception as exc:  # pandas raises many types for a damaged or binary file
+            raise ValueError(f"cannot be read as CSV: {str(exc).splitlines()[0]}") from None
+    opener = openers.get(path.suffix, open)
+    try:
+        with opener(path, "rt", encoding="utf-8-sig", errors="replace", newline="") as handle:
+            header = next(csv.reader(handle), [])
+    except FileNotFoundError:
+        raise
+    except (OSError, EOFError, lzma.LZMAError, csv.Error) as exc:  # a damaged compressed file
+        raise ValueError(f"cannot be read as CSV: {exc}") from None
+    return [c.strip() for c in header]
 
 
 def duplicated_columns(names) -> str:
