@@ -105,3 +105,24 @@ def test_outputs_never_meet_a_recording_or_each_other(mini, tmp_path):
     (tmp_path / "link").symlink_to(elsewhere)
     with pytest.raises(UnsafeOutputError, match="symbolic link"):
         check_folder_output(tmp_path / "link", force=True)
+
+
+def test_a_full_disk_ends_a_command_with_one_line_and_nothing_left(
+    mini, tmp_path, monkeypatch, capsys
+):
+    """ENOSPC while calibrate writes its outputs (monkeypatched: no small filesystem to fill
+    here; the sweep fills a file size limit instead): exit 1, the output and the cause named in
+    one line, no output and no temporary left."""
+    import errno
+
+    from aceval.cli import main
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(pd.DataFrame, "to_csv", full)
+    out = tmp_path / "out" / "calibrations.csv"
+    assert main(["calibrate", str(mini), "--out", str(out)]) == 1
+    said = capsys.readouterr().err.strip().splitlines()[-1]
+    assert said.startswith("aceval calibrate: ") and "calibrations.csv: No space left" in said
+    assert "Traceback" not in said and not list((tmp_path / "out").iterdir())
