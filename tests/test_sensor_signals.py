@@ -11,7 +11,8 @@ from scipy.spatial.transform import Rotation
 from aceval.data.contract import R_COLUMNS
 from aceval.data.errors import StuckChannelError
 from aceval.data.recording_checks import acc_spikes, plateau_limit, stuck_channel
-from aceval.evaluation.methods_comparison import truth_warning, with_truth
+from aceval.evaluation.methods_comparison import with_truth
+from aceval.evaluation.truth_warnings import truth_warning
 from aceval.signals.checks import (
     GYRO_BIAS_LIMIT_DEG_S,
     REST_GYRO_COLUMNS,

@@ -267,7 +267,7 @@ def _no_angles() -> pd.DataFrame:
 
 def summary_text(tables: dict, analyses: list[str], data: dict, notes: list[str]) -> str:
     """SUMMARY.md from the tables as read back (Kong's keyed by number, the others by name)."""
-    from aceval.evaluation.methods_comparison import truth_warning
+    from aceval.evaluation.truth_warnings import truth_warning
     from aceval.report import summary
     from aceval.report.decisions import decision_section
 

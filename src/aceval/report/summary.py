@@ -542,7 +542,7 @@ def calibration_screen(
 ) -> str:
     """One screen for the end of ``aceval calibrate``: what was written, per method how many
     calibrations, how many flagged and (with ground truth) the median error, and the warnings
-    about the truth (``ground_truth``: :func:`aceval.evaluation.methods_comparison.truth_warning`).
+    about the truth (``ground_truth``: :func:`aceval.evaluation.truth_warnings.truth_warning`).
     """
     if calibrations.empty:
         return f"aceval calibrate: wrote {path}: no calibrations ({n_left_out} recordings left out)"
@@ -558,7 +558,7 @@ def calibration_screen(
     )
     if per_method["median_error_deg"].isna().all():
         per_method = per_method.drop(columns="median_error_deg")
-    from aceval.evaluation.methods_comparison import truth_warning
+    from aceval.evaluation.truth_warnings import truth_warning
 
     lines = [
         f"aceval calibrate: wrote {path}",
