@@ -10,6 +10,11 @@ calibrate --subsets full` does, and each flag is counted: on how many IMUs (subj
 fires on at least one calibration, and on how many calibrations. On the simulated datasets every
 flag is a false alarm; on the real ones a flag may be a real defect (the count is what a user sees).
 
+``signal-defects``: as ``defects``, the checks of a sensor's signals only (:func:`signal_defects`).
+
+``signals``: per recording of each dataset, the stuck-channel and spike checks as it is and with
+a channel stuck or a spike put in (:func:`signals`).
+
 ``defects``: for each seed and repetition count, a 1-subject Kong simulation (both sets, every IMU
 in every test, as a lab records) is broken one way at a time and calibrated:
 * ``exchanged``: two IMUs' labels exchanged in every test of one sensor set (chest-right thigh,
@@ -22,7 +27,10 @@ in every test, as a lab records) is broken one way at a time and calibrated:
   (every IMU); caught when the IMU is flagged ``static_not_standing``;
 * ``acc_x, acc_y swapped`` (a mirrored frame), every IMU of the frontal set: caught when every
   calibration of the IMU is flagged (by any check), and how often by ``gyro_acc_inconsistent``;
-* ``clean``: the unbroken copy, every IMU of both sets (a flag is a false alarm).
+* ``clean``: the unbroken copy, every IMU of both sets (a flag is a false alarm);
+* the checks of a sensor's signals on defects made in the pass's statistics
+  (:func:`signal_defects`): a gyroscope offset, a second static trial leaning, one
+  accelerometer negated.
 """
 
 from __future__ import annotations
@@ -57,10 +65,23 @@ EXCHANGES = [
 
 
 def summaries_of(dataset) -> pd.DataFrame:
-    return pd.concat(
-        [reduce_recordings(dataset, s).summaries for s in dataset.subjects.index],
-        ignore_index=True,
+    return reduced_of(dataset)[0]
+
+
+def reduced_of(dataset) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The one pass's summaries and Obj 1-2 pair moments of every subject."""
+    parts = [reduce_recordings(dataset, s) for s in dataset.subjects.index]
+    return (
+        pd.concat([p.summaries for p in parts], ignore_index=True),
+        pd.concat([p.pairs for p in parts], ignore_index=True),
     )
+
+
+def calibrated(dataset, subsets: str = "full") -> pd.DataFrame:
+    """Every calibration as `aceval calibrate` makes it (the sensor checks with the pairs)."""
+    summaries, pairs = reduced_of(dataset)
+    sensors = imu_checks(dataset, summaries, pairs)
+    return calibrate(dataset, summaries, subsets, retest_k=None, sensors=sensors)[0]
 
 
 def flag_names(flags: pd.Series) -> pd.Series:
@@ -70,7 +91,7 @@ def flag_names(flags: pd.Series) -> pd.Series:
 def clean(root: str) -> list[dict]:
     """One row per flag that fires on ``root``: IMUs and calibrations it fires on."""
     dataset = load_dataset(root)
-    calibrations, _ = calibrate(dataset, summaries_of(dataset), "full", retest_k=None)
+    calibrations = calibrated(dataset)
     imus = calibrations.groupby(KEY).ngroups
     named = calibrations.assign(name=flag_names(calibrations["flag"])).explode("name")
     named = named[named["name"].notna()]
@@ -137,16 +158,16 @@ def defects(root: Path, counts: Counter, found: dict) -> None:
             rows = swapped["sensor_set"] == sensor_set
             swapped.loc[rows, "imu"] = swapped.loc[rows, "imu"].replace({a: b, b: a})
             dataset.recordings = swapped
-            calibrations, _ = calibrate(dataset, summaries_of(dataset), "full", retest_k=None)
+            calibrations = calibrated(dataset)
             for imu in (a, b):
                 caught, names = _all_flagged(calibrations, imu, sensor_set)
                 counts[f"exchanged {a}-{b}"] += 1
                 counts[f"exchanged {a}-{b} caught"] += caught
                 found.setdefault(f"exchanged {a}-{b}", set()).update(names)
     dataset.recordings = original
-    summaries = summaries_of(dataset)
-    clean_checks = imu_checks(dataset, summaries)
-    calibrations, _ = calibrate(dataset, summaries, "full", retest_k=None)
+    summaries, pairs = reduced_of(dataset)
+    clean_checks = imu_checks(dataset, summaries, pairs)
+    calibrations, _ = calibrate(dataset, summaries, "full", retest_k=None, sensors=clean_checks)
     for _, group in calibrations.groupby(KEY):  # false alarms on the clean copy
         counts["clean IMUs (no flag expected)"] += 1
         names = set(flag_names(group["flag"]).explode().dropna())
@@ -163,12 +184,13 @@ def defects(root: Path, counts: Counter, found: dict) -> None:
             counts[f"static {degrees} deg"] += 1
             flag = imu_checks(dataset, changed)[key]["flag"]
             counts[f"static {degrees} deg caught"] += "static_not_standing" in flag.split(";")
+    signal_defects(dataset, summaries, pairs, clean_checks, counts)
     for imu in dataset.imus.loc["frontal"].index:  # acc_x and acc_y swapped (a mirrored frame)
         _rewritten(
             root, original, imu, None, lambda t: t.assign(acc_x=t["acc_y"], acc_y=t["acc_x"])
         )
         try:
-            calibrations, _ = calibrate(dataset, summaries_of(dataset), "full", retest_k=None)
+            calibrations = calibrated(dataset)
         finally:
             _restore()
         caught, names = _all_flagged(calibrations, imu, "frontal")
@@ -221,13 +243,110 @@ def defects(root: Path, counts: Counter, found: dict) -> None:
         counts[name + " caught"] += int(has_flag(full["flag"], "heading_undetermined").sum())
 
 
+def _caught(counts: Counter, name: str, hit: bool) -> None:
+    counts[name] += 1
+    counts[name + " caught"] += bool(hit)
+
+
+def signal_defects(dataset, summaries, pairs, clean_checks: dict, counts: Counter) -> None:
+    """The checks of a sensor's signals (aceval.signals.checks) on defects made in the one
+    pass's statistics, which is all they read: a gyroscope offset added to every still
+    recording of an IMU (``rest_gyro_*``); a second static trial turned about the right axis;
+    one accelerometer negated in the Obj 1 pair moments (the same IMU in the other set agrees).
+    Caught: the IMU flagged ``gyro_bias``, ``static_disagree``, ``acc_sign_mismatch``.
+    """
+    from aceval.signals.reduction import C_AB, MEAN_A
+
+    static = summaries["kind"] == "static"
+    for key in clean_checks:
+        rows = (summaries[KEY] == pd.Series(key, index=KEY)).all(axis=1)
+        for dps in (3, 4, 5, 7):
+            for axes in ("x", "xz"):
+                changed = summaries.copy()
+                for axis in axes:
+                    changed.loc[rows, f"rest_gyro_{axis}"] += np.radians(dps)
+                flag = imu_checks(dataset, changed, pairs)[key]["flag"]
+                name = f"gyro offset {dps} deg/s on {'+'.join(axes)}"
+                _caught(counts, name, "gyro_bias" in flag.split(";"))
+        axis = np.asarray(AXIS_VECTORS[dataset.right_axis(key[1], key[2])], float)
+        first = summaries[static & rows].iloc[[0]]
+        for degrees in (5, 10, 15, 18, 30):
+            turn = Rotation.from_rotvec(np.radians(degrees) * axis).as_matrix()
+            second = first.assign(rep=first["rep"] + 1)
+            second[Z0] = second[Z0].to_numpy(float) @ turn.T
+            changed = pd.concat([summaries, second], ignore_index=True)
+            flag = imu_checks(dataset, changed, pairs)[key]["flag"]
+            _caught(counts, f"second static trial {degrees} deg", "static_disagree" in flag)
+    if pairs.empty or not (pairs["objective"] == "frontal_lateral").any():
+        return
+    for imu in dataset.imus.loc["frontal"].index:
+        negated = pairs.copy()
+        rows = (negated["imu"] == imu) & (negated["signal"] == "acc")
+        negated.loc[rows, MEAN_A] = -negated.loc[rows, MEAN_A]
+        negated.loc[rows, C_AB] = -negated.loc[rows, C_AB]
+        found = imu_checks(dataset, summaries, negated)
+        for key, verdict in found.items():
+            if key[2] == imu and key[1] == "frontal":
+                _caught(
+                    counts,
+                    "one accelerometer negated (two sets)",
+                    "acc_sign_mismatch" in verdict["flag"],
+                )
+
+
+def signals(roots: list[str]) -> None:
+    """Per recording of each dataset: the stuck-channel and spike checks on the recording as it
+    is (a hit is a false alarm on simulated data) and with a channel stuck (at 0, or at its
+    median) or one sample set to a spike of 4, 8 or 16 g on acc_x (5 samples of each motion
+    recording drawn where it turns faster than 30 deg/s, one at a time)."""
+    from aceval.data.recording_checks import acc_spikes, stuck_channel
+
+    names = ["acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z"]
+    rng = np.random.default_rng(0)
+    for root in roots:
+        dataset = load_dataset(root)
+        counts = Counter()
+        for row in dataset.recordings.itertuples():
+            data = dataset.read_recording(row.path)
+            static = dataset.test_kinds[row.test] == "static"
+            sensors = [(data.acc, names[:3])] + ([] if static else [(data.gyr, names[3:])])
+            found = any(stuck_channel(values, columns) for values, columns in sensors)
+            _caught(counts, "clean: stuck", found)
+            _caught(counts, "clean: spikes", acc_spikes(data.acc, data.gyr).any())
+            kind = "static" if static else "motion"
+            for values, columns in sensors:
+                for k in range(3):
+                    for level in ("0", "median"):
+                        broken = values.copy()
+                        broken[:, k] = 0.0 if level == "0" else np.median(values[:, k])
+                        hit = stuck_channel(broken, columns) is not None
+                        _caught(counts, f"{columns[k][:3]} stuck at {level} ({kind})", hit)
+            if static:
+                continue
+            moving = np.flatnonzero(np.linalg.norm(data.gyr, axis=1) > np.radians(30.0))
+            for at in rng.choice(moving, min(5, len(moving)), replace=False):
+                for g in (4, 8, 16):
+                    broken = data.acc.copy()
+                    broken[at, 0] = g * 9.81
+                    _caught(counts, f"a {g} g spike (motion)", acc_spikes(broken, data.gyr)[at])
+        rows = [
+            {"dataset": root, "case": name, "hits": f"{counts[name + ' caught']}/{counts[name]}"}
+            for name in counts
+            if not name.endswith(" caught")
+        ]
+        print(pd.DataFrame(rows).to_string(index=False), flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("mode", choices=["clean", "defects"])
+    parser.add_argument("mode", choices=["clean", "defects", "signal-defects", "signals"])
     parser.add_argument("datasets", nargs="*")
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--repetitions", type=int, nargs="+", default=[3, 5])
     args = parser.parse_args()
+    if args.mode == "signals":
+        signals(args.datasets)
+        return
     if args.mode == "clean":
         table = pd.DataFrame([r for root in args.datasets for r in clean(root)])
         print(table.to_string(index=False))
@@ -243,7 +362,15 @@ def main() -> None:
                      "--seed", str(seed)],
                     check=True, capture_output=True,
                 )  # fmt: skip
-                defects(root, counts, found)
+                if args.mode == "defects":
+                    defects(root, counts, found)
+                else:  # the checks of a sensor's signals only (their defects need no calibration)
+                    dataset = load_dataset(root)
+                    summaries, pairs = reduced_of(dataset)
+                    checks = imu_checks(dataset, summaries, pairs)
+                    for verdict in checks.values():
+                        _caught(counts, "clean IMUs (no flag expected)", verdict["flag"] != "")
+                    signal_defects(dataset, summaries, pairs, checks, counts)
     rows = [
         {"defect": name, "caught": f"{counts[name + ' caught']}/{counts[name]}",
          "flags": ", ".join(sorted(found.get(name, set())))}

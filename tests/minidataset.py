@@ -46,6 +46,9 @@ def make_dataset(root: Path) -> Path:
     rows.append("S1\tfrontal\tT0\t1\tIMU4\ts1_t0.csv")
     for rep in (1, 2):
         acc = pitch_motion(n=400, seed=rep) / G
+        # a real accelerometer's noise on its third axis too (2 mg, as the simulator's): a
+        # channel that holds exactly 0 beside two noisy ones is a dead axis (a stuck channel)
+        acc[:, 1] += np.random.default_rng(10 + rep).normal(0.0, 0.002, len(acc))
         gyr = np.column_stack(
             [np.zeros(400), 40 * np.sin(np.linspace(0, 4 * np.pi, 400)), np.zeros(400)]
         )

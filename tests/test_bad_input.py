@@ -538,9 +538,9 @@ CASES = [
         "two rows pointing at one file",
         lambda lab: edit(lab / "recordings.tsv", "T1_R2_IMU2.csv", "T1_R1_IMU2.csv"),
         validate,
-        0,
+        1,
         ("recordings.tsv line", "also the file of line"),
-        "warning",
+        "error",
     ),
     Case(
         "duplicate ground-truth rows",
@@ -1090,11 +1090,9 @@ def test_sigterm_leaves_no_partial_output(tmp_path):
         stderr=subprocess.PIPE,
     )
     deadline = time.time() + 30
-    while time.time() < deadline and not any(
-        p.name.startswith(".sim.") for p in tmp_path.iterdir()
-    ):
+    while time.time() < deadline and not any(p.name.endswith(".sim") for p in tmp_path.iterdir()):
         time.sleep(0.05)  # wait until the staging folder exists
-    assert any(p.name.startswith(".sim.") for p in tmp_path.iterdir()), (
+    assert any(p.name.endswith(".sim") for p in tmp_path.iterdir()), (
         "simulate never started writing"
     )
     time.sleep(0.5)
@@ -1154,7 +1152,7 @@ def test_sigterm_of_calibrate_leaves_all_of_its_outputs_or_none(pristine, tmp_pa
     process = subprocess.Popen(argv, stderr=subprocess.DEVNULL)
     deadline = time.time() + 60
     while time.time() < deadline and not [
-        p for p in tmp_path.glob("out/.tmp.*") if p.stat().st_size > 0
+        p for p in tmp_path.glob("out/.aceval-*") if p.stat().st_size > 0
     ]:
         time.sleep(0.01)  # until it has staged its first output (the others are reserved empty)
     process.send_signal(signal.SIGTERM)
@@ -1167,29 +1165,29 @@ def test_sigterm_of_calibrate_leaves_all_of_its_outputs_or_none(pristine, tmp_pa
 
 def test_an_output_set_is_written_together_or_not_at_all(tmp_path):
     """FileSet: nothing in place before the block ends, nothing after an error, a killed run's
-    temporaries removed by the next one, and an output under a file refused before any work."""
-    from aceval.data.safety import FileSet, UnsafeOutputError
+    temporaries (unlocked) removed by the next run writing the same output and nobody else's
+    touched (names matched in full: another output's, or one that only looks like a process id),
+    and an output under a file refused before any work."""
+    from aceval.data.safety import FileSet, UnsafeOutputError, claim
 
-    finished = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
-                              capture_output=True, text=True)  # fmt: skip
-    dead = finished.stdout.strip()
-    (tmp_path / f".tmp.{dead}.a.csv").write_text("left by a killed run")
-    (tmp_path / f".copy.{dead}.x1y2").mkdir()
+    (tmp_path / ".aceval-1-0123abcd.a.csv").write_text("left by a killed run")
+    (tmp_path / ".aceval-1-0123abcd.a.csv.1").write_text("another output's temporary")
+    (tmp_path / ".a.csv.1.x1y2").mkdir()  # not aceval's naming at all
+    (tmp_path / ".aceval-1-0123abcd.copy").mkdir()
     paths = [tmp_path / "a.csv", tmp_path / "sub" / "b.csv"]
     with pytest.raises(RuntimeError), FileSet(paths) as files:
         files.write(paths[0], lambda tmp: Path(tmp).write_text("a"))
         raise RuntimeError("the work failed")
-    assert sorted(p.name for p in tmp_path.rglob("*")) == [f".copy.{dead}.x1y2", "sub"]
+    others = [".a.csv.1.x1y2", ".aceval-1-0123abcd.a.csv.1", ".aceval-1-0123abcd.copy"]
+    assert sorted(p.name for p in tmp_path.rglob("*")) == [*others, "sub"]
     with FileSet(paths) as files:
         for path in paths:
             files.write(path, lambda tmp: Path(tmp).write_text("done"))
         assert not any(p.exists() for p in paths)
     assert all(p.read_text() == "done" for p in paths)
-    assert sorted(p.name for p in tmp_path.rglob(".*")) == [f".copy.{dead}.x1y2"]
-    from aceval.data.safety import remove_leftovers
-
-    remove_leftovers(tmp_path / "copy")
-    assert not list(tmp_path.rglob(".*"))
+    assert sorted(p.name for p in tmp_path.rglob(".*")) == others
+    claim(tmp_path / "copy")
+    assert sorted(p.name for p in tmp_path.rglob(".*")) == others[:2]
     (tmp_path / "afile").write_text("x")
     with pytest.raises(UnsafeOutputError, match="is a file"):
         FileSet([tmp_path / "afile" / "out.csv"])
@@ -1208,6 +1206,7 @@ def test_an_output_set_is_written_together_or_not_at_all(tmp_path):
         holder.wait()
     with FileSet([paths[0]]):  # its reservation is a leftover now: removed, the output free
         pass
+    assert sorted(p.name for p in tmp_path.rglob(".*")) == others[:2]
 
 
 # --- the recording reader on arbitrary bytes ----------------------------------------------------

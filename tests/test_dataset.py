@@ -4,7 +4,8 @@ import pytest
 from aceval.calibrate.pipeline import calibrate
 from aceval.cli import main
 from aceval.data.contract import R_COLUMNS, DatasetError
-from aceval.data.dataset import load_dataset, read_as_missing, validate
+from aceval.data.dataset import load_dataset, validate
+from aceval.data.names import read_as_missing
 from aceval.signals.reduction import summarise_recordings
 
 from .minidataset import make_dataset, write_csv

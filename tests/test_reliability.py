@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-from aceval.evaluation import conditioning, methods_comparison
+from aceval.evaluation import conditioning, methods_comparison, truth_warnings
 from aceval.report import outputs, ricci2014, summary
 
 
@@ -455,9 +455,9 @@ def test_truth_warning_reads_the_calibrations_from_all_repetitions(rng):
     """A transposed truth is named from the calibrations every method is judged on (all
     repetitions), whatever their subsets say; a truth near every calibration is not."""
     calibrations = _subset_calibrations(rng, subjects=("S1",))
-    assert methods_comparison.truth_warning(calibrations) == ""
+    assert truth_warnings.truth_warning(calibrations) == ""
     full = calibrations["n_reps"] == 5
     far = calibrations.assign(error_deg=np.where(full, 150.0, 1.0))
-    assert "transposed" in methods_comparison.truth_warning(far)
+    assert "transposed" in truth_warnings.truth_warning(far)
     near = calibrations.assign(error_deg=np.where(full, 1.0, 150.0))
-    assert methods_comparison.truth_warning(near) == ""
+    assert truth_warnings.truth_warning(near) == ""

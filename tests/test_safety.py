@@ -5,6 +5,7 @@ refactor that bypasses the sheet validation still cannot write outside ``--out``
 
 import errno
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path, PurePosixPath
@@ -18,11 +19,11 @@ from aceval.data.safety import (
     atomic_file,
     check_outputs,
     check_writable,
+    claim,
     contained,
     fail,
     is_within,
     path_problem,
-    remove_leftovers,
     staged_folder,
 )
 
@@ -233,83 +234,88 @@ def test_check_writable_refuses_a_folder_under_a_file_and_leaves_no_probe(tmp_pa
 
 # --- the leftovers of a killed run, and nothing else, are removed -------------------------------
 
-
-def _dead_pid() -> int:
-    finished = subprocess.run(
-        [sys.executable, "-c", "import os; print(os.getpid())"],
-        capture_output=True,
-        text=True,
-        check=True,
-    )
-    return int(finished.stdout)
+#: a process that holds a temporary of ``out.csv`` (locked) and waits, dying of any signal but 0
+#: (SIGHUP too, even when started under nohup)
+HOLDER = (
+    "import signal, sys, time; from pathlib import Path; "
+    "signal.signal(signal.SIGHUP, signal.SIG_DFL); "
+    "from aceval.data.safety import new_temporary; "
+    "print(new_temporary(Path(sys.argv[1])), flush=True); time.sleep(30)"
+)
 
 
 def test_only_a_dead_runs_own_temporaries_are_removed(tmp_path):
-    """A killed run's '.tmp.<pid>.out.csv' file and '.out.csv.<pid>.<random>' staging folder
-    go; a live run's stay, and so do a user's hidden files that merely look alike."""
-    dead, out = _dead_pid(), tmp_path / "out.csv"
-    leftovers = [tmp_path / f".tmp.{dead}.out.csv", tmp_path / f".out.csv.{dead}.k2j4h1x0"]
+    """A killed run's temporaries of the output (its file and staging folder, no longer locked)
+    go; a live run's (locked) stay, and so do other outputs' and a user's hidden files that
+    merely look alike: names are matched in full, and no process id is read from one."""
+    out = tmp_path / "out.csv"
+    leftovers = [tmp_path / ".aceval-7-0123abcd.out.csv", tmp_path / ".aceval-7-89abcdef.out.csv"]
     leftovers[0].write_text("partial")
     leftovers[1].mkdir()
     (leftovers[1] / "half.csv").write_text("partial")
-    # a process that would die of any signal but 0 (SIGHUP too, even when started under nohup)
-    holds = "import signal, time; signal.signal(signal.SIGHUP, signal.SIG_DFL); time.sleep(30)"
-    live = subprocess.Popen([sys.executable, "-c", holds])
+    live = subprocess.Popen(
+        [sys.executable, "-c", HOLDER, str(out)], stdout=subprocess.PIPE, text=True
+    )
     try:
+        held = Path(live.stdout.readline().strip())
         kept = [
-            tmp_path / f".tmp.{live.pid}.out.csv",  # a run still writing
-            tmp_path / f".bak.{dead}.out.csv",  # a user's file ending like ours
-            tmp_path / f".tmp.{dead}.out.csv.bak",  # starting like ours
-            tmp_path / ".tmp.abc.out.csv",  # no process id
-            tmp_path / f".out.csv.{dead}x.k2j4h1x0",
-            tmp_path / f".tmp.{os.getpid()}.out.csv",  # this process's own
-            tmp_path / f".out.csv.{live.pid}.a8k2j4h1",  # a live run's staging folder
+            tmp_path / ".aceval-7-0123abcd.out.csv.bak",  # another output's
+            tmp_path / ".aceval-x-0123abcd.out.csv",  # no process id
+            tmp_path / ".aceval-7-0123ABCD.out.csv",  # not our token
+            tmp_path / ".aceval-7-0123abcd.out",  # another output's
+            tmp_path / ".tmp.7.out.csv",  # an older aceval's naming: not ours to guess
+            tmp_path / ".out.csv.7.k2j4h1x0",
         ]
         for path in kept:
             path.write_text("keep")
-        remove_leftovers(out)
-        assert not any(p.exists() for p in leftovers)
-        assert all(p.read_text() == "keep" for p in kept)
         with pytest.raises(
             UnsafeOutputError,
             match=rf"another aceval \(process {live.pid}\) is writing {out}: wait for it, or "
             "choose another output",
         ):
             FileSet([out])
+        assert not any(p.exists() for p in leftovers)
+        assert held.exists() and all(p.read_text() == "keep" for p in kept)
         with pytest.raises(subprocess.TimeoutExpired):  # asking whether it lives did not kill it
             live.wait(timeout=1)
     finally:
         live.kill()
         live.wait()
-    remove_leftovers(tmp_path / "missing" / "out.csv")  # no folder: nothing to do
+    claim(out)  # its holder dead: its temporary is a leftover now
+    assert not held.exists() and all(p.read_text() == "keep" for p in kept)
+    claim(tmp_path / "missing" / "out.csv")  # no folder: nothing to do
 
 
-def test_another_users_process_counts_as_alive(monkeypatch):
-    from aceval.data import safety
+def test_a_temporary_is_held_while_its_run_lives(tmp_path):
+    from aceval.data.safety import _held
 
-    def denied(pid, signal):
-        raise PermissionError(errno.EPERM, "not permitted")
-
-    monkeypatch.setattr(safety.os, "kill", denied)
-    assert safety._alive(12345)
+    live = subprocess.Popen(
+        [sys.executable, "-c", HOLDER, str(tmp_path / "x")], stdout=subprocess.PIPE, text=True
+    )
+    held = Path(live.stdout.readline().strip())
+    assert _held(held)
+    live.kill()
+    live.wait()
+    assert held.exists() and not _held(held)
+    assert not _held(tmp_path / "gone")
 
 
 def test_outputs_are_staged_beside_their_target_in_new_folders(tmp_path):
-    """A folder output's staging folder is a hidden sibling named after it and this process (so a
-    killed run's is found and removed); missing parent folders are made; a file set's too."""
+    """A folder output's staging folder is a hidden sibling named after it and this process
+    ('.aceval-<pid>-<8 hex>.<name>'); missing parent folders are made; a file set's too."""
     out = tmp_path / "new" / "deeper" / "out"
     seen = []
     staged_folder(out, False, lambda folder: seen.append(folder))
-    assert seen[0].parent == out.parent and seen[0].name.startswith(f".out.{os.getpid()}.")
+    staging = re.fullmatch(rf"\.aceval-{os.getpid()}-[0-9a-f]{{8}}\.out", seen[0].name)
+    assert seen[0].parent == out.parent and staging
     assert (out / MARKER).read_text().startswith("written by aceval")
     paths = [tmp_path / "a" / "b" / "t.csv", tmp_path / "c" / "u.csv"]
     with FileSet(paths, folders=[tmp_path / "d"]) as files:
         for path in paths:
             files.write(path, lambda tmp: Path(tmp).write_text(Path(tmp).name))
-    assert [p.read_text() for p in paths] == [
-        f".tmp.{os.getpid()}.t.csv",
-        f".tmp.{os.getpid()}.u.csv",
-    ]
+    for path in paths:
+        assert re.fullmatch(rf"\.aceval-{os.getpid()}-[0-9a-f]{{8}}\.{path.name}", path.read_text())
+    assert not [p for p in tmp_path.rglob(".aceval-*") if p.name != MARKER]
 
 
 def test_check_writable_probes_inside_the_folder_itself(tmp_path, monkeypatch):

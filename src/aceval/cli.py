@@ -6,7 +6,9 @@ outputs``
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+from pathlib import Path
 
 from aceval import commands as work
 from aceval.methods import registry
@@ -254,9 +256,15 @@ def _add_apply(commands) -> None:
     apply.add_argument(
         "--test",
         help="calibration test (default: per IMU, the first test of calibrates.tsv "
-        "with a valid all-repetitions calibration)",
+        "with a valid calibration from all its repetitions)",
     )
     apply.add_argument("--force", action="store_true", help="replace a non-empty output folder")
+    apply.add_argument(
+        "--allow-subset",
+        action="store_true",
+        help="where no calibration from all of an IMU's repetitions is valid, apply its largest "
+        "unflagged subset (said per IMU; without it such an IMU is left out and named)",
+    )
     apply.add_argument(
         "--other-dataset",
         action="store_true",
@@ -377,15 +385,47 @@ def main(argv: list[str] | None = None) -> int:
     _add_outputs(commands)
 
     args = parser.parse_args(argv)
-    from aceval.data.safety import UnsafeOutputError, check_outputs, exit_cleanly_on_sigterm, fail
+    from aceval.data.safety import exit_cleanly_on_sigterm
 
     if argv is None:  # a command-line run (not a call from Python): SIGTERM cleans up
         exit_cleanly_on_sigterm()
+    return _run(args)
+
+
+def _run(args) -> int:
+    """The command, its outputs checked first; a fault of the input or the environment (a file
+    that cannot be read or written, a full disk, a closed pipe) ends it with one line naming the
+    file and the cause, and exit 1 (2: an output refused), never a traceback.
+    """
+    from aceval.data.errors import InputError, describe_os_error
+    from aceval.data.safety import (
+        UnsafeOutputError,
+        check_distinct,
+        check_folder_output,
+        check_outputs,
+        check_recordings,
+        fail,
+    )
+
     try:
-        check_outputs(*_outputs_and_inputs(args))
+        outputs, inputs, folders = _outputs_and_inputs(args)
+        check_distinct(outputs, folders)
+        check_outputs(outputs, inputs, folders)
+        if getattr(args, "dataset", None):
+            check_recordings(outputs, args.dataset, folders)
+        if args.command in FOLDER_COMMANDS:  # before any work: a link, a file, a full folder
+            check_folder_output(Path(args.out), args.force)
+        return args.run(args)
     except UnsafeOutputError as exc:
         return fail(args.command, exc)
-    return args.run(args)
+    except InputError as exc:
+        return fail(args.command, exc, 1)
+    except BrokenPipeError:  # the reader went away (`aceval validate ... | head`): stop quietly
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return fail(args.command, "its output was closed early (broken pipe)", 1)
+    except OSError as exc:
+        return fail(args.command, describe_os_error(exc), 1)
 
 
 #: options that name what a command writes, and what it reads (``check_outputs`` keeps them apart)

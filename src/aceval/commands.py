@@ -142,10 +142,11 @@ def _write_text(path, text: str) -> None:
     _atomic(path, lambda tmp: Path(tmp).write_text(text))
 
 
-def _read_csvs(paths) -> pd.DataFrame:
-    from aceval.report.results import read_tables
+def _read_calibrations(paths, keep=None) -> pd.DataFrame:
+    """Calibrations tables (of `aceval calibrate`, or a peer's), each checked for its columns."""
+    from aceval.report.results import CALIBRATION_TABLE_COLUMNS, read_tables
 
-    return read_tables(paths)
+    return read_tables(paths, keep, required=CALIBRATION_TABLE_COLUMNS)
 
 
 def method_choices() -> dict[str, str]:
@@ -187,11 +188,21 @@ def calibrate(args) -> int:
     except DatasetError as exc:
         print(f"aceval calibrate: {args.dataset} is not a valid dataset:\n{exc}", file=sys.stderr)
         return 1
+    if args.subject is not None:  # '01' is subject '1' (dataset.subject_key)
+        args.subject = [dataset.subject_label(s) for s in args.subject]
     unknown = [s for s in args.subject or [] if s not in dataset.subjects.index]
     if unknown:
         print(
             f"aceval calibrate: subject(s) {', '.join(map(repr, unknown))} not in "
             f"{args.dataset}/subjects.tsv",
+            file=sys.stderr,
+        )
+        return 2
+    twice = sorted({s for s in args.subject or [] if args.subject.count(s) > 1})
+    if twice:
+        print(
+            f"aceval calibrate: --subject names {', '.join(map(repr, twice))} twice: each "
+            "subject's recordings are read once; give each subject once",
             file=sys.stderr,
         )
         return 2
@@ -239,7 +250,7 @@ def _calibrate_into(args, dataset, files) -> int:
     unusable = summaries[summaries["flag"] != ""] if len(summaries) else summaries
     for message in unusable.get("message", []):
         print(f"aceval calibrate: left out {message}", file=sys.stderr)
-    sensors = imu_checks(dataset, summaries) if len(summaries) else {}
+    sensors = imu_checks(dataset, summaries, pairs) if len(summaries) else {}
     calibrations, axes = (
         calibrate(dataset, summaries, args.subsets, retest_k=args.retest_k, sensors=sensors)
         if len(summaries)
@@ -261,7 +272,8 @@ def _calibrate_into(args, dataset, files) -> int:
         )
     _write_calibrate_outputs(args, files, tables, report, dataset)
     _say_findings(report, sensors)
-    print(calibration_screen(calibrations, len(unusable), args.out), file=sys.stderr)
+    screen = calibration_screen(calibrations, len(unusable), args.out, dataset.ground_truth)
+    print(screen, file=sys.stderr)
     return 0
 
 
@@ -424,23 +436,26 @@ def apply(args) -> int:
         return 1
     try:
         calibrations = read_calibrations(args.calibrations)
-        chosen = chosen_calibrations(dataset, calibrations, args.method, args.test)
-        if chosen.empty:
+        chosen = chosen_calibrations(
+            dataset, calibrations, args.method, args.test, args.allow_subset
+        )
+        if (chosen["calibration"] == "none").all():
+            reasons = chosen[["subject", "sensor_set", "imu", "why"]].itertuples(index=False)
+            why = [f"  {' '.join(map(str, r[:3]))}: {r[3]}" for r in reasons]
             raise ApplyError(
                 f"{args.calibrations} has no valid {args.method} calibration"
                 + (f" from test {args.test}" if args.test else "")
-                + ": nothing to apply"
+                + " to apply:\n"
+                + "\n".join(why)
             )
-        check_rotations(chosen, args.calibrations)
+        check_rotations(chosen[chosen["calibration"] != "none"], args.calibrations)
     except ApplyError as exc:
         print(f"aceval apply: {exc}", file=sys.stderr)
         return 1
     source = None if args.other_dataset else args.calibrations
 
     def write(folder):
-        for line in apply_calibrations(
-            dataset, calibrations, folder, args.method, args.test, _progress, source
-        ):
+        for line in apply_calibrations(dataset, chosen, folder, args.method, _progress, source):
             print(
                 line if line.startswith("aceval") else f"aceval apply: warning: {line}",
                 file=sys.stderr,
@@ -457,7 +472,7 @@ def angles(args) -> int:
     """`aceval angles`: Kong's Obj 3-5 angles of a calibrations table."""
     from aceval.evaluation.objectives import all_angles
 
-    _write_csv(args.out, all_angles(_read_csvs(args.calibrations), args.test_retest_k))
+    _write_csv(args.out, all_angles(_read_calibrations(args.calibrations), args.test_retest_k))
     return 0
 
 
@@ -475,7 +490,7 @@ def _single_output(args, kind: str) -> int:
         return 2
     data = build_data(
         args.dataset,
-        read_tables(args.calibrations),
+        _read_calibrations(args.calibrations),
         read_tables(args.axes),
         read_tables(args.correlations),
         read_tables([args.angles] if args.angles else []),
@@ -525,12 +540,12 @@ def outputs(args) -> int:
     precomputed = bool(args.angles and args.retest_units)
     data = build_data(
         args.dataset,
-        read_tables(args.calibrations, full_set_rows if precomputed else None),
+        _read_calibrations(args.calibrations, full_set_rows if precomputed else None),
         read_tables(args.axes),
         read_tables(args.correlations),
         in_angle_order(read_tables(args.angles)) if args.angles else None,
         paper_names=json.loads(args.paper_names),
-        peers=read_tables(args.peers),
+        peers=_read_calibrations(args.peers),
         test_retest_k=args.test_retest_k,
         retest_units=read_tables(args.retest_units) if args.retest_units else None,
         recordings=read_tables(args.recordings, _direction_columns) if args.peers else None,

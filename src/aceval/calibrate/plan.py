@@ -37,8 +37,11 @@ from aceval.signals.checks import (
     GYRO_THIRD,
     MAX_STATIC_ANGLE_DEG,
     STILL_COLUMNS,
+    acc_sign_agreement,
+    acc_sign_problem,
     best_test_agreement,
     sensor_problem,
+    signal_verdict,
     static_posture,
 )
 from aceval.signals.signatures import SIGNATURE_COLUMNS, signature_verdicts
@@ -48,6 +51,12 @@ from aceval.signals.signatures import SIGNATURE_COLUMNS, signature_verdicts
 EVERY_SUBSET, RETEST = "every_subset", "retest"
 #: what the checks measured about each sensor, beside every calibration of it
 SENSOR_COLUMNS = ["gyro_acc_agreement", "gyro_acc_evidence_deg", "static_vertical_angle_deg"]
+SENSOR_COLUMNS += [
+    "gyro_bias_deg_s",
+    "static_spread_deg",
+    "vendor_up_angle_deg",
+    "acc_sign_agreement",
+]
 
 
 @dataclass(frozen=True)
@@ -99,13 +108,16 @@ def static_axes(summaries: pd.DataFrame) -> tuple[pd.DataFrame, dict]:
     return z0, axes
 
 
-def imu_checks(dataset: Dataset, summaries: pd.DataFrame) -> dict[tuple, dict]:
+def imu_checks(dataset: Dataset, summaries: pd.DataFrame, pairs=None) -> dict[tuple, dict]:
     """Per (subject, set, IMU), what its motion recordings say about the sensor itself
     (:func:`aceval.signals.checks.sensor_problem`; walking recordings are left out of the
     agreement), about its static trial (:func:`aceval.signals.checks.static_posture`) and about
     its place (:func:`aceval.signals.signatures.signature_verdicts`): ``flag`` (every flag of the
     IMU's calibrations, ';'-joined), ``message``, ``test_flags`` (test -> the flag of that test's
-    calibrations only) and the checks' evidence columns.
+    calibrations only) and the checks' evidence columns; also what its signals say
+    (:func:`aceval.signals.checks.signal_verdict`) and, with the Obj 1 ``pairs``, whether the
+    two sensors of its segment agree on the accelerometer's sign
+    (:func:`aceval.signals.checks.acc_sign_agreement`).
     """
     motion = summaries[summaries["kind"] == "motion"]
     if motion.empty or AGREEMENT_COLUMNS[0] not in motion:
@@ -114,6 +126,8 @@ def imu_checks(dataset: Dataset, summaries: pd.DataFrame) -> dict[tuple, dict]:
     z0, _ = static_axes(summaries)
     places = summaries[summaries["kind"].isin(["motion", "extra"])]
     signatures = signature_verdicts(places) if SIGNATURE_COLUMNS[0] in places else {}
+    statics = dict(list(summaries[summaries["kind"] == "static"].groupby(KEY)))
+    signs = acc_sign_agreement(pairs)
     out = {}
     for key, group in motion.groupby(KEY, sort=False):
         per_test = group.loc[~gait[group.index]].groupby("test")[AGREEMENT_COLUMNS].sum()
@@ -135,6 +149,12 @@ def imu_checks(dataset: Dataset, summaries: pd.DataFrame) -> dict[tuple, dict]:
                     f"{posture['static_check_tests']} motion tests with still portions (more than "
                     f"{MAX_STATIC_ANGLE_DEG:.0f}): taken seated or leaning, not standing?"
                 )
+        signal = signal_verdict(statics.get(key, summaries.iloc[:0]), group)
+        sign = signs.get(key, np.nan)
+        flags = [signal["flag"], "acc_sign_mismatch" if acc_sign_problem(sign) else ""]
+        verdict["flag"] = combine_flags(verdict["flag"], *flags)
+        messages += [*signal["messages"], acc_sign_problem(sign)]
+        verdict |= {k: signal[k] for k in SENSOR_COLUMNS[3:6]} | {"acc_sign_agreement": sign}
         place = signatures.get(key, {"flag": "", "message": "", "test_flags": {}})
         verdict["flag"] = combine_flags(verdict["flag"], place["flag"])
         verdict["test_flags"] = place["test_flags"]

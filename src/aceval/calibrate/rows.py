@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from aceval.calibrate.plan import Plan, Subsets
+from aceval.calibrate.plan import SENSOR_COLUMNS, Plan, Subsets
 from aceval.data.contract import R_COLUMNS
 from aceval.methods.interface import Fit, combine_flags
 from aceval.methods.sufficient import Pooled
@@ -101,6 +101,10 @@ TABLE_COLUMNS = [
     "gyro_acc_agreement",
     "gyro_acc_evidence_deg",
     "static_vertical_angle_deg",
+    "gyro_bias_deg_s",
+    "static_spread_deg",
+    "vendor_up_angle_deg",
+    "acc_sign_agreement",
     "flag",
     "sensor_flag",
     "error_deg",
@@ -166,10 +170,7 @@ def calibration_rows(
         "rho_static": plan.units.rho_static[unit],
         "rho_motion": pooled.gyro_rho,
         "z0_tests": identity["z0_tests"].to_numpy(),
-        **{
-            k: identity[k].to_numpy()
-            for k in ("gyro_acc_agreement", "gyro_acc_evidence_deg", "static_vertical_angle_deg")
-        },
+        **{k: identity[k].to_numpy() for k in SENSOR_COLUMNS},
         "flag": fit.flag,
         "sensor_flag": identity["sensor_flag"].to_numpy(),
         "error_deg": np.full(len(unit), np.nan),

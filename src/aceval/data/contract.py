@@ -15,6 +15,19 @@ from aceval.data.rotations import AXIS_VECTORS
 GRAVITY = 9.81  # m/s^2: 1 g, used for unit conversion and by the simulator's physics
 ACC_UNITS = {"g": GRAVITY, "m/s^2": 1.0}
 GYR_UNITS = {"deg/s": np.pi / 180.0, "rad/s": 1.0}
+#: dataset.yaml ``acc_at_rest``: where the accelerometer's reading points at rest. ``up`` (the
+#: default, the contract's convention): specific force, as accelerometers report it; ``down``:
+#: gravity, as some phone APIs report it (the files' acceleration is negated when read)
+ACC_AT_REST = {"up": 1.0, "down": -1.0}
+
+
+def acc_factor(meta: dict) -> float:
+    """Factor from a dataset's file acceleration to specific force in m/s^2: the unit
+    (``units.acc``) and the sign convention (``acc_at_rest``, :data:`ACC_AT_REST`).
+    """
+    return ACC_UNITS[meta["units"]["acc"]] * ACC_AT_REST[meta.get("acc_at_rest", "up")]
+
+
 RECORDING_COLUMNS = ["t", "acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z"]
 #: optional columns of a recording: the vendor's orientation estimate (scalar first, sensor -> the
 #: vendor's z-up world); read only by the OpenSense peer (workflow/peers/)
@@ -129,6 +142,28 @@ class RecordingError(ValueError):
         self.path, self.cause = path, cause
 
 
+def file_problem(path: str | Path) -> str:
+    """Why ``path`` cannot be read as a file ('' when it can): missing, a folder, not a regular
+    file (a FIFO or device: reading one may block for ever), or a name the system refuses.
+    """
+    import stat
+
+    from aceval.data.errors import describe_os_error
+
+    try:
+        mode = Path(path).stat().st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        return "file is missing"
+    except OSError as exc:
+        exc.filename = None
+        return f"cannot be read: {describe_os_error(exc)}"
+    if stat.S_ISDIR(mode):
+        return "is a folder, not a file"
+    if not stat.S_ISREG(mode):
+        return "is not a regular file (a FIFO, socket or device): aceval reads only files"
+    return ""
+
+
 #: the file types a recording may have (the contract: CSV, gzipped CSV or Parquet)
 RECORDING_SUFFIXES = (".csv", ".csv.gz", ".parquet")
 
@@ -148,6 +183,9 @@ def recording_values(path: Path) -> np.ndarray:
         raise RecordingError(
             path, f"cannot be read as CSV: {str(exc).splitlines()[0] if str(exc) else exc!r}"
         ) from None
+    table.columns = [str(c).strip() for c in table.columns]
+    if twice := duplicated_columns(table.columns):
+        raise RecordingError(path, twice)
     missing = [c for c in RECORDING_COLUMNS if c not in table.columns]
     if missing:
         header = ",".join(map(str, table.columns))[:60]
@@ -162,20 +200,62 @@ def recording_columns(path: Path) -> list[str]:
     """The column names of a recording file, from its first line (CSV, gzipped or not) or its
     schema (Parquet): the cheap check of the validation. OSError or ValueError when unreadable.
     """
-    import gzip
-
     path = Path(path)
     if path.suffix == ".parquet":
         import pyarrow.parquet as pq  # here: its import costs every command that never reads one
 
         try:
-            return list(pq.read_schema(path).names)
+            names = list(pq.read_schema(path).names)
         except Exception as exc:  # pyarrow raises its own types for a damaged file
             raise ValueError(f"cannot be read as Parquet: {exc}") from None
-    opener = gzip.open if path.suffix == ".gz" else open
-    with opener(path, "rt", errors="replace") as handle:
-        header = handle.readline().strip()
-    return [c.strip().strip('"') for c in header.split(",")]
+    else:  # what recording_values accepts (a BOM, a compression the name says), this does
+        names = _csv_header(path)
+    if twice := duplicated_columns(names):
+        raise ValueError(twice)
+    return names
+
+
+def _csv_header(path: Path) -> list[str]:
+    """The first line of a CSV recording as column names, read as :func:`recording_values`'
+    reader reads it: a UTF-8 byte-order mark dropped, the file decompressed by its name's
+    suffix (gzip, bz2, xz: the first line only, as fast as a plain file; any other compression
+    pandas knows through pandas).
+    """
+    import bz2
+    import csv
+    import gzip
+    import lzma
+
+    openers = {".gz": gzip.open, ".bz2": bz2.open, ".xz": lzma.open}
+    if path.suffix in (".zip", ".zst", ".tar"):
+        try:
+            return [str(c).strip() for c in pd.read_csv(path, sep=",", nrows=0).columns]
+        except Exception as exc:  # pandas raises many types for a damaged or binary file
+            raise ValueError(f"cannot be read as CSV: {str(exc).splitlines()[0]}") from None
+    opener = openers.get(path.suffix, open)
+    try:
+        with opener(path, "rt", encoding="utf-8-sig", errors="replace", newline="") as handle:
+            header = next(csv.reader(handle), [])
+    except FileNotFoundError:
+        raise
+    except (OSError, EOFError, lzma.LZMAError, csv.Error) as exc:  # a damaged compressed file
+        raise ValueError(f"cannot be read as CSV: {exc}") from None
+    return [c.strip() for c in header]
+
+
+def duplicated_columns(names) -> str:
+    """'' when no column of the contract is named twice, else the cause (a CSV reader renames a
+    second ``acc_x`` to ``acc_x.1``; a Parquet table keeps both): which one would be read is
+    anyone's guess.
+    """
+    names = [str(n) for n in names]
+    twice = sorted({c for c in RECORDING_COLUMNS if names.count(c) > 1 or f"{c}.1" in names})
+    return (
+        f"column(s) {', '.join(twice)} appear more than once in the header: which one holds the "
+        "signal? Keep one of each"
+        if twice
+        else ""
+    )
 
 
 def _parquet_values(path: Path) -> np.ndarray:
@@ -194,6 +274,8 @@ def _parquet_values(path: Path) -> np.ndarray:
         raise RecordingError(
             path, f"cannot be read as Parquet: {str(exc).splitlines()[0]}"
         ) from None
+    if twice := duplicated_columns(names):
+        raise RecordingError(path, twice)
     missing = [c for c in RECORDING_COLUMNS if c not in names]
     if missing:
         raise RecordingError(

@@ -8,8 +8,6 @@ config/README.md for the user-facing description.
 
 from __future__ import annotations
 
-import csv
-import io
 import os
 from dataclasses import dataclass
 from functools import cached_property
@@ -20,7 +18,6 @@ import pandas as pd
 import yaml
 
 from aceval.data.contract import (
-    ACC_UNITS,
     FIRST_PHASES,
     GRAVITY,
     GYR_UNITS,
@@ -34,9 +31,14 @@ from aceval.data.contract import (
     Recording,
     RecordingError,
     ValidationReport,
+    acc_factor,
+    file_problem,
     recording_values,
 )
+from aceval.data.names import check_names, subject_key, unique_subjects
+from aceval.data.names import sheet_line as _line
 from aceval.data.recording_checks import (
+    as_recording,
     check_header,
     check_recording,
     known_recordings,
@@ -67,6 +69,17 @@ class Dataset:
         """The dataset's name (dataset.yaml ``name``, else the folder's)."""
         return str(self.meta.get("name", self.root.name))
 
+    def subject_label(self, label) -> str:
+        """The subjects.tsv spelling of a subject label (compared by :func:`subject_key`: '1',
+        '01' and '001' are one subject); the label itself when the dataset has no such subject.
+        """
+        return self.subject_spellings.get(subject_key(str(label)), str(label))
+
+    @cached_property
+    def subject_spellings(self) -> dict[str, str]:
+        """``{subject_key(label): label}`` of subjects.tsv."""
+        return {subject_key(s): s for s in self.subjects.index}
+
     @property
     def fs_hz(self) -> float:
         """Samples per second (dataset.yaml ``sampling_rate_hz``)."""
@@ -74,8 +87,10 @@ class Dataset:
 
     @property
     def acc_scale(self) -> float:
-        """Factor from the files' acceleration unit to m/s^2."""
-        return ACC_UNITS[self.meta["units"]["acc"]]
+        """Factor from the files' acceleration to specific force in m/s^2: the unit, and -1 for
+        a dataset whose accelerometer reads gravity (dataset.yaml ``acc_at_rest: down``).
+        """
+        return acc_factor(self.meta)
 
     @property
     def gyr_scale(self) -> float:
@@ -159,9 +174,7 @@ class Dataset:
                 f"{int(bad.sum())} rows with NaN, inf or non-numeric values "
                 f"(first at {position(path, int(np.flatnonzero(bad)[0]))})",
             )
-        return Recording(
-            values[:, 0], values[:, 1:4] * self.acc_scale, values[:, 4:7] * self.gyr_scale, full
-        )
+        return as_recording(values, self.acc_scale, self.gyr_scale, full)
 
     def ground_truth_matrix(self, subject: str, sensor_set: str, imu: str) -> np.ndarray | None:
         """The true R (3x3, sensor -> body) of an IMU from ground_truth.tsv; None without one."""
@@ -176,8 +189,8 @@ class Dataset:
 
 def _read_sheet(root: Path, name: str, required: list[str], report: ValidationReport):
     path = root / name
-    if not path.exists():
-        report.error(name, "sheet is missing")
+    if problem := file_problem(path):
+        report.error(name, "sheet is missing" if problem == "file is missing" else problem)
         return None
     try:
         sheet = pd.read_csv(path, sep="\t", dtype=str, keep_default_na=False)
@@ -194,59 +207,6 @@ def _read_sheet(root: Path, name: str, required: list[str], report: ValidationRe
     return sheet.apply(lambda col: col.str.strip())
 
 
-def _line(index: int) -> str:
-    return f"line {index + 2}"  # header is line 1
-
-
-#: the sheets' name columns: every results table is keyed by them
-NAME_COLUMNS = {
-    "subjects.tsv": ["subject"],
-    "tests.tsv": ["test"],
-    "imus.tsv": ["imu", "segment", "side", "sensor_set"],
-}
-
-
-def read_as_missing(names) -> set[str]:
-    """The ``names`` that a CSV reader with its default settings (:func:`pandas.read_csv`, as
-    every reader of aceval's results tables) takes for a missing value: '', 'NA', 'N/A', 'null',
-    'nan', 'None' and the like. As a subject, test, IMU, segment or side such a name would come
-    back as NaN and its rows would silently drop out of every grouping.
-    """
-    unique = sorted(set(names))
-    text = io.StringIO()
-    writer = csv.writer(text)
-    writer.writerow(["position", "name"])  # a second column: an empty name is a line, not skipped
-    writer.writerows(enumerate(unique))
-    read = pd.read_csv(io.StringIO(text.getvalue()), dtype={"name": str})["name"]
-    return {unique[k] for k in np.flatnonzero(read.isna().to_numpy())}
-
-
-def _check_names(sheets: dict[str, pd.DataFrame], sensor_sets: list[str], report) -> None:
-    """An error for each name of :data:`NAME_COLUMNS` (and of dataset.yaml sensor_sets) that is
-    empty or :func:`read_as_missing` (an empty sensor_set of imus.tsv means every set: allowed).
-    """
-    for sheet, columns in NAME_COLUMNS.items():
-        table = sheets[sheet]
-        for column in [c for c in columns if c in table.columns]:
-            values = table[column]
-            missing = read_as_missing(values) - ({""} if column == "sensor_set" else set())
-            for index in table.index[values.isin(missing)]:
-                if values[index] == "":
-                    report.error(f"{sheet} {_line(index)}", f"{column} is empty")
-                    continue
-                report.error(
-                    f"{sheet} {_line(index)}",
-                    f"{column} {values[index]!r} reads as a missing value in CSV readers "
-                    "(pandas.read_csv takes '', NA, N/A, null, nan, None and the like for "
-                    "missing): its rows would drop out of every results table; rename it",
-                )
-    for name in sorted(read_as_missing(str(s) for s in sensor_sets)):
-        report.error(
-            "dataset.yaml",
-            f"sensor_sets: {name!r} reads as a missing value in CSV readers; rename it",
-        )
-
-
 #: keys of dataset.yaml that aceval reads (others are kept but get a warning: a typo disables a check)
 META_KEYS = (
     "name",
@@ -254,6 +214,7 @@ META_KEYS = (
     "simulated",
     "sampling_rate_hz",
     "units",
+    "acc_at_rest",
     "sensor_sets",
     "acc_range_g",
     "gyr_range_dps",
@@ -271,12 +232,12 @@ def _check_meta(root: Path, report: ValidationReport) -> dict | None:
     import jsonschema
 
     path = root / "dataset.yaml"
-    if not path.exists():
-        report.error("dataset.yaml", "missing")
+    if problem := file_problem(path):
+        report.error("dataset.yaml", "missing" if problem == "file is missing" else problem)
         return None
     try:
-        meta = yaml.safe_load(path.read_text())
-    except (yaml.YAMLError, UnicodeDecodeError) as exc:
+        meta = yaml.safe_load(path.read_text(encoding="utf-8-sig"))
+    except (yaml.YAMLError, UnicodeDecodeError, OSError) as exc:
         report.error("dataset.yaml", f"not valid YAML: {exc}")
         return None
     if not isinstance(meta, dict):
@@ -353,22 +314,22 @@ def read_sheets(
     if meta is None or any(sheet is None for sheet in sheets.values()):
         return None, report
     report.dataset = str(meta.get("name", root.name))
-    _check_names(sheets, meta["sensor_sets"], report)
+    check_names(sheets, meta["sensor_sets"], report)
 
     imus = _expand_imus(sheets["imus.tsv"], meta["sensor_sets"], report)
     _check_regions(imus, meta, report)
     tests = _checked_tests(sheets["tests.tsv"], report)
     subjects = sheets["subjects.tsv"]
-    for sheet, table, column in (
-        ("tests.tsv", tests, "test"),
-        ("subjects.tsv", subjects, "subject"),
-    ):
-        for index in table.index[table.duplicated(column, keep="first")]:
-            report.error(
-                f"{sheet} {_line(index)}", f"{column} {table.loc[index, column]!r} is defined twice"
-            )
+    for index in tests.index[tests.duplicated("test", keep="first")]:
+        report.error(
+            f"tests.tsv {_line(index)}", f"test {tests.loc[index, 'test']!r} is defined twice"
+        )
     tests = tests.drop_duplicates("test").set_index("test")
-    subjects = subjects.drop_duplicates("subject").set_index("subject", drop=False)
+    subjects = unique_subjects(subjects, report)
+    spelling = dict(zip(subjects["subject"].map(subject_key), subjects["subject"]))
+    for sheet in (sheets["recordings.tsv"], ground_truth):
+        if sheet is not None:  # '01' in recordings.tsv is subject '1' of subjects.tsv
+            sheet["subject"] = [spelling.get(subject_key(s), s) for s in sheet["subject"]]
     imu_names = set(imus.index.get_level_values("imu"))
     calibrates = sheets["calibrates.tsv"]
     _check_calibrates(calibrates, tests, imu_names, report)
@@ -432,7 +393,7 @@ def _check_calibrates(calibrates, tests, imu_names, report: ValidationReport) ->
 
 def _unique_recordings(recordings: pd.DataFrame, report: ValidationReport) -> pd.DataFrame:
     """recordings.tsv with ``rep`` as a number ('01' and '1' are one repetition), a repeated
-    recording an error (the first kept), a file serving two recordings a warning.
+    recording an error (the first kept), and a file serving two recordings an error.
     """
     recordings = recordings.assign(
         rep=pd.to_numeric(recordings["rep"], errors="coerce").astype("Int64")
@@ -450,10 +411,11 @@ def _unique_recordings(recordings: pd.DataFrame, report: ValidationReport) -> pd
     same_file = recordings["path"].map(os.path.normpath)
     for index in recordings.index[same_file.duplicated(keep="first")]:
         first = recordings.index[same_file == same_file[index]][0]
-        report.warning(
+        report.error(
             f"recordings.tsv {_line(index)}",
             f"path {recordings.loc[index, 'path']!r} is also the file "
-            f"of {_line(first)}: one file serves two recordings",
+            f"of {_line(first)}: one file serves two recordings (one sensor's samples would "
+            "count for another sensor, or twice); give each recording its own file",
         )
     return recordings
 

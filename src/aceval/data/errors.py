@@ -1,6 +1,30 @@
 """Exceptions raised for bad input. Each names its cause; callers add the file/sensor context."""
 
 
+class InputError(ValueError):
+    """A file or value given to a command cannot be used; the message names it and the cause."""
+
+
+#: what an OSError's cause means for the user, where its text does not say it
+_OS_HINTS = {
+    "EFBIG": "the disk is full or a file size limit was reached",
+    "ENOSPC": "free some space, or write elsewhere",
+    "ENAMETOOLONG": "a file or folder name is limited to 255 bytes",
+    "EROFS": "choose a writable place",
+    "EACCES": "check the permissions, or choose another place",
+}
+
+
+def describe_os_error(exc: OSError) -> str:
+    """One line for an OSError: the file (both, for a rename), the cause and what it means."""
+    import errno
+
+    where = " -> ".join(str(f) for f in (exc.filename, exc.filename2) if f is not None)
+    cause = exc.strerror or str(exc)
+    hint = _OS_HINTS.get(errno.errorcode.get(exc.errno or 0, ""), "")
+    return f"{where + ': ' if where else ''}{cause}{f' ({hint})' if hint else ''}"
+
+
 class CalibrationError(ValueError):
     """Base class: the input cannot give a trustworthy calibration."""
 
@@ -36,6 +60,12 @@ class SaturatedError(CalibrationError):
     """Too many samples clipped at the accelerometer range."""
 
     code = "saturated"
+
+
+class StuckChannelError(CalibrationError):
+    """A channel of the recording holds one value while the sensor's others are noisy."""
+
+    code = "stuck_channel"
 
 
 class NotPlanarError(CalibrationError):

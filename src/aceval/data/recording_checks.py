@@ -4,6 +4,8 @@ recordings of a dataset its sheets define.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 
@@ -11,6 +13,7 @@ from aceval.data.contract import (
     FS_TOLERANCE,
     GRAVITY,
     PLATEAU_RUN,
+    QUAT_COLUMNS,
     RECORDING_COLUMNS,
     REST_GRAVITY_BAND,
     SATURATION_FRACTION,
@@ -19,6 +22,7 @@ from aceval.data.contract import (
     Recording,
     RecordingError,
     ValidationReport,
+    file_problem,
     recording_columns,
     recording_values,
 )
@@ -38,8 +42,8 @@ def read_checked(dataset, row, report: ValidationReport) -> Recording | None:
     """
     where = recording_where(row)
     path = dataset.root / row["path"]
-    if not path.is_file():
-        report.error(where, "file is missing")
+    if problem := file_problem(path):
+        report.error(where, problem)
         return None
     try:
         values = recording_values(path)
@@ -50,9 +54,16 @@ def read_checked(dataset, row, report: ValidationReport) -> Recording | None:
     check_values(dataset, row, values, report)
     if len(report.errors) > errors:
         return None
-    return Recording(
-        values[:, 0], values[:, 1:4] * dataset.acc_scale, values[:, 4:7] * dataset.gyr_scale, path
-    )
+    return as_recording(values, dataset.acc_scale, dataset.gyr_scale, path)
+
+
+def as_recording(values: np.ndarray, acc_scale: float, gyr_scale: float, path) -> Recording:
+    """The :class:`Recording` of a file's (N, 7) values, converted to SI in place: its t, acc
+    and gyr are views of the one array (a long recording is held once, not three times).
+    """
+    values[:, 1:4] *= acc_scale
+    values[:, 4:7] *= gyr_scale
+    return Recording(values[:, 0], values[:, 1:4], values[:, 4:7], path)
 
 
 def check_recording(dataset, row, report: ValidationReport) -> None:
@@ -94,7 +105,9 @@ def check_values(dataset, row, values: np.ndarray, report: ValidationReport) -> 
         report.warning(where, f"very short recording: {duration:.2f} s")
     acc = values[:, 1:4]
     if dataset.test_kinds[row["test"]] == "static":
-        magnitude_g = float(np.median(np.linalg.norm(acc, axis=1))) * dataset.acc_scale / GRAVITY
+        magnitude_g = (
+            float(np.median(np.linalg.norm(acc, axis=1))) * abs(dataset.acc_scale) / GRAVITY
+        )
         if not UNITS_GRAVITY_BAND[0] <= magnitude_g <= UNITS_GRAVITY_BAND[1]:
             report.error(
                 where,
@@ -108,21 +121,27 @@ def check_values(dataset, row, values: np.ndarray, report: ValidationReport) -> 
     region = dataset.imu_regions[(row["sensor_set"], row["imu"])]
     acc_range = (dataset.meta.get("acc_range_g") or {}).get(region)
     if acc_range:
-        limit = SATURATION_FRACTION * float(acc_range) * GRAVITY / dataset.acc_scale
+        limit = SATURATION_FRACTION * float(acc_range) * GRAVITY / abs(dataset.acc_scale)
         n_sat = int((np.abs(acc) >= limit).any(axis=1).sum())
         if n_sat:
             report.warning(
                 where, f"{n_sat} samples at the accelerometer range +-{acc_range} g (saturated)"
             )
     if dataset.test_kinds[row["test"]] == "motion" and (plateau := plateau_limit(acc)) is not None:
-        level_g = plateau * dataset.acc_scale / GRAVITY
+        level_g = plateau * abs(dataset.acc_scale) / GRAVITY
         if not acc_range or level_g < SATURATION_FRACTION * float(acc_range):
             n_flat = int((np.abs(acc) >= plateau).any(axis=1).sum())
             report.warning(
                 where,
                 f"{n_flat} samples sit at +-{level_g:.3g} g, {PLATEAU_RUN} or more in a row: "
-                f"clipped below the declared range ({acc_range or 'none'} g)? aceval leaves them out",
+                f"clipped below the declared range ({acc_range or 'none'} g)? "
+                + (
+                    "aceval uses them (the declared range decides what is clipped)"
+                    if acc_range
+                    else "aceval leaves them out"
+                ),
             )
+    check_signals(dataset, row, values, report)
     gyr_range = dataset.meta.get("gyr_range_dps")
     if gyr_range:
         limit = SATURATION_FRACTION * np.radians(float(gyr_range)) / dataset.gyr_scale
@@ -131,6 +150,141 @@ def check_values(dataset, row, values: np.ndarray, report: ValidationReport) -> 
             report.warning(
                 where, f"{n_sat} samples at the gyroscope range +-{gyr_range} deg/s (saturated)"
             )
+
+
+#: a channel that holds one value (exactly) for at least this share of a recording's samples, in
+#: one run, while the other two channels of its sensor (accelerometer or gyroscope) are noisy
+#: there, is stuck: a dead axis reading 0, or a frozen one. Noisy: a new value at
+#: :data:`NOISY_SHARE` of the samples or more, and the step changing sign at :data:`NOISY_FLIPS`
+#: of them or more (a smooth noise-free signal turns only at its extremes: 0.01 for a slow sine
+#: at 100 Hz; the sensors' noise of the committed datasets: 0.06 or more). The condition keeps
+#: noise-free signals out (a simulation with ideal sensors, a pure planar rotation), in which a
+#: channel may hold 0 rightly (config/README.md: the rates)
+STUCK_SHARE = 0.5
+NOISY_SHARE = 0.9
+NOISY_FLIPS = 0.05
+#: a sample whose acceleration (any axis) is this far (g) from the mean of its two neighbours,
+#: which agree within half of it, while the angular velocity runs smoothly through it (its
+#: second difference below :data:`SPIKE_GYRO_DEG_S`), is a spike: no body segment accelerates by
+#: that much for one sample and back without a jolt of its rotation. A foot's heel strike (16 g
+#: for one sample at 204.8 Hz, gaitmap) and a thigh strap's wobble (7 g, qmt) turn the
+#: gyroscope by 21 deg/s or more in that sample (config/README.md: the rates)
+SPIKE_G = 4.0
+SPIKE_GYRO_DEG_S = 10.0
+
+
+def stuck_channel(values: np.ndarray, names) -> tuple[str, float, float] | None:
+    """``(name, share, value)`` of a stuck channel of one sensor's (N, 3) ``values`` (columns
+    ``names``): the one holding one value longest in a row, when that run is at least
+    :data:`STUCK_SHARE` of the samples and the sensor's other two channels are noisy there
+    (:data:`NOISY_SHARE`, :data:`NOISY_FLIPS`); else None. Memory: a few bytes per sample.
+    """
+    values = np.asarray(values)
+    if len(values) < 10:
+        return None
+    best = None  # (name, run length, value)
+    for k, name in enumerate(names):
+        column = values[:, k]
+        edges = np.concatenate([[-1], np.flatnonzero(column[1:] != column[:-1]), [len(values) - 1]])
+        runs = np.diff(edges)
+        longest = int(runs.max())
+        if longest < STUCK_SHARE * len(values) or (best is not None and longest <= best[1]):
+            continue
+        start = int(edges[np.argmax(runs)] + 1)
+        if all(_noisy(values[start : start + longest, j]) for j in range(3) if j != k):
+            best = (name, longest, float(values[start, k]))
+    return None if best is None else (best[0], best[1] / len(values), best[2])
+
+
+def _noisy(signal: np.ndarray) -> bool:
+    """A live channel's samples: a new value at :data:`NOISY_SHARE` of them or more, and the
+    step changing sign at :data:`NOISY_FLIPS` of them or more.
+    """
+    steps = np.sign(np.diff(signal)).astype(np.int8)
+    return bool(
+        (steps != 0).mean() >= NOISY_SHARE and (steps[1:] * steps[:-1] < 0).mean() >= NOISY_FLIPS
+    )
+
+
+def acc_spikes(acc: np.ndarray, gyr: np.ndarray, scale: float = 1.0, gyr_scale: float = 1.0):
+    """(N,) True at the single-sample spikes (:data:`SPIKE_G`) of an (N, 3) acceleration, with
+    the (N, 3) angular velocity of the same sensor (``scale``, ``gyr_scale``: their units in
+    m/s^2 and rad/s). Axis by axis: a few arrays of one axis at a time.
+    """
+    out = np.zeros(len(acc), dtype=bool)
+    if len(acc) < 3:
+        return out
+    limit = SPIKE_G * GRAVITY / abs(scale)  # in the signal's units
+    candidate = np.zeros(len(acc) - 2, dtype=bool)
+    for k in range(3):
+        before, after = acc[:-2, k], acc[2:, k]
+        jump = np.abs(acc[1:-1, k] - (before + after) / 2)
+        candidate |= (jump > limit) & (np.abs(before - after) < jump / 2)
+    if candidate.any():
+        at = np.flatnonzero(candidate) + 1
+        rate = np.degrees(np.asarray(gyr, dtype=float)[np.stack([at - 1, at, at + 1])] * gyr_scale)
+        jolt = np.linalg.norm(rate[1] - (rate[0] + rate[2]) / 2, axis=1)
+        out[at] = jolt < SPIKE_GYRO_DEG_S
+    return out
+
+
+def vendor_up(path: Path) -> np.ndarray | None:
+    """The vendor's up (unit, sensor frame) over a recording: the median direction of z of the
+    vendor's z-up world seen from the sensor, from the quaternions ``quat_w..quat_z`` (sensor ->
+    world, scalar first); None when the file has none (or none is an orientation).
+    """
+    from scipy.spatial.transform import Rotation
+
+    path = Path(path)
+    try:
+        if path.suffix == ".parquet":
+            import pyarrow.parquet as pq
+
+            if not set(QUAT_COLUMNS) <= set(pq.read_schema(path).names):
+                return None
+            quat = pq.read_table(path, columns=QUAT_COLUMNS).to_pandas()
+        else:
+            if not set(QUAT_COLUMNS) <= set(recording_columns(path)):
+                return None
+            quat = pd.read_csv(path, usecols=QUAT_COLUMNS)
+    except (OSError, ValueError):
+        return None
+    quat = quat.apply(pd.to_numeric, errors="coerce").to_numpy(float)
+    norm = np.linalg.norm(quat, axis=1)
+    quat = quat[np.isfinite(norm) & (norm > 1e-6)]
+    if not len(quat):
+        return None
+    up = Rotation.from_quat(quat, scalar_first=True).inv().apply([0.0, 0.0, 1.0])
+    median = np.median(up, axis=0)
+    return median / np.linalg.norm(median) if np.linalg.norm(median) > 0 else None
+
+
+def check_signals(dataset, row, values: np.ndarray, report: ValidationReport) -> None:
+    """The checks of a recording's signals (file units) beyond its format: a stuck channel
+    (:func:`stuck_channel`; of a static recording the accelerometer's only: a still gyroscope may
+    hold its value) and spikes (:func:`acc_spikes`), each a warning naming the file and what
+    aceval does about it.
+    """
+    where = recording_where(row)
+    static = dataset.test_kinds[row["test"]] == "static"
+    found = stuck_channel(values[:, 1:4], RECORDING_COLUMNS[1:4])
+    if not static and not found:
+        found = stuck_channel(values[:, 4:7], RECORDING_COLUMNS[4:7])
+    if found:
+        name, share, value = found
+        report.warning(
+            where,
+            f"{name} is stuck at {value:g} for {share:.0%} of the recording (one value in a row): "
+            "a dead or frozen axis; aceval leaves the recording out",
+        )
+    spikes = acc_spikes(values[:, 1:4], values[:, 4:7], dataset.acc_scale, dataset.gyr_scale)
+    if spikes.any():
+        first = position(row["path"], int(np.flatnonzero(spikes)[0]))
+        report.warning(
+            where,
+            f"{int(spikes.sum())} single-sample acceleration spike(s) of more than {SPIKE_G:g} g "
+            f"(first at {first}): beyond what a body segment does; aceval leaves them out",
+        )
 
 
 def position(path: str, index: int) -> str:
@@ -144,17 +298,21 @@ def plateau_limit(signal: np.ndarray, run: int = PLATEAU_RUN) -> float | None:
     """The |value| (in the signal's units) at which an (N, 3) signal is clipped, found from the data
     alone: the largest |value| of an axis held for ``run`` or more consecutive samples (a smooth
     signal passes its peak in one sample; a clipped one sits on the rail). The lowest such level over
-    the axes, or None when no axis has a plateau at its extreme.
+    the axes, or None when no axis has a plateau at its extreme. Axis by axis, from the runs of
+    samples at the peak (a few bytes per sample).
     """
-    magnitude = np.abs(np.asarray(signal, dtype=float))
-    if len(magnitude) < run:
+    signal = np.asarray(signal, dtype=float)
+    if len(signal) < run:
         return None
-    peak = magnitude.max(axis=0)
-    at_peak = magnitude >= peak * (1 - 1e-9)
-    # a window of ``run`` samples all at the peak <=> a plateau (window sums from a cumulative sum)
-    count = np.concatenate([np.zeros((1, magnitude.shape[1]), int), np.cumsum(at_peak, axis=0)])
-    clipped = ((count[run:] - count[:-run]) == run).any(axis=0) & (peak > 0)
-    return float(peak[clipped].min()) if clipped.any() else None
+    levels = []
+    for k in range(signal.shape[1]):
+        magnitude = np.abs(signal[:, k])
+        peak = magnitude.max()
+        at_peak = (magnitude >= peak * (1 - 1e-9)).astype(np.int8)
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], at_peak, [0]])))
+        if peak > 0 and (edges[1::2] - edges[::2]).max(initial=0) >= run:
+            levels.append(float(peak))
+    return min(levels) if levels else None
 
 
 def known_recordings(dataset) -> pd.DataFrame:
@@ -177,8 +335,8 @@ def check_header(dataset, row, report: ValidationReport) -> None:
     """
     where = recording_where(row)
     path = dataset.root / row["path"]
-    if not path.is_file():
-        report.error(where, "file is missing")
+    if problem := file_problem(path):
+        report.error(where, problem)
         return
     try:
         columns = recording_columns(path)

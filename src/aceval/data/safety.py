@@ -3,16 +3,20 @@
 Raw recordings are only ever read. Every command's outputs are checked before anything is written:
 
 * no output may be, or lie inside, an input dataset or source folder, and a folder output may not
-  contain one (replacing it would delete the input);
+  contain one (replacing it would delete the input); the same against every recording of an
+  input dataset by its resolved path (:func:`check_recordings`: a data folder linked from
+  elsewhere counts where it is), and against the command's other outputs
+  (:func:`check_distinct`); a folder output may not be a symbolic link;
 * a folder output (``simulate``, ``import``, ``apply``) is written into a hidden staging folder
   beside it and moved into place when complete, with a marker file :data:`MARKER`; ``--force``
   replaces an existing non-empty folder only when it holds that marker, i.e. aceval wrote it;
 * a file output is written to a hidden temporary file and renamed into place; the files of one
   command (``calibrate``'s nine) are staged together and renamed into place together when all are
   written (:class:`FileSet`), so a failed or stopped run leaves none of them;
-* every output folder is checked for writing before the work (:func:`check_writable`), and the
-  leftovers of a killed run (its hidden temporaries, named with its process id) are removed by the
-  next run that writes the same output;
+* every output folder is checked for writing before the work (:func:`check_writable`); a run's
+  hidden temporaries are named for their output in full and locked by the run while it lives
+  (:func:`new_temporary`): the next run writing the same output removes a dead run's leftovers
+  and refuses to write beside a live one (:func:`claim`), and touches no other output's;
 * a relative path read from a sheet (``recordings.tsv``) must stay inside its dataset, and every
   file written under an output folder must land inside it (:func:`contained`).
 
@@ -22,8 +26,11 @@ staging folders and temporary files runs (:func:`exit_cleanly_on_sigterm`).
 
 from __future__ import annotations
 
-import glob
+import contextlib
+import fcntl
 import os
+import re
+import secrets
 import shutil
 import signal
 import sys
@@ -76,6 +83,97 @@ def check_outputs(
             raise UnsafeOutputError(f"{option} {out} is a folder; give a file name")
 
 
+def check_distinct(outputs: dict[str, str | Path], folders: tuple[str, ...] = ()) -> None:
+    """UnsafeOutputError when two outputs of one command are the same file (one would be lost),
+    or one lies inside another that is a folder output (``folders``: the options naming folders).
+    """
+    given = [(option, Path(out)) for option, out in outputs.items() if out]
+    for k, (first, first_path) in enumerate(given):
+        for second, second_path in given[k + 1 :]:
+            if _resolved(first_path) == _resolved(second_path):
+                raise UnsafeOutputError(
+                    f"{first} and {second} both name {first_path}: one output would be lost; "
+                    "give each its own file"
+                )
+            for (folder, folder_path), (inner, inner_path) in (
+                ((first, first_path), (second, second_path)),
+                ((second, second_path), (first, first_path)),
+            ):
+                if folder in folders and is_within(inner_path, folder_path):
+                    raise UnsafeOutputError(
+                        f"{inner} {inner_path} lies inside the folder output {folder} "
+                        f"{folder_path}, which is written as a whole; choose another place"
+                    )
+
+
+def recording_files(root: str | Path) -> set[Path]:
+    """Every file recordings.tsv of the dataset at ``root`` names, resolved (symbolic links
+    followed, so a data folder linked from elsewhere counts where it really is); paths the
+    validation refuses (absolute, climbing out) included, to be protected all the same. An
+    unreadable sheet gives none (the validation reports it).
+    """
+    import csv
+
+    sheet = Path(root) / "recordings.tsv"
+    if not sheet.is_file():
+        return set()
+    try:
+        with open(sheet, newline="", encoding="utf-8-sig") as handle:
+            rows = csv.DictReader(handle, delimiter="\t")
+            relative = [
+                (row.get("path") or "").strip() for row in rows if (row.get("path") or "").strip()
+            ]
+    except (OSError, UnicodeDecodeError, csv.Error):
+        return set()
+    folders: dict[str, Path] = {}  # each folder resolved once: datasets share few folders
+    out = set()
+    for path in relative:
+        head, _, name = path.replace("\\", "/").rpartition("/")
+        if head not in folders:
+            try:
+                folders[head] = (Path(root) / head).resolve()
+            except (OSError, RuntimeError):
+                continue
+        file = folders[head] / name
+        try:
+            out.add(file.resolve() if file.is_symlink() else file)
+        except (OSError, RuntimeError):
+            continue
+    return out
+
+
+def check_recordings(outputs: dict, root: str | Path, folders: tuple[str, ...] = ()) -> None:
+    """UnsafeOutputError when an output is a recording of the dataset at ``root``
+    (:func:`recording_files`), lies in a folder holding one, or (for the options named in
+    ``folders``, written or replaced as a whole) contains one: checked on the resolved paths, so
+    a symbolic link anywhere on the way changes nothing.
+    """
+    files = recording_files(root)
+    holding = {file.parent for file in files}
+    for option, out in outputs.items():
+        if not out:
+            continue
+        target = _resolved(out)
+        if target in files:
+            raise UnsafeOutputError(
+                f"{option} {out} is the recording {target} of {root}: aceval never writes over "
+                "its inputs; choose an output outside the dataset"
+            )
+        inside = next((f for f in (target, *target.parents) if f in holding), None)
+        if inside is not None:
+            raise UnsafeOutputError(
+                f"{option} {out} lies inside {inside}, which holds recordings of the input "
+                f"{root}: aceval never writes into its inputs; choose an output outside it"
+            )
+        if option in folders:
+            held = next((f for f in holding if target in f.parents), None)
+            if held is not None:
+                raise UnsafeOutputError(
+                    f"{option} {out} contains {held}, which holds recordings of the input "
+                    f"{root}: replacing it would delete them; choose another folder"
+                )
+
+
 def contained(root: str | Path, relative: str | PurePath) -> Path:
     """``root / relative`` after checking that ``relative`` is relative and stays inside ``root``
     (no absolute path, no ``..`` that climbs out); raises UnsafeOutputError otherwise.
@@ -108,9 +206,35 @@ def path_problem(relative: str) -> str:
 def staged_folder(out: str | Path, force: bool, write) -> None:
     """Call ``write(folder)`` on a hidden staging sibling of ``out``, mark it as aceval's and move
     it into place: a failed run leaves nothing behind. A non-empty ``out`` is only replaced with
-    ``force`` and only when aceval wrote it (it holds :data:`MARKER`).
+    ``force`` and only when aceval wrote it (it holds :data:`MARKER`); a symbolic link is refused
+    (:func:`check_folder_output`), all before ``write`` runs.
     """
     out = Path(out)
+    check_folder_output(out, force)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    claim(out)
+    staging = new_temporary(out, folder=True)
+    try:
+        with naming(out):
+            write(staging)
+        (staging / MARKER).write_text("written by aceval; `--force` may replace this folder\n")
+        if out.exists():
+            shutil.rmtree(out)
+        staging.rename(out)
+    finally:
+        release(staging)
+
+
+def check_folder_output(out: Path, force: bool) -> None:
+    """UnsafeOutputError unless the folder output ``out`` may be written: absent, empty, or (with
+    ``force``) a folder aceval wrote; never a file or a symbolic link (replacing a link's target,
+    or the link, is not what the user asked for).
+    """
+    if out.is_symlink():
+        raise UnsafeOutputError(
+            f"{out} is a symbolic link (to {os.readlink(out)}): aceval writes a folder output "
+            "itself, never through a link; give the folder's own path"
+        )
     if out.exists() and not out.is_dir():
         raise UnsafeOutputError(f"{out} exists and is a file, not a folder")
     if out.is_dir() and any(out.iterdir()):
@@ -123,19 +247,6 @@ def staged_folder(out: str | Path, force: bool, write) -> None:
                 f"{out} was not written by aceval (it has no {MARKER} file): --force only "
                 f"replaces folders aceval wrote itself; choose a new folder"
             )
-    out.parent.mkdir(parents=True, exist_ok=True)
-    remove_leftovers(out)
-    _refuse_if_written(out)
-    staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.{os.getpid()}.", dir=out.parent))
-    try:
-        write(staging)
-        (staging / MARKER).write_text("written by aceval; `--force` may replace this folder\n")
-        if out.exists():
-            shutil.rmtree(out)
-        staging.rename(out)
-    finally:
-        if staging.exists():
-            shutil.rmtree(staging)
 
 
 def atomic_file(path: str | Path, write) -> None:
@@ -144,13 +255,27 @@ def atomic_file(path: str | Path, write) -> None:
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    remove_leftovers(path)
-    tmp = path.with_name(f".tmp.{os.getpid()}.{path.name}")
+    claim(path)
+    tmp = new_temporary(path)
     try:
-        write(tmp)
+        with naming(path):
+            write(tmp)
         tmp.replace(path)
     finally:
-        tmp.unlink(missing_ok=True)
+        release(tmp)
+
+
+@contextlib.contextmanager
+def naming(output: Path):
+    """An OSError that names no file (a write failing on a full disk) is said to be about
+    ``output``, the output being written.
+    """
+    try:
+        yield
+    except OSError as exc:
+        if exc.filename is None:
+            exc.filename = str(output)
+        raise
 
 
 def check_writable(folders) -> None:
@@ -173,55 +298,89 @@ def check_writable(folders) -> None:
             ) from None
 
 
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # another user's process
-        return True
-    return True
+#: the hidden temporaries of an output ``name``: ``.aceval-<pid>-<8 hex digits>.<name>`` beside
+#: it (a file keeps its suffix, so writers can pick the format from it)
+_TEMPORARY = re.compile(r"\.aceval-(\d+)-[0-9a-f]{8}\.(.+)", re.DOTALL)
+#: this run's own temporaries, each with the descriptor that holds its lock (:func:`new_temporary`)
+_OURS: dict[Path, int] = {}
 
 
-def _temporaries(path: Path) -> list[tuple[Path, int]]:
-    """The hidden temporaries of the output ``path`` (``.tmp.<pid>.<name>`` files and
-    ``.<name>.<pid>.*`` staging folders), each with the process id of the run that made it.
+def new_temporary(path: Path, folder: bool = False) -> Path:
+    """A new hidden temporary file (or ``folder``) for the output ``path``, registered as this
+    run's and locked (``flock``) for as long as the run holds it: another run knows a temporary
+    of a live run by its lock, not by a process id read from a name.
+    """
+    while True:
+        tmp = path.with_name(f".aceval-{os.getpid()}-{secrets.token_hex(4)}.{path.name}")
+        try:
+            tmp.mkdir() if folder else tmp.touch(exist_ok=False)
+            break
+        except FileExistsError:
+            continue
+    handle = os.open(tmp, os.O_RDONLY)
+    fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    _OURS[tmp] = handle
+    return tmp
+
+
+def release(tmp: Path) -> None:
+    """Remove one of this run's temporaries (if still there) and drop its lock."""
+    if tmp.is_dir() and not tmp.is_symlink():
+        shutil.rmtree(tmp, ignore_errors=True)
+    else:
+        tmp.unlink(missing_ok=True)
+    handle = _OURS.pop(tmp, None)
+    if handle is not None:
+        os.close(handle)
+
+
+def _temporaries(path: Path) -> list[tuple[Path, str]]:
+    """The hidden temporaries of exactly the output ``path`` (:data:`_TEMPORARY`; the name must
+    match in full: ``.aceval-1-x.res.2024`` belongs to ``res.2024``, never to ``res``), other runs'
+    only, each with the process id its name gives (for messages).
     """
     if not path.parent.is_dir():
         return []
     found = []
-    for candidate in path.parent.glob(f".*{glob.escape(path.name)}*"):
-        name = candidate.name
-        if name.startswith(".tmp.") and name.endswith(f".{path.name}"):
-            pid = name[len(".tmp.") : -len(path.name) - 1]
-        elif name.startswith(f".{path.name}."):
-            pid = name[len(path.name) + 2 :].split(".", 1)[0]
-        else:
-            continue
-        if pid.isdigit() and int(pid) != os.getpid():
-            found.append((candidate, int(pid)))
+    for candidate in path.parent.glob(".aceval-*"):
+        match = _TEMPORARY.fullmatch(candidate.name)
+        if match and match[2] == path.name and candidate not in _OURS:
+            found.append((candidate, match[1]))
     return found
 
 
-def remove_leftovers(path: str | Path) -> None:
-    """Remove the hidden temporaries that a killed run (a process no longer alive) left for the
-    output ``path`` (:func:`_temporaries`).
+def _held(candidate: Path) -> bool:
+    """True when a live run holds the lock of this temporary."""
+    try:
+        handle = os.open(candidate, os.O_RDONLY)
+    except OSError:  # gone meanwhile
+        return False
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    finally:
+        os.close(handle)
+    return False
+
+
+def claim(path: str | Path) -> None:
+    """Before writing the output ``path``: UnsafeOutputError when a live run holds a temporary
+    of it (another aceval is writing it); the temporaries that dead runs left are removed.
     """
-    for candidate, pid in _temporaries(Path(path)):
-        if not _alive(pid):
-            if candidate.is_dir():
-                shutil.rmtree(candidate, ignore_errors=True)
-            else:
-                candidate.unlink(missing_ok=True)
-
-
-def _refuse_if_written(path: Path) -> None:
-    """UnsafeOutputError when another live aceval has a temporary for ``path`` (it is writing it)."""
-    busy = sorted({str(pid) for _, pid in _temporaries(path) if _alive(pid)})
+    path = Path(path)
+    busy = []
+    for candidate, pid in _temporaries(path):
+        if _held(candidate):
+            busy.append(pid)
+        elif candidate.is_dir() and not candidate.is_symlink():
+            shutil.rmtree(candidate, ignore_errors=True)
+        else:
+            candidate.unlink(missing_ok=True)
     if busy:
         raise UnsafeOutputError(
-            f"another aceval (process {', '.join(busy)}) is writing {path}: wait for it, or "
-            "choose another output"
+            f"another aceval (process {', '.join(sorted(busy))}) is writing {path}: wait for "
+            "it, or choose another output"
         )
 
 
@@ -239,26 +398,29 @@ class FileSet:
         self.paths = [Path(p) for p in paths if p]
         check_writable({p.parent for p in self.paths} | {Path(f) for f in folders})
         for path in self.paths:
-            remove_leftovers(path)
-            _refuse_if_written(path)
+            claim(path)
         self.staged: dict[Path, Path] = {}
-        self.reserved: list[Path] = []
+        self.reserved: dict[Path, Path] = {}
         for path in self.paths:
             path.parent.mkdir(parents=True, exist_ok=True)
-            self.temporary(path).touch()
-            self.reserved.append(self.temporary(path))
+            self.reserved[path] = new_temporary(path)
 
     def temporary(self, path: str | Path) -> Path:
         """Where ``path`` is staged (its suffix kept, so writers can pick the format from it)."""
         path = Path(path)
-        return path.with_name(f".tmp.{os.getpid()}.{path.name}")
+        if path not in self.reserved:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            claim(path)
+            self.reserved[path] = new_temporary(path)
+        return self.reserved[path]
 
     def write(self, path: str | Path, write) -> None:
         """Call ``write(temporary)`` for the output ``path``."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         self.staged[path] = self.temporary(path)
-        write(self.staged[path])
+        with naming(path):
+            write(self.staged[path])
 
     def __enter__(self) -> FileSet:
         return self
@@ -269,8 +431,8 @@ class FileSet:
                 for path, tmp in self.staged.items():
                     tmp.replace(path)
         finally:
-            for tmp in [*self.staged.values(), *self.reserved]:
-                tmp.unlink(missing_ok=True)
+            for tmp in self.reserved.values():
+                release(tmp)
 
 
 def exit_cleanly_on_sigterm() -> None:

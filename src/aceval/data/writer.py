@@ -16,12 +16,12 @@ import numpy as np
 import yaml
 
 from aceval.data.contract import (
-    ACC_UNITS,
     GYR_UNITS,
     KONG_FIRST_PHASE,
     QUAT_COLUMNS,
     R_COLUMNS,
     RECORDING_COLUMNS,
+    acc_factor,
 )
 
 #: what a worker process of DatasetWriter.each_subject runs (set before the workers fork)
@@ -75,6 +75,7 @@ def simulated_meta(
         "simulated": True,
         "sampling_rate_hz": fs_hz,
         "units": units,
+        "acc_at_rest": "up",  # specific force, as the simulated accelerometers report it
         "sensor_sets": sensor_sets,
         "acc_range_g": acc_range_g,
         "gyr_range_dps": gyr_range_dps,
@@ -103,7 +104,7 @@ class DatasetWriter:
         self.root.mkdir(parents=True, exist_ok=True)
         self.meta = meta
         self.file_format = file_format
-        self.acc_scale = ACC_UNITS[meta["units"]["acc"]]
+        self.acc_scale = acc_factor(meta)
         self.gyr_scale = GYR_UNITS[meta["units"]["gyr"]]
         self._ground_truth: list = []
         if not sheets:  # a worker of each_subject: its rows go back to the parent

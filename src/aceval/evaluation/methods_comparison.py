@@ -369,29 +369,6 @@ def best_tests(calibrations: pd.DataFrame) -> pd.DataFrame:
     )
 
 
-#: a ground truth disagreeing by more than this with most IMUs' calibrations is suspect
-SUSPECT_TRUTH_DEG = 90.0
-
-
-def truth_warning(calibrations: pd.DataFrame) -> str:
-    """A warning when, for most IMUs with a ground truth, the median error of their valid
-    calibrations from all repetitions (:func:`full_set_errors`) exceeds 90 deg: a transposed
-    matrix (sensor <- body instead of body <- sensor) or rows given to the wrong IMUs is likelier
-    than a method that far off. '' otherwise.
-    """
-    if "error_deg" not in calibrations:
-        return ""
-    data = full_set_errors(calibrations)
-    per_imu = data.groupby(["subject", "sensor_set", "imu"])["error_deg"].median()
-    if per_imu.empty or (per_imu > SUSPECT_TRUTH_DEG).mean() <= 0.5:
-        return ""
-    return (
-        f"WARNING: for {int((per_imu > SUSPECT_TRUTH_DEG).sum())} of {len(per_imu)} IMUs every method "
-        f"is more than {SUSPECT_TRUTH_DEG:g} deg from ground_truth.tsv: is the truth transposed (R must "
-        f"map sensor to body, d_body = R d_sensor) or given to the wrong IMUs?"
-    )
-
-
 #: the marker-frame truth is used only where both its own checks pass (:func:`marker_frame_usable`):
 #: its vertical check, the tilt between the accelerometer's vertical and the one its
 #: angular-velocity fit alone gives (``marker_frame_vertical_check_deg``), and its long-axis check,

@@ -96,6 +96,7 @@ def import_gaitmap(
         "simulated": False,
         "sampling_rate_hz": IMU_RATE_HZ,
         "units": {"acc": "m/s^2", "gyr": "rad/s"},
+        "acc_at_rest": "up",  # the importer writes specific force
         "sensor_sets": ["main"],
         "acc_range_g": {"lower_body": ACC_RANGE_G},
         "gyr_range_dps": GYR_RANGE_DPS,

@@ -250,6 +250,7 @@ def dataset_meta() -> dict:
         "simulated": False,
         "sampling_rate_hz": SAMPLING_RATE_HZ,
         "units": {"acc": "m/s^2", "gyr": "rad/s"},
+        "acc_at_rest": "up",  # the importer writes specific force
         "sensor_sets": ["legs"],
         "acc_range_g": {"lower_body": 2.0},
         "gyr_range_dps": 2000.0,

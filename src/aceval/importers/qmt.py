@@ -226,6 +226,7 @@ def import_qmt(
         "simulated": False,
         "sampling_rate_hz": fs_hz,
         "units": {"acc": "m/s^2", "gyr": "rad/s"},
+        "acc_at_rest": "up",  # the importer writes specific force
         "sensor_sets": ["main"],
         "acc_range_g": {region: ACC_RANGE_G for region in sorted(set(sheet["region"]))},
         "gyr_range_dps": GYR_RANGE_DPS,

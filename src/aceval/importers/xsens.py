@@ -280,6 +280,7 @@ def import_xsens(
         "simulated": False,
         "sampling_rate_hz": fs_hz,
         "units": {"acc": "m/s^2", "gyr": "rad/s"},
+        "acc_at_rest": "up",  # the importer writes specific force
         "sensor_sets": list(dict.fromkeys(sheet["sensor_set"])),
         "acc_range_g": {"upper_body": ACC_RANGE_G, "lower_body": ACC_RANGE_G},
         "gyr_range_dps": GYR_RANGE_DPS,

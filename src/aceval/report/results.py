@@ -17,14 +17,25 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from aceval.data.contract import R_COLUMNS, file_problem
+from aceval.data.errors import InputError
 from aceval.data.safety import FileSet, atomic_file
 from aceval.report.outputs import Output, outputs_of
 
+#: the name columns of aceval's tables, read as text: a subject '001' stays '001' (a CSV reader
+#: left to guess reads the number 1, and '1' and '01' become one subject)
+NAME_DTYPES = {c: str for c in ("subject", "sensor_set", "imu", "imu_b", "test", "segment", "side")}
+#: the columns a calibrations table (of `aceval calibrate`, or a peer's) must have
+CALIBRATION_TABLE_COLUMNS = ["subject", "sensor_set", "imu", "test", "repetitions", "n_reps"]
+CALIBRATION_TABLE_COLUMNS += ["method", *R_COLUMNS, "flag"]
 
-def read_tables(paths, keep: Callable | None = None) -> pd.DataFrame | None:
+
+def read_tables(paths, keep: Callable | None = None, required=()) -> pd.DataFrame | None:
     """The CSV tables at ``paths`` concatenated (an empty file, e.g. a subject with nothing to
     calibrate, is skipped but keeps its columns when all are empty); None for no paths. ``keep``:
-    a table -> its rows to hold, applied file by file (memory holds no more).
+    a table -> its rows to hold, applied file by file (memory holds no more). The name columns
+    are read as text (:data:`NAME_DTYPES`). InputError naming the file and the cause when one is
+    missing, not a CSV table, or lacks one of the ``required`` columns.
 
     Each file is parsed in one piece (``low_memory=False``): one type per column from the whole
     file, and no chunk arrays left to fragment the heap (at 200 subjects the correlations held
@@ -34,10 +45,21 @@ def read_tables(paths, keep: Callable | None = None) -> pd.DataFrame | None:
         return None
     parts = []
     for path in paths:
+        if problem := file_problem(path):
+            raise InputError(f"{path}: {problem}")
         try:
-            part = pd.read_csv(path, low_memory=False)
+            part = pd.read_csv(path, low_memory=False, dtype=NAME_DTYPES)
         except pd.errors.EmptyDataError:
             continue
+        except (UnicodeDecodeError, pd.errors.ParserError, ValueError) as exc:
+            cause = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise InputError(f"{path}: cannot be read as a CSV table ({cause})") from None
+        missing = [c for c in required if c not in part.columns]
+        if missing:
+            raise InputError(
+                f"{path}: missing column(s) {', '.join(missing)}: not a table of the kind this "
+                f"option takes (the columns are {', '.join(map(str, part.columns))[:80]!r})"
+            )
         parts.append(keep(part) if keep is not None and len(part) else part)
     non_empty = [p for p in parts if len(p)] or parts[:1]
     return pd.concat(non_empty, ignore_index=True) if non_empty else pd.DataFrame()
@@ -84,7 +106,9 @@ def ground_truth_sheet(root) -> pd.DataFrame | None:
     path = Path(root) / "ground_truth.tsv"
     if not path.is_file():
         return None
-    return pd.read_csv(path, sep="\t").set_index(["subject", "sensor_set", "imu"])
+    return pd.read_csv(path, sep="\t", dtype=NAME_DTYPES).set_index(
+        ["subject", "sensor_set", "imu"]
+    )
 
 
 def build_data(
@@ -102,7 +126,8 @@ def build_data(
     """The ``data`` dict the builders read: the tidy tables (the ``peers``' calibrations joined
     to aceval's, through every gate aceval's rows pass (:func:`aceval.evaluation.peer_gates.
     gate_peers`: ``recordings``, the one pass's summaries, for their direction vote) and with
-    their error to the ground truth), the dataset's truth and reference sheets,
+    their error to the ground truth), the dataset's truth (``ground_truth``) and
+    reference sheets,
     its ``paper_names`` (this dataset's test names -> the paper's), sensor sets and Obj 4's k;
     ``retest_units``: aceval's methods' test-retest units, computed per subject
     (:func:`aceval.evaluation.methods_comparison.retest_units`; None: from the calibrations).
@@ -113,6 +138,7 @@ def build_data(
     from aceval.evaluation.peer_gates import gate_peers
 
     meta = dataset_meta(root)
+    truth = ground_truth_sheet(root)
     if peers is not None and len(peers):
         dataset = load_dataset(root)
         peers = gate_peers(
@@ -130,7 +156,7 @@ def build_data(
             calibrations.drop(columns=errors, errors="ignore").assign(
                 error_deg=np.nan, error_vertical_share=np.nan
             ),
-            ground_truth_sheet(root),
+            truth,
         )
     if calibrations is not None and len(calibrations):
         calibrations = flag_disagreements(calibrations)
@@ -141,6 +167,7 @@ def build_data(
         "correlations": correlations,
         "angles": angles,
         "retest_units": retest_units,
+        "ground_truth": truth,
         "truth_method": dataset_sheet(root, "ground_truth_method.tsv"),
         "loose_reference": dataset_sheet(root, "loose_reference.tsv"),
         "sensor_sets": list(meta["sensor_sets"])[:2],
@@ -240,14 +267,15 @@ def _no_angles() -> pd.DataFrame:
 
 def summary_text(tables: dict, analyses: list[str], data: dict, notes: list[str]) -> str:
     """SUMMARY.md from the tables as read back (Kong's keyed by number, the others by name)."""
-    from aceval.evaluation.methods_comparison import truth_warning
+    from aceval.evaluation.truth_warnings import truth_warning
     from aceval.report import summary
     from aceval.report.decisions import decision_section
 
     meta = data["meta"]
     calibrations = data.get("calibrations") if "kong" in analyses else None
     notes = [f"- {line}" for line in notes if line]
-    if calibrations is not None and (warning := truth_warning(calibrations)):
+    truth = data.get("ground_truth")
+    if calibrations is not None and (warning := truth_warning(calibrations, truth)):
         notes.append(f"- {warning}")
     return summary.to_markdown(
         summary.claims(tables, data),

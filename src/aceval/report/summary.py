@@ -537,9 +537,12 @@ def to_markdown(
     return "\n".join(lines)
 
 
-def calibration_screen(calibrations: pd.DataFrame, n_left_out: int, path) -> str:
+def calibration_screen(
+    calibrations: pd.DataFrame, n_left_out: int, path, ground_truth: pd.DataFrame | None = None
+) -> str:
     """One screen for the end of ``aceval calibrate``: what was written, per method how many
-    calibrations, how many flagged and (with ground truth) the median error.
+    calibrations, how many flagged and (with ground truth) the median error, and the warnings
+    about the truth (``ground_truth``: :func:`aceval.evaluation.truth_warnings.truth_warning`).
     """
     if calibrations.empty:
         return f"aceval calibrate: wrote {path}: no calibrations ({n_left_out} recordings left out)"
@@ -555,7 +558,7 @@ def calibration_screen(calibrations: pd.DataFrame, n_left_out: int, path) -> str
     )
     if per_method["median_error_deg"].isna().all():
         per_method = per_method.drop(columns="median_error_deg")
-    from aceval.evaluation.methods_comparison import truth_warning
+    from aceval.evaluation.truth_warnings import truth_warning
 
     lines = [
         f"aceval calibrate: wrote {path}",
@@ -565,4 +568,5 @@ def calibration_screen(calibrations: pd.DataFrame, n_left_out: int, path) -> str
         f"{', '.join(sorted(calibrations['test'].unique()))}; {n_left_out} recording(s) left out",
         *("  " + line for line in per_method.round(2).to_string().splitlines()),
     ]
-    return "\n".join(lines + [warning for warning in [truth_warning(calibrations)] if warning])
+    warning = truth_warning(calibrations, ground_truth)
+    return "\n".join(lines + ([warning] if warning else []))

@@ -50,6 +50,7 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
+import pandas as pd
 from scipy.ndimage import maximum_filter1d
 
 from aceval.data.contract import GRAVITY
@@ -94,18 +95,35 @@ THIRD_MOMENT_COLUMNS = ["w3_" + "".join("xyz"[a] for a in t) for t in _TRIPLES]
 _TENSOR_ENTRIES = [(v, *p) for v, t in enumerate(_TRIPLES) for p in set(itertools.permutations(t))]
 
 
+#: samples per chunk of :func:`agreement_moments`: its windows are summed chunk by chunk, so its
+#: memory is bounded by a chunk, whatever the recording's length (one chunk up to 33 min at 100 Hz)
+CHUNK_SAMPLES = 200_000
+
+
 def agreement_moments(acc: np.ndarray, gyr: np.ndarray, fs_hz: float) -> dict:
     """Sums over the slow-motion windows of one recording (columns ``AGREEMENT_COLUMNS``): the
     cross-moment C = sum (Delta x a) r^T (3x3), sum |Delta x a|^2, sum |r|^2 and the summed
-    direction change (deg). ``acc`` m/s^2, ``gyr`` rad/s, both (N, 3).
+    direction change (deg). ``acc`` m/s^2, ``gyr`` rad/s, both (N, 3). Long recordings are
+    summed in chunks of :data:`CHUNK_SAMPLES` windows (each read with the samples around it
+    that its windows and filters reach).
     """
     k = max(1, int(round(WINDOW_S * fs_hz)))
-    zero = dict.fromkeys(AGREEMENT_COLUMNS, 0.0)
-    if len(acc) <= k:
-        return zero
+    total = np.zeros(len(AGREEMENT_COLUMNS))
+    n_windows, halo = len(acc) - k, 2 * k + 2
+    for first in range(0, max(n_windows, 0), CHUNK_SAMPLES):
+        last = min(n_windows, first + CHUNK_SAMPLES)
+        lo, hi = max(0, first - halo), min(len(acc), last + k + halo)
+        total += _window_sums(acc[lo:hi], gyr[lo:hi], fs_hz, k, first - lo, last - lo)
+    return dict(zip(AGREEMENT_COLUMNS, total.tolist()))
+
+
+def _window_sums(acc, gyr, fs_hz: float, k: int, first: int, last: int) -> np.ndarray:
+    """:func:`agreement_moments`' sums (in ``AGREEMENT_COLUMNS`` order) over the windows of
+    ``k`` samples starting at ``first`` to ``last`` (exclusive) of the samples given.
+    """
     norm = np.linalg.norm(acc, axis=1)
     direction = acc / np.where(norm > 0, norm, 1.0)[:, None]
-    start = np.arange(len(acc) - k)
+    start = np.arange(first, last)
     cumulative = np.vstack([np.zeros(3), np.cumsum(gyr, axis=0) / fs_hz])
     rotation = (cumulative[k:] - cumulative[:-k])[start]  # rad, over [start, start + k)
     deviation = maximum_filter1d(np.abs(norm - GRAVITY), k + 1, origin=-(k // 2))[start]
@@ -128,15 +146,10 @@ def agreement_moments(acc: np.ndarray, gyr: np.ndarray, fs_hz: float) -> dict:
         & (size_ratio > SIZE_RATIO_BAND[0])
         & (size_ratio < SIZE_RATIO_BAND[1])
     )
-    if not slow.any():
-        return zero
     seen, r = seen[slow], rotation[slow]
-    out = dict(zip(AGREEMENT_COLUMNS[:9], (seen.T @ r).ravel()))
-    return out | {
-        "ga_ww": float(np.sum(seen * seen)),
-        "ga_rr": float(np.sum(r * r)),
-        "ga_turn_deg": float(turn[slow].sum()),
-    }
+    return np.concatenate(
+        [(seen.T @ r).ravel(), [np.sum(seen * seen), np.sum(r * r), turn[slow].sum()]]
+    )
 
 
 def gyro_acc_agreement(summed: np.ndarray) -> tuple[float, float]:
@@ -342,3 +355,190 @@ def sensor_problem(summed_agreement: np.ndarray, fastest_deg_s: float, gyr_units
         "gyro_acc_agreement": kappa,
         "gyro_acc_evidence_deg": evidence,
     }
+
+
+# --- a sensor's own signals: stuck channels, spikes, gyroscope offset, static trials, the
+# accelerometer's sign (each statistic per recording in the one pass, judged per IMU)
+
+#: a recording's still samples (a static trial, or a motion recording's still portions) give the
+#: gyroscope's offset only when the sensor is at rest there: the SD of its angular velocity (norm
+#: of the three axes' SDs) below :data:`REST_MAX_SD_DEG_S` and the median |specific force| within
+#: :data:`REST_BAND_G`. Quiet standing: 0.1-1.7 deg/s (the committed datasets but one qmt static
+#: trial at 18.8) and 0.95-1.04 g; HuGaDB's walking-based static fallback (T0w, walking low-passed
+#: at 0.5 Hz) is none of its 215 recordings within both (2.1-53 deg/s, 1.02-1.38 g)
+REST_MAX_SD_DEG_S = 3.0
+REST_BAND_G = (0.95, 1.05)
+REST_GYRO_COLUMNS = ["rest_gyro_x", "rest_gyro_y", "rest_gyro_z"]
+#: the gyroscope's offset at rest (median over the IMU's still recordings of each axis's median,
+#: deg/s) above which it is flagged ``gyro_bias``: the axis methods take it for rotation (a 5
+#: deg/s offset on two axes moved TRIAD's leg-swing calibration of the thigh 4.6 -> 27.5 deg);
+#: the rates measured with it are in config/README.md
+GYRO_BIAS_LIMIT_DEG_S = 4.0
+#: two static recordings of one IMU whose verticals are farther apart than this (deg) disagree:
+#: z0 averages them (``static_disagree``; the limit of ``static_not_standing``; HuGaDB's
+#: walking-based verticals of one subject are up to 5.7 deg apart; rates in config/README.md)
+STATIC_DISAGREE_DEG = 10.0
+#: the vendor's up (from ``quat_w..z``) and the accelerometer's at rest farther apart than this
+#: (deg): one of them has the other sign convention (``acc_sign_mismatch``)
+ACC_SIGN_LIMIT_DEG = 90.0
+_SIGNAL_NAMES = ["acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z"]
+
+
+def recording_signals(acc: np.ndarray, gyr: np.ndarray, rest: np.ndarray | None) -> tuple:
+    """The signal checks of one recording (SI, (N, 3) each): ``(statistics, spikes)``, the
+    summary columns ``n_spikes`` and :data:`REST_GYRO_COLUMNS` (each axis's median angular
+    velocity over the ``rest`` samples, rad/s; NaN when there are none or the sensor is not at
+    rest there, :data:`REST_MAX_SD_DEG_S`), and the (N,) spike mask
+    (:func:`aceval.data.recording_checks.acc_spikes`). StuckChannelError when a channel is stuck
+    (:func:`aceval.data.recording_checks.stuck_channel`; ``rest`` None: a static recording,
+    whose accelerometer only is judged: a still gyroscope may hold its value).
+    """
+    from aceval.data.errors import StuckChannelError
+    from aceval.data.recording_checks import NOISY_SHARE, acc_spikes, stuck_channel
+
+    static = rest is None
+    found = stuck_channel(acc, _SIGNAL_NAMES[:3])
+    if not static and not found:
+        found = stuck_channel(gyr, _SIGNAL_NAMES[3:])
+    if found:
+        raise StuckChannelError(
+            f"{found[0]} holds one value for {found[1]:.0%} of the recording while the "
+            f"sensor's other two channels are noisy (new values at {NOISY_SHARE:.0%} of the "
+            "samples): a dead or frozen axis"
+        )
+    spikes = acc_spikes(acc, gyr)
+    still, still_acc = (gyr, acc) if static else (gyr[rest], acc[rest])
+    at_rest = (
+        len(still) >= 10
+        and np.degrees(np.linalg.norm(still.std(axis=0))) < REST_MAX_SD_DEG_S
+        and REST_BAND_G[0] * GRAVITY
+        < np.median(np.linalg.norm(still_acc, axis=1))
+        < REST_BAND_G[1] * GRAVITY
+    )
+    offset = np.median(still, axis=0) if at_rest else np.full(3, np.nan)
+    return {"n_spikes": int(spikes.sum()), **dict(zip(REST_GYRO_COLUMNS, offset))}, spikes
+
+
+def signal_verdict(static: pd.DataFrame, motion: pd.DataFrame) -> dict:
+    """What one IMU's per-recording statistics (its static and motion summary rows) say about
+    its signals: ``flag`` ('gyro_bias', 'static_disagree', 'acc_sign_mismatch', ';'-joined, or
+    ''), ``messages`` and the evidence ``gyro_bias_deg_s`` (the offset at rest, median over its
+    still recordings), ``static_spread_deg`` (the largest angle between its static recordings'
+    verticals) and ``vendor_up_angle_deg`` (the vendor's up from the accelerometer's at rest).
+    """
+    rest = pd.concat([t for t in (static, motion) if REST_GYRO_COLUMNS[0] in t])
+    offsets = rest[REST_GYRO_COLUMNS].to_numpy(float) if len(rest) else np.zeros((0, 3))
+    offsets = offsets[np.isfinite(offsets).all(axis=1)]
+    bias = float(np.degrees(np.linalg.norm(np.median(offsets, axis=0)))) if len(offsets) else np.nan
+    usable = static[static["flag"] == ""] if "flag" in static else static
+    z0 = usable[["z0_x", "z0_y", "z0_z"]].to_numpy(float) if "z0_x" in usable else np.zeros((0, 3))
+    z0 = z0[np.isfinite(z0).all(axis=1)]
+    spread = float(np.nanmax(vector_angle_deg(z0[:, None], z0[None]))) if len(z0) > 1 else np.nan
+    vendor = usable["vendor_up_angle_deg"] if "vendor_up_angle_deg" in usable else pd.Series()
+    vendor = float(vendor.max()) if vendor.notna().any() else np.nan
+    found = []
+    if bias > GYRO_BIAS_LIMIT_DEG_S:
+        cause = (
+            f"its gyroscope reads {bias:.1f} deg/s at rest (median over {len(offsets)} still "
+            f"recording(s); more than {GYRO_BIAS_LIMIT_DEG_S:g}): an offset that the axis methods "
+            "take for rotation"
+        )
+        found.append(("gyro_bias", cause))
+    if spread > STATIC_DISAGREE_DEG:
+        cause = (
+            f"its {len(z0)} static recordings give verticals {spread:.0f} deg apart (more than "
+            f"{STATIC_DISAGREE_DEG:g}): z0 blends them; was one taken leaning or seated?"
+        )
+        found.append(("static_disagree", cause))
+    if vendor > ACC_SIGN_LIMIT_DEG:
+        cause = (
+            f"its accelerometer points {vendor:.0f} deg from the vendor's up (quat_w..z) at "
+            "rest: it reads down where the vendor's orientation says up; is dataset.yaml "
+            "acc_at_rest right, or this sensor's accelerometer reversed?"
+        )
+        found.append(("acc_sign_mismatch", cause))
+    return {
+        "flag": ";".join(f for f, _ in found),
+        "messages": [m for _, m in found],
+        "gyro_bias_deg_s": bias,
+        "static_spread_deg": spread,
+        "vendor_up_angle_deg": vendor,
+    }
+
+
+#: the pair moments' columns (:data:`aceval.signals.reduction.PAIR_COLUMNS`): both means and the
+#: centred scatters and cross-moment of the overlap
+MEAN_A, MEAN_B = ["ma_x", "ma_y", "ma_z"], ["mb_x", "mb_y", "mb_z"]
+C_AA, C_BB, C_AB = (
+    [f"{m}{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)] for m in ("caa", "cbb", "cab")
+)
+
+
+def _kabsch_best(M: np.ndarray) -> float:
+    """Max over rotations R of trace(R^T M) (the sum of M's singular values, the last signed)."""
+    U, S, Vt = np.linalg.svd(M)
+    return float(S[0] + S[1] + np.sign(np.linalg.det(U @ Vt)) * S[2])
+
+
+def acc_sign_agreement(pairs: pd.DataFrame) -> dict[tuple[str, str, str], float]:
+    """Two sensors on one segment (Kong's Obj 1 pairs: the same IMU in the two sensor sets) see
+    one motion: a rotation R maps one's angular velocities and specific forces onto the other's.
+    Fitted to both signals (each normalised) once as read and once with one accelerometer
+    negated: ``agreement`` = how much better the first fits (Kabsch's maximum of trace(R^T M) of
+    the pooled uncentred cross-moments M, from the pair moments of every test and repetition of
+    the subject: nothing reads the samples again). About +1 for a consistent pair, about -1 when
+    one accelerometer reads with the other sign. Returns ``{(subject, set, imu): agreement}`` for
+    both sensors of each pair.
+    """
+    if pairs is None or pairs.empty:
+        return {}
+    rows = pairs[
+        (pairs["objective"] == "frontal_lateral")
+        & (pairs["window"] == "all")
+        & (pairs["flag"].fillna("") == "")
+        & (pairs["n"] > 0)
+    ]
+    out = {}
+    for (subject, sets, imu), group in rows.groupby(["subject", "sensor_set", "imu"], sort=False):
+        moments = {}
+        for signal, part in group.groupby("signal"):
+            n = part["n"].to_numpy(float)[:, None, None]
+            ma, mb = part[MEAN_A].to_numpy(float), part[MEAN_B].to_numpy(float)
+
+            aa, bb, ab = (
+                (part[c].to_numpy(float).reshape(-1, 3, 3) + n * x[:, :, None] * y[:, None, :]).sum(
+                    axis=0
+                )
+                for c, x, y in ((C_AA, ma, ma), (C_BB, mb, mb), (C_AB, ma, mb))
+            )  # uncentred: the centred moments plus n times the product of the means
+            moments[signal] = ab / np.sqrt(np.trace(aa) * np.trace(bb))
+        if set(moments) != {"acc", "gyr"}:
+            continue
+        agreement = _kabsch_best(moments["gyr"] + moments["acc"]) - _kabsch_best(
+            moments["gyr"] - moments["acc"]
+        )
+        for sensor_set in str(sets).split("|"):
+            out[(subject, sensor_set, imu)] = agreement
+    return out
+
+
+#: the accelerometer-sign agreement of two sensors of a segment is judged when it is at least
+#: this far from 0 (:func:`acc_sign_agreement`): it rests on the motion out of the sagittal plane,
+#: which the head of Kong's protocol barely has (-0.0004 to 0.022 on the six 1-subject
+#: simulations of benchmarks/check_rates.py, the other IMUs 0.05 or more)
+ACC_SIGN_MIN_AGREEMENT = 0.03
+
+
+def acc_sign_problem(agreement: float) -> str:
+    """'' when the two sensors of a segment agree on the accelerometer's sign, when there is no
+    pair, or too little motion out of the plane to tell (:data:`ACC_SIGN_MIN_AGREEMENT`); else
+    the cause.
+    """
+    if not agreement < -ACC_SIGN_MIN_AGREEMENT:
+        return ""
+    return (
+        "its accelerometer and that of the other sensor on the segment (the other sensor set) "
+        f"disagree on the sign of gravity (agreement {agreement:.2f} < "
+        f"-{ACC_SIGN_MIN_AGREEMENT:g}): one of them reads it reversed (dataset.yaml "
+        "acc_at_rest, or that sensor's export)"
+    )

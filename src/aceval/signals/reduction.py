@@ -32,12 +32,23 @@ import pandas as pd
 from aceval.data.contract import Recording, ValidationReport
 from aceval.data.dataset import Dataset
 from aceval.data.errors import CalibrationError, SaturatedError
-from aceval.data.recording_checks import known_recordings, plateau_limit, read_checked
-from aceval.data.rotations import axis_vector
+from aceval.data.recording_checks import known_recordings, plateau_limit, read_checked, vendor_up
+from aceval.data.rotations import axis_vector, vector_angle_deg
 from aceval.methods import registry
 from aceval.methods.moments import recording_moments, vertical_axis
 from aceval.signals.alignment import aligned, pooled_lag
-from aceval.signals.checks import GYRO_THIRD, MIN_STILL_S, STILL_COLUMNS, agreement_moments
+from aceval.signals.checks import (  # the pair moments' columns: a: first recording, b: second
+    C_AA,
+    C_AB,
+    C_BB,
+    GYRO_THIRD,
+    MEAN_A,
+    MEAN_B,
+    MIN_STILL_S,
+    STILL_COLUMNS,
+    agreement_moments,
+    recording_signals,
+)
 from aceval.signals.segmentation import TrimParams, mask_to_ranges, movement_mask
 from aceval.signals.signatures import motion_signatures, sagittal_rate, speed_envelope
 
@@ -47,11 +58,6 @@ from aceval.signals.signatures import motion_signatures, sagittal_rate, speed_en
 MAX_CLIPPED_FRACTION = 0.2
 #: an aligned pair sharing fewer than this share of the shorter recording is not correlated
 MIN_OVERLAP = 0.5
-#: the moments of one recording pair (a: first recording, b: second; c_xy: centred cross-moments)
-MEAN_A, MEAN_B = ["ma_x", "ma_y", "ma_z"], ["mb_x", "mb_y", "mb_z"]
-C_AA, C_BB, C_AB = (
-    [f"{m}{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)] for m in ("caa", "cbb", "cab")
-)
 PAIR_COLUMNS = [
     "objective",
     "subject",
@@ -264,7 +270,12 @@ def summarise(
     row = _row(rec, is_static)
     try:
         if is_static:
+            row.update(recording_signals(data.acc, data.gyr, None)[0])
             row.update(zip(["z0_x", "z0_y", "z0_z"], vertical_axis(data.acc)))
+            up = vendor_up(data.path)  # the vendor's orientation, when the file has one
+            row["vendor_up_angle_deg"] = (
+                np.nan if up is None else float(vector_angle_deg(up, -vertical_axis(data.acc)))
+            )
             row["n_samples"] = len(data.acc)
             row.update(recording_moments(data.acc, dataset.fs_hz, motion=False))
             return row
@@ -273,14 +284,12 @@ def summarise(
         row["gyro_p90_deg_s"] = typical_speed_deg_s(data.gyr)
         mask = moving if moving is not None else movement_mask(data.gyr, dataset.fs_hz, trim)
         still = ~mask  # standing before, between and after the movements: the vertical again
+        enough = still.sum() >= MIN_STILL_S * dataset.fs_hz
         row.update(
-            zip(
-                STILL_COLUMNS,
-                vertical_axis(data.acc[still])
-                if still.sum() >= MIN_STILL_S * dataset.fs_hz
-                else np.full(3, np.nan),
-            )
+            zip(STILL_COLUMNS, vertical_axis(data.acc[still]) if enough else np.full(3, np.nan))
         )
+        signals, spikes = recording_signals(data.acc, data.gyr, still if enough else still & False)
+        row.update(signals)
         limit = dataset.acc_limit(rec["sensor_set"], rec["imu"])
         if limit is None and (plateau := plateau_limit(data.acc)) is not None:
             limit, row["clipping_from_data"] = plateau, True  # clipped at a range nobody declared
@@ -291,7 +300,7 @@ def summarise(
                 f"{row['n_clipped']} of {int(mask.sum())} moving samples are clipped at "
                 f"the accelerometer range (more than {MAX_CLIPPED_FRACTION:.0%})"
             )
-        mask = mask & ~clipped
+        mask = mask & ~clipped & ~spikes  # single-sample spikes: beyond any body's motion
         row["n_samples"] = int(mask.sum())
         kept = mask_to_ranges(mask)
         row["n_segments"] = len(kept)
