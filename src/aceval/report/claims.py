@@ -54,7 +54,9 @@ __all__ = [
     "Requirement",
     "Rule",
     "interval",
+    "every_cell",
     "labelled",
+    "one_cell",
     "subject_cells",
 ]
 
@@ -152,6 +154,11 @@ def labelled(cells: pd.DataFrame, keys: list[str], value: str) -> pd.DataFrame:
         return pd.DataFrame(columns=["cell", "subject", "value"])
     label = cells[keys].astype(str).agg(" ".join, axis=1)
     return pd.DataFrame({"cell": label, "subject": cells["subject"], "value": cells[value]})
+
+
+def one_cell(name: str, per_subject: pd.Series) -> pd.DataFrame:
+    """One cell's long rows from a value per subject (the series' index)."""
+    return pd.DataFrame({"cell": name, "subject": per_subject.index, "value": per_subject.values})
 
 
 def every_cell(cells: pd.DataFrame, requirement: Requirement) -> dict:

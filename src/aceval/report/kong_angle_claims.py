@@ -16,7 +16,9 @@ from aceval.report.claims import (
     UPPER,
     Cells,
     Requirement,
+    every_cell,
     labelled,
+    one_cell,
 )
 from aceval.report.kong_evidence import Evidence, against
 
@@ -44,15 +46,8 @@ def lower_than_upper(e: Evidence):
     upper, lower = [s for s in UPPER if s in wide], [s for s in LOWER if s in wide]
     if not upper or not lower:
         return UNTESTABLE, "needs upper-body and lower-limb segments"
-    difference = wide[lower].mean(axis=1) - wide[upper].mean(axis=1)
-    long = pd.DataFrame(
-        {
-            "cell": "lower limbs - upper body",
-            "subject": difference.index,
-            "value": difference.values,
-        }
-    )
-    return Cells(long, {"lower limbs - upper body": Requirement.of(">", 0.0)}, unit="deg")
+    long = one_cell("lower limbs - upper body", wide[lower].mean(axis=1) - wide[upper].mean(axis=1))
+    return Cells(long, every_cell(long, Requirement.of(">", 0.0)), unit="deg")
 
 
 def t6_faster(e: Evidence):
@@ -64,22 +59,11 @@ def t6_faster(e: Evidence):
             index="subject", columns="test", values="error_angle_deg"
         )
         if {"T5", "T6"} <= set(wide.columns):
-            difference = wide["T5"] - wide["T6"]
-            parts.append(
-                pd.DataFrame(
-                    {
-                        "cell": f"{segment} T5 - T6",
-                        "subject": wide.index,
-                        "value": difference.values,
-                    }
-                )
-            )
+            parts.append(one_cell(f"{segment} T5 - T6", wide["T5"] - wide["T6"]))
     if not parts:
         return UNTESTABLE, "needs T5 and T6"
     long = pd.concat(parts, ignore_index=True)
-    return Cells(
-        long, {c: Requirement.of(">", 0.0) for c in dict.fromkeys(long["cell"])}, unit="deg"
-    )
+    return Cells(long, every_cell(long, Requirement.of(">", 0.0)), unit="deg")
 
 
 # --- Obj 5 ------------------------------------------------------------------------------------
@@ -202,15 +186,9 @@ def recommended_most_accurate(e: Evidence):
             index="subject", columns="test", values="error_deg"
         )
         if test in wide and wide.shape[1] >= 2 and len(wide) >= 2:
-            difference = held_out_differences(wide, test)
             cell = f"{segment}: {test} - best other (held out)"
-            parts.append(
-                pd.DataFrame(
-                    {"cell": cell, "subject": difference.index, "value": difference.values}
-                )
-            )
+            parts.append(one_cell(cell, held_out_differences(wide, test)))
     if not parts:
         return UNTESTABLE, "needs the recommended test, another one and two subjects"
     long = pd.concat(parts, ignore_index=True)
-    requirement = Requirement.of("<", SAME_CALIBRATION_DEG)
-    return Cells(long, {cell: requirement for cell in dict.fromkeys(long["cell"])}, unit="deg")
+    return Cells(long, every_cell(long, Requirement.of("<", SAME_CALIBRATION_DEG)), unit="deg")

@@ -22,6 +22,8 @@ from aceval.report.claims import (
     Rule,
     every_cell,
     labelled,
+    one_cell,
+    present,
 )
 from aceval.report.kong2016 import FACTOR_MODELS
 from aceval.report.kong_angle_claims import (
@@ -100,16 +102,7 @@ def _minimum_feet_t6(e: Evidence):
     others = [c for c in wide.columns if c != FEET_T6]
     parts = [long[long["cell"] == FEET_T6]]
     for other in others:
-        difference = (wide[other] - wide[FEET_T6]).dropna()
-        parts.append(
-            pd.DataFrame(
-                {
-                    "cell": f"{other} - {FEET_T6}",
-                    "subject": difference.index,
-                    "value": difference.values,
-                }
-            )
-        )
+        parts.append(one_cell(f"{other} - {FEET_T6}", (wide[other] - wide[FEET_T6]).dropna()))
     requirements = {FEET_T6: Requirement.within(*ABOUT_0_8)}
     requirements |= {f"{other} - {FEET_T6}": Requirement.of(">", 0.0) for other in others}
     return Cells(
@@ -163,7 +156,7 @@ def _pooled(pooled: pd.DataFrame, factors) -> str:
 
 
 def _box(e: Evidence) -> tuple[str, str]:
-    box, gyro = _present(e.tables.get(4)), _present(e.tables.get(5))
+    box, gyro = present(e.tables.get(4)), present(e.tables.get(5))
     if box.empty or gyro.empty:
         return UNTESTABLE, "needs the rigid-box recordings (Tables 4-5)"
     edge = box[box["t_ap"] == "around_one_edge"].set_index("imu")["mean"]
@@ -181,10 +174,6 @@ def _box(e: Evidence) -> tuple[str, str]:
         f"gyro min {gyro['mean'].min():.4f} (paper: edge 0.998-0.999, random 0.947-0.976, gyro "
         f"min 0.988)"
     )
-
-
-def _present(table: pd.DataFrame | None) -> pd.DataFrame:
-    return table[table["n"] > 0] if table is not None and len(table) else pd.DataFrame()
 
 
 # --- Obj 2 ------------------------------------------------------------------------------------

@@ -21,7 +21,9 @@ from aceval.report.claims import (
     Claim,
     Requirement,
     Rule,
+    every_cell,
     labelled,
+    one_cell,
     present,
     subject_cells,
 )
@@ -87,9 +89,7 @@ def _static(e: Evidence):
     cells = _rho_cells(e, rows)
     low, high = STATIC_RANGE
     requirement = Requirement(above=low, above_inclusive=True, below=high, below_inclusive=True)
-    return Cells(
-        cells, {c: requirement for c in dict.fromkeys(cells["cell"])}, digits=3, subjects=CHILDREN
-    )
+    return Cells(cells, every_cell(cells, requirement), digits=3, subjects=CHILDREN)
 
 
 def _movements(e: Evidence):
@@ -118,18 +118,13 @@ def _supported(e: Evidence):
             )
             if {supported, unsupported} <= set(wide.columns):
                 difference = (wide[supported] - wide[unsupported]).dropna()
-                cell = f"{label} {supported} - {unsupported}"
-                parts.append(
-                    pd.DataFrame(
-                        {"cell": cell, "subject": difference.index, "value": difference.values}
-                    )
-                )
+                parts.append(one_cell(f"{label} {supported} - {unsupported}", difference))
     if not parts:
         return UNTESTABLE, "needs FEB and FE"
     cells = pd.concat(parts, ignore_index=True)
     return Cells(
         cells,
-        {c: Requirement.of(">", 0.0) for c in dict.fromkeys(cells["cell"])},
+        every_cell(cells, Requirement.of(">", 0.0)),
         digits=3,
         subjects=CHILDREN,
         note="the second reading (elbow FFEB vs FE, a different movement) is in table ricci_ttest",
