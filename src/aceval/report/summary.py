@@ -107,22 +107,16 @@ def _ranking_lines(ranking: pd.DataFrame | None) -> list[str]:
     """The methods ranked over the subjects (table ``methods_ranking``), with intervals."""
     if ranking is None or ranking.empty:
         return []
-    first = ranking.iloc[0]
-    parts = [
-        f"{r['method']} {interval(r['mean'], r['low'], r['high'])}"
-        + (
-            ""
-            if r["rank"] == 1
-            else f" ({interval(r['difference_to_first'], r['difference_low'], r['difference_high'])})"
-        )
-        for _, r in ranking.iterrows()
-    ]
+    parts = [f"{ranking['method'].iloc[0]} {interval(*ranking.iloc[0][['mean', 'low', 'high']])}"]
+    for _, r in ranking.iloc[1:].iterrows():
+        to_first = interval(*r[["difference_to_first", "difference_low", "difference_high"]])
+        parts.append(f"{r['method']} {interval(*r[['mean', 'low', 'high']])} ({to_first})")
     return [
         "",
-        f"Ranked on the same {int(first['cells'])} cell(s) over the {int(first['n_subjects'])} "
-        "subjects (each subject's mean error there, its sides and sets inside it; table "
-        "`methods_ranking`): mean [95 % interval] deg, and in brackets the difference to the "
-        f"first with its interval simultaneous over the {len(ranking) - 1} comparison(s): "
+        f"Ranked on the same {int(ranking['cells'].iloc[0])} cell(s) over the "
+        f"{int(ranking['n_subjects'].iloc[0])} subjects (each subject's mean error there, its sides "
+        "and sets inside it; table `methods_ranking`): mean [95 % interval] deg, and in brackets "
+        f"the difference to the first, simultaneous over the {len(ranking) - 1} comparison(s): "
         + "; ".join(parts)
         + ".",
     ]
