@@ -96,3 +96,38 @@ def test_no_two_unflagged_calibrations_of_one_unit_differ_by_more_than_10_deg(re
             assert largest <= STABLE_DEG, (folder.parent.name, key, round(largest, 2))
             checked += 1
     assert checked > 1000
+
+
+def test_the_powered_design_regenerates_its_committed_results(tmp_path_factory):
+    """Issue 42/43: the powered design (config/powered.yaml, 93 subjects) regenerated from clean
+    and compared byte for byte; here only, not in every quick run (the quick tier checks its
+    committed results' consistency: tests/test_committed_verdicts.py, tests/test_operating.py)."""
+    import time
+
+    workdir = tmp_path_factory.mktemp("powered")
+    start = time.perf_counter()
+    run = snakemake(workdir, "--configfile", str(REPO / "config" / "powered.yaml"), config=False)
+    assert run.returncode == 0, run.stderr[-4000:]
+    print(f"regenerated config/powered.yaml in {time.perf_counter() - start:.1f} s")
+    compare(workdir, "powered.yaml")
+
+
+def test_the_operating_characteristics_regenerate_from_the_committed_cells(tmp_path):
+    """results/operating_characteristics/ is what `python -m aceval.report.operating results`
+    makes from the committed claim cells (a few seconds per claim: here, not in the quick tier)."""
+    import shutil
+
+    from aceval.report import operating
+
+    results = tmp_path / "results"
+    for dataset in (operating.PAPER_DESIGN, operating.POWERED_DESIGN, operating.RICCI_DESIGN):
+        shutil.copytree(REPO / "results" / dataset / "tables", results / dataset / "tables")
+    assert operating.main([str(results)]) == 0
+    for name in (
+        "power.csv",
+        "operating_characteristics.csv",
+        "operating_characteristics.md",
+        "verdicts_by_design.csv",
+    ):
+        made = (results / "operating_characteristics" / name).read_bytes()
+        assert made == (REPO / "results" / "operating_characteristics" / name).read_bytes(), name

@@ -155,20 +155,30 @@ def test_one_subject_gives_no_subject_test_whatever_its_two_sides_say():
 
 
 def test_a_mixed_model_says_how_its_fit_ended(monkeypatch):
-    """The same set effect in every subject: the subject's variance is estimated at zero, a
-    boundary (singular) fit, flagged and still tested; one subject only: not fitted, no p; a fit
-    that did not converge keeps its estimate but has no p (it leaves the Holm family)."""
+    """Issue 42. Every subject's cells average to the same set effect: the subjects' variance is
+    estimated at zero, a boundary (singular) fit by the variance ratio, flagged and still tested;
+    subjects that differ by more than their cells do: an interior fit, whatever the scale of the
+    values (statsmodels' own warning compared the variance with 0.01 in the data's units). One
+    subject only: not fitted, no p; a fit that did not converge keeps its estimate but has no p."""
     from aceval.evaluation import stats
 
-    rng = np.random.default_rng(0)
+    rng = np.random.default_rng(1)
+    offset = rng.normal(0, 0.005, 6)  # the subjects differ far less than their cells
     cells = pd.DataFrame([
-        {"subject": f"S{s}", "cell": imu, "mean_a": 1.0 + rng.normal(0, 0.1),
-         "mean_b": 0.8 + rng.normal(0, 0.1)}
+        {"subject": f"S{s}", "cell": imu, "mean_a": 1.0 + offset[s] + rng.normal(0, 0.1),
+         "mean_b": 0.8}
         for s in range(6) for imu in ("l", "r")
     ])  # fmt: skip
     fit = stats.mixed_model_of_cells(cells)
-    assert "boundary" in fit["fit_flags"].split(";") and fit["p"] < 1e-4
-    assert fit["mean_difference"] == pytest.approx(0.2, abs=0.06) and fit["n_groups"] == 6
+    assert fit["fit_flags"] == "boundary" and fit["p"] < 1e-3
+    assert fit["mean_difference"] == pytest.approx(0.2, abs=0.02) and fit["n_groups"] == 6
+    subjects = rng.normal(0, 0.001, 6)  # tiny values, subjects apart by 10x their cells' spread
+    interior = pd.DataFrame([
+        {"subject": f"S{s}", "cell": imu, "mean_a": 0.002 + subjects[s] + rng.normal(0, 1e-4),
+         "mean_b": 0.0}
+        for s in range(6) for imu in ("l", "r")
+    ])  # fmt: skip
+    assert stats.mixed_model_of_cells(interior)["fit_flags"] == ""
     one = stats.mixed_model_of_cells(cells[cells["subject"] == "S0"])
     assert np.isnan(one["p"]) and one["note"].startswith("not fitted")
     real = stats._fit_differences
@@ -179,6 +189,31 @@ def test_a_mixed_model_says_how_its_fit_ended(monkeypatch):
     assert np.isfinite(failed["mean_difference"]) and np.isnan(failed["ci95_low"])
 
 
+def test_an_interior_mixed_model_of_balanced_cells_is_the_subjects_t_test():
+    """Issue 42: a Wald z with a normal reference gave p 0.211 where the subjects' t-test gave
+    0.280. With two cells per subject and the subjects' variance interior, the REML estimate is
+    the mean of the subjects' means and its t on subjects - 1 degrees of freedom is the paired
+    t-test on the subjects: same estimate, interval and p."""
+    from scipy import stats as scipy_stats
+
+    from aceval.evaluation.stats import mixed_model_of_cells
+
+    rng = np.random.default_rng(4)
+    subject = rng.normal(0.05, 0.2, 6)
+    cells = pd.DataFrame([
+        {"subject": f"S{s}", "cell": imu, "mean_a": subject[s] + rng.normal(0, 0.05), "mean_b": 0.0}
+        for s in range(6) for imu in ("l", "r")
+    ])  # fmt: skip
+    fit = mixed_model_of_cells(cells)
+    means = cells.groupby("subject")["mean_a"].mean()
+    t_test = scipy_stats.ttest_1samp(means, 0.0)
+    assert fit["fit_flags"] == "" and fit["df"] == 5
+    assert fit["mean_difference"] == pytest.approx(means.mean(), rel=1e-4)
+    assert fit["p"] == pytest.approx(t_test.pvalue, rel=1e-3)
+    ci = t_test.confidence_interval(0.95)
+    assert (fit["ci95_low"], fit["ci95_high"]) == pytest.approx((ci.low, ci.high), rel=1e-3)
+
+
 def test_the_smallest_p_an_exact_test_reaches():
     """2 / 2**n: 5 subjects cannot reach p < 0.05 (0.0625); p < 0.001 needs 11."""
     from aceval.evaluation.stats import smallest_sign_flip_p
@@ -187,39 +222,43 @@ def test_the_smallest_p_an_exact_test_reaches():
     assert smallest_sign_flip_p(10) > 0.001 > smallest_sign_flip_p(11)
 
 
-def test_variance_shares_equal_statsmodels_type_ii_and_resample_subjects():
+def test_variance_shares_equal_statsmodels_type_ii_with_the_interaction_and_per_subject():
     """The array-based shares are anova_lm's type II sums of squares over the total, on an
-    unbalanced table; the intervals come from resampling the subjects and contain the estimate."""
+    unbalanced table with an interaction; a factor's share with its interaction is the model
+    without any term containing it against the full one; each subject's own share, chance
+    removed (epsilon squared), averages to about 0 for a factor with no effect."""
     import statsmodels.formula.api as smf
     from statsmodels.stats.anova import anova_lm
 
-    from aceval.evaluation.stats import variance_shares
+    from aceval.evaluation.stats import subject_shares, variance_shares
 
     rng = np.random.default_rng(1)
-    n = 300
+    n = 600
     data = pd.DataFrame({"subject": rng.integers(0, 6, n), "a": rng.integers(0, 4, n),
-                         "b": rng.choice(list("xyz"), n)})  # fmt: skip
-    data["v"] = 0.2 * data["a"] + (data["b"] == "x") * 0.5 + rng.normal(size=n)
-    shares = variance_shares(data, "v", ["a", "b"], n_resamples=200).set_index("factor")
-    anova = anova_lm(smf.ols("v ~ C(a) + C(b)", data).fit(), typ=2)
+                         "b": rng.choice(list("xyz"), n), "c": rng.integers(0, 5, n)})  # fmt: skip
+    data["v"] = (0.2 * data["a"] + (data["b"] == "x") * 0.5
+                 + ((data["a"] == 2) & (data["b"] == "y")) * 0.8 + rng.normal(size=n))  # fmt: skip
+    shares = variance_shares(data, "v", ["a", "b", "c"], [("a", "b")]).set_index("factor")
+    anova = anova_lm(smf.ols("v ~ C(a) * C(b) + C(c)", data).fit(), typ=2)
     total = ((data["v"] - data["v"].mean()) ** 2).sum()
-    for factor in ("a", "b"):
-        assert shares.loc[factor, "eta_squared"] == pytest.approx(
-            anova.loc[f"C({factor})", "sum_sq"] / total, rel=1e-9
+    for term, name in (("a", "C(a)"), ("b", "C(b)"), ("c", "C(c)"), ("a:b", "C(a):C(b)")):
+        assert shares.loc[term, "eta_squared"] == pytest.approx(
+            anova.loc[name, "sum_sq"] / total, rel=1e-9
         )
-        assert (
-            shares.loc[factor, "low"]
-            <= shares.loc[factor, "eta_squared"]
-            <= shares.loc[factor, "high"]
-        )
+    without_a = smf.ols("v ~ C(b) + C(c)", data).fit().ssr
+    full = smf.ols("v ~ C(a) * C(b) + C(c)", data).fit().ssr
+    assert shares.loc["a", "involved"] == pytest.approx((without_a - full) / total, rel=1e-9)
+    per_subject = subject_shares(data, "v", ["a", "b", "c"], [("a", "b")])
+    assert len(per_subject) == 6 and abs(per_subject["c"].mean()) < 0.02
+    assert shares.loc["c", "low"] < 0.01 and shares.loc["a", "subject_mean"] > 0.05
     assert (shares["n_subjects"] == 6).all()
     one_level = variance_shares(data.assign(b="x"), "v", ["a", "b"]).set_index("factor")
     assert np.isnan(one_level.loc["b", "eta_squared"])
     # a factor the others span (a design that confounds it) has no share of its own: not a number
-    confounded = variance_shares(data.assign(c=data["b"]), "v", ["a", "b", "c"]).set_index("factor")
+    confounded = variance_shares(data.assign(d=data["b"]), "v", ["a", "b", "d"]).set_index("factor")
     assert confounded.loc["a", "aliased"] == 0 and confounded.loc["b", "aliased"] == 2
     assert np.isnan(confounded.loc["b", "eta_squared"]) and np.isnan(
-        confounded.loc["c", "eta_squared"]
+        confounded.loc["d", "eta_squared"]
     )
 
 

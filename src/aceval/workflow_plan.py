@@ -287,8 +287,8 @@ class Configuration:
             return ""
         return (
             f"Peers left out by the configuration (`peers`): {', '.join(self.peers_absent)} (the "
-            f"committed results list all three; the workflow builds each one's environment under "
-            f".venv-peers/ the first time it runs it)."
+            f"committed results of config/config.yaml and config/real.yaml list all three; the "
+            f"workflow builds each one's environment under .venv-peers/ the first time it runs it)."
         )
 
     def data_label(self, dataset: str) -> str:

@@ -14,7 +14,7 @@ if PLAN.peers_absent:
     logger.warning(
         f"aceval: peers left out by the configuration (peers): {', '.join(PLAN.peers_absent)}. "
         "The methods tables and summaries of Kong's datasets will differ from the committed "
-        "results, which list all three."
+        "results of config/config.yaml and config/real.yaml, which list all three."
     )
 for _name in PLAN.missing_sources():
     raise WorkflowError(

@@ -26,7 +26,8 @@ def paired_ttest(a: np.ndarray, b: np.ndarray) -> dict:
     """Two-sided paired t-test of ``a`` vs ``b`` (same units, same order).
 
     Returns mean and SD (ddof 1) of each, the mean difference a - b with its 95 % confidence
-    interval, Cohen's d_z (mean difference / SD of the differences), n, t and p. With fewer than
+    interval, Cohen's d_z (mean difference / SD of the differences), n, t, its degrees of freedom
+    (``df``, n - 1; not in :data:`TTEST_COLUMNS`) and p. With fewer than
     2 pairs, or no variation in the differences, the test is undefined: t, p, CI and d_z are NaN.
     """
     a, b = np.asarray(a, float), np.asarray(b, float)
@@ -45,6 +46,7 @@ def paired_ttest(a: np.ndarray, b: np.ndarray) -> dict:
         "ci95_high": np.nan,
         "cohens_dz": np.nan,
         "t": np.nan,
+        "df": np.nan,
         "p": np.nan,
     }
     if n > 1 and np.std(diff, ddof=1) > 0:
@@ -56,6 +58,7 @@ def paired_ttest(a: np.ndarray, b: np.ndarray) -> dict:
         ci = result.confidence_interval(0.95)
         out.update(
             t=result.statistic,
+            df=n - 1,
             p=result.pvalue,
             ci95_low=ci.low,
             ci95_high=ci.high,
@@ -160,6 +163,10 @@ def subject_test(cells: pd.DataFrame) -> dict:
 
 #: the ways a mixed-model fit can end, each a flag of its own (``fit_flags``, ';'-joined)
 FIT_FLAGS = ("not_converged", "hessian_not_pd", "boundary")
+#: a fit is on the boundary (singular) when the subjects' variance is below this share of the
+#: cells' residual variance (their SD 3 % of it): statsmodels' optimiser of the variance's square
+#: root stops short of exactly zero (the singular fits of kong_sim's Table 8 end at about 1e-4)
+BOUNDARY_RATIO = 1e-3
 
 
 def mixed_model_of_cells(cells: pd.DataFrame) -> dict:
@@ -167,12 +174,19 @@ def mixed_model_of_cells(cells: pd.DataFrame) -> dict:
     cell's mean difference set a - set b (a cell is one IMU, or in Table 7 one side, of one
     subject: its repetitions and subsets, dependent resamples of the same recordings, are
     averaged into it) as ``d ~ 1`` with a random intercept per subject; the cells within a
-    subject are the residual level. The intercept is the set effect, with its 95 % CI, z and p
-    (Wald). ``fit_flags`` (:data:`FIT_FLAGS`, ';'-joined): ``not_converged`` (the optimiser says so,
-    or ``fit.converged`` is false), ``hessian_not_pd`` (no valid standard errors), ``boundary``
-    (the subjects' variance estimated at zero: a singular fit; its p stands, flagged). A fit that
-    did not converge or has no positive-definite Hessian has no p (it leaves the Holm family).
-    ``n`` counts cells, ``n_groups`` subjects; ``note`` says why a model was not fitted.
+    subject are the residual level. The intercept is the set effect; its 95 % CI and p use a t
+    reference with the between-within degrees of freedom, subjects - 1 (the intercept is a
+    between-subject effect; for balanced cells this is the exact test, equal to the paired t-test
+    on the subjects when the fit is interior): ``t`` is the REML estimate over its standard error,
+    ``df`` the subjects - 1 (a Wald z with a normal reference is optimistic with few subjects).
+
+    ``fit_flags`` (:data:`FIT_FLAGS`, ';'-joined), all read from the final fit:
+    ``not_converged`` (its optimiser did not converge; the intermediate "retrying" of
+    statsmodels' other optimisers does not count), ``hessian_not_pd`` (no valid standard errors),
+    ``boundary`` (the subjects' variance below :data:`BOUNDARY_RATIO` of the residual one: a
+    singular fit; its p stands, flagged). A fit that did not converge or has no positive-definite
+    Hessian has no p (it leaves the Holm family). ``n`` counts cells, ``n_groups`` subjects;
+    ``note`` says why a model was not fitted.
     """
     out = {
         "mean_a": float(cells["mean_a"].mean()) if len(cells) else np.nan,
@@ -182,7 +196,8 @@ def mixed_model_of_cells(cells: pd.DataFrame) -> dict:
         "ci95_high": np.nan,
         "n": len(cells),
         "n_groups": int(cells["subject"].nunique()) if len(cells) else 0,
-        "z": np.nan,
+        "t": np.nan,
+        "df": np.nan,
         "p": np.nan,
         "note": "",
         "fit_flags": "",
@@ -195,17 +210,21 @@ def mixed_model_of_cells(cells: pd.DataFrame) -> dict:
     if fit is None:
         out["note"] = f"not fitted: {flags}"
         return out
-    failed = "not_converged" in flags or "hessian_not_pd" in flags
-    low, high = fit.conf_int()[0]
-    out.update(
-        mean_difference=float(fit.params[0]),
-        fit_flags=";".join(flags),
-        ci95_low=np.nan if failed else float(low),
-        ci95_high=np.nan if failed else float(high),
-        z=np.nan if failed else float(fit.tvalues[0]),
-        p=np.nan if failed else float(fit.pvalues[0]),
-    )
-    return out
+    out.update(mean_difference=float(fit.params[0]), fit_flags=";".join(flags))
+    if "not_converged" in flags or "hessian_not_pd" in flags:
+        return out
+    from scipy import stats
+
+    df = out["n_groups"] - 1
+    t, se = float(fit.tvalues[0]), float(fit.bse[0])
+    half = float(stats.t.ppf(0.975, df)) * se
+    return out | {
+        "ci95_low": out["mean_difference"] - half,
+        "ci95_high": out["mean_difference"] + half,
+        "t": t,
+        "df": float(df),
+        "p": float(2 * stats.t.sf(abs(t), df)),
+    }
 
 
 def _fit_differences(d: np.ndarray, subjects: np.ndarray):
@@ -226,79 +245,117 @@ def _fit_differences(d: np.ndarray, subjects: np.ndarray):
             return None, str(exc)
     said = " ".join(str(w.message) for w in caught if issubclass(w.category, ConvergenceWarning))
     flags = []
-    if not getattr(fit, "converged", True) or "converge" in said or "failed" in said:
+    if not fit.converged:  # the final optimiser's own word, not the earlier ones' retries
         flags.append("not_converged")
     if "Hessian" in said or not np.isfinite(fit.bse).all():
         flags.append("hessian_not_pd")
-    variances = np.diag(np.atleast_2d(fit.cov_re))
-    if "boundary" in said or (variances <= 1e-8 * max(float(fit.scale), 1e-300)).any():
+    ratio = float(np.min(np.diag(np.atleast_2d(fit.cov_re)))) / max(float(fit.scale), 1e-300)
+    if ratio < BOUNDARY_RATIO:
         flags.append("boundary")
     return fit, flags
 
 
 def variance_shares(
-    table: pd.DataFrame, value: str, factors: list[str], n_resamples: int = 0, seed: int = 0
+    table: pd.DataFrame, value: str, factors: list[str], interactions=()
 ) -> pd.DataFrame:
-    """Share of the variance of ``value`` explained by each factor: type II sums of squares of an
-    additive linear model ``value ~ C(f1) + C(f2) + ...`` (the residual sum of squares without the
-    factor minus that of the full model), each divided by the total sum of squares: eta squared,
-    0-1. One row per factor: ``eta_squared``; ``aliased``, how many of the factor's contrasts
-    the other factors already span (a design that confounds it, e.g. a pair recorded in one test
-    only: those contrasts have no share of their own; NaN when all of them are, or the factor has
-    one level); with ``n_resamples``, the 95 % percentile interval (``low``, ``high``) over
-    resamples of the subjects with replacement (each drawn subject brings all its rows: the
-    subject is the independent unit); ``n`` rows, ``n_subjects``.
+    """Share of the variance of ``value`` explained by each term of the linear model ``value ~
+    C(f1) + C(f2) + ... + C(a):C(b) ...`` (``factors``, then ``interactions``: pairs of factors):
+    type II sums of squares over the total sum of squares, eta squared, 0-1 (a main effect against
+    the model of every term not containing it; an interaction against the full model).
+    ``involved``: the share of the factor together with every interaction it is part of (the
+    model without any term containing it against the full model); an interaction's own share.
+    ``aliased``: how many of the term's contrasts the others already span (a design that
+    confounds it: those contrasts have no share of their own; NaN share when all of them are).
+
+    The subject is the independent unit: ``subject_mean``, ``low``, ``high`` are the mean over the
+    subjects of each subject's own ``involved`` share as epsilon squared (:func:`subject_shares`:
+    the same model fitted to its rows alone, chance removed) and its 95 % t-interval. ``n`` rows,
+    ``n_subjects``.
     """
+    terms = [(f,) for f in factors] + [tuple(i) for i in interactions]
     data = table[[value, *factors, "subject"]].dropna()
-    y = data[value].to_numpy(float)
-    codes = [pd.factorize(data[f], sort=True)[0] for f in factors]
-    shares, aliased = _eta_squared(y, codes)
-    low, high = np.full(len(factors), np.nan), np.full(len(factors), np.nan)
-    by_subject = list(data.groupby("subject", sort=True).indices.values())
-    if n_resamples and len(by_subject) > 1:
-        rng = np.random.default_rng(seed)
-        draws = np.array(
-            [
-                _eta_squared(y[rows], [c[rows] for c in codes])[0]
-                for rows in (
-                    np.concatenate([by_subject[k] for k in pick])
-                    for pick in rng.integers(0, len(by_subject), (n_resamples, len(by_subject)))
-                )
-            ]
-        )
-        low, high = np.full(len(factors), np.nan), np.full(len(factors), np.nan)
-        defined = np.isfinite(shares) & np.isfinite(draws).any(axis=0)
-        low[defined], high[defined] = np.nanpercentile(draws[:, defined], [2.5, 97.5], axis=0)
+    pooled = _shares(data[value].to_numpy(float), _term_blocks(data, terms), terms)
+    per_subject = subject_shares(data, value, factors, interactions)
+    means = [
+        mean_ci(per_subject[":".join(t)]) if len(per_subject) else (np.nan,) * 4 for t in terms
+    ]
     return pd.DataFrame(
         {
-            "factor": factors,
-            "eta_squared": shares,
-            "low": low,
-            "high": high,
-            "aliased": aliased,
+            "factor": [":".join(t) for t in terms],
+            "eta_squared": pooled["eta_squared"],
+            "involved": pooled["involved"],
+            "subject_mean": [m[0] for m in means],
+            "low": [m[1] for m in means],
+            "high": [m[2] for m in means],
+            "aliased": pooled["aliased"],
             "n": len(data),
-            "n_subjects": len(by_subject),
+            "n_subjects": data["subject"].nunique(),
         }
     )
 
 
-def _eta_squared(y: np.ndarray, codes: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """Type II eta squared of each factor (integer ``codes``) in an additive model of ``y``, and
-    how many of its contrasts the other factors span (:func:`variance_shares`).
+def subject_shares(
+    table: pd.DataFrame, value: str, factors: list[str], interactions=()
+) -> pd.DataFrame:
+    """Each subject's own share of every term and the interactions it is part of (``involved``
+    of :func:`variance_shares`, fitted to the subject's rows alone) as epsilon squared (Kelley
+    1935: the sum of squares less its degrees of freedom times the residual mean square, over the
+    total), which removes what chance alone explains: with 162 units a factor of 6 levels
+    explains about 0.03 by chance in eta squared, three times Cohen's small effect. One row per
+    subject, one column per term ('t_ap', 't_ap:segment'); NaN where not estimable.
     """
-    blocks = [_dummies(c) for c in codes]
-    shares = np.full(len(codes), np.nan)
-    aliased = np.array([b.shape[1] for b in blocks])
+    terms = [(f,) for f in factors] + [tuple(i) for i in interactions]
+    data = table[[value, *factors, "subject"]].dropna()
+    rows = {}
+    for subject, rows_of in data.groupby("subject", sort=True):
+        shares = _shares(rows_of[value].to_numpy(float), _term_blocks(rows_of, terms), terms)
+        rows[subject] = shares["epsilon"]
+    return pd.DataFrame.from_dict(rows, orient="index", columns=[":".join(t) for t in terms])
+
+
+def _term_blocks(data: pd.DataFrame, terms: list[tuple]) -> list[np.ndarray]:
+    """Each term's treatment-coded columns: a factor's dummies, an interaction's products."""
+    dummies = {
+        f: _dummies(pd.factorize(data[f], sort=True)[0]) for f in {f for t in terms for f in t}
+    }
+    blocks = []
+    for term in terms:
+        block = dummies[term[0]]
+        for factor in term[1:]:
+            other = dummies[factor]
+            block = (block[:, :, None] * other[:, None, :]).reshape(len(data), -1)
+        blocks.append(block)
+    return blocks
+
+
+def _shares(y: np.ndarray, blocks: list[np.ndarray], terms: list[tuple]) -> dict:
+    """Type II eta squared, ``involved`` share and aliased contrasts of each term
+    (:func:`variance_shares`).
+    """
+    eta = np.full(len(terms), np.nan)
+    involved = np.full(len(terms), np.nan)
+    epsilon = np.full(len(terms), np.nan)
+    aliased = np.array([b.shape[1] for b in blocks], float)
     total = float(((y - y.mean()) ** 2).sum())
     full, rank = _residual_ss(y, blocks)
     if total <= 0 or len(y) <= rank:
-        return shares, aliased
-    for k, block in enumerate(blocks):
-        without, rank_without = _residual_ss(y, blocks[:k] + blocks[k + 1 :])
-        aliased[k] = block.shape[1] - (rank - rank_without)
-        if rank > rank_without:
-            shares[k] = max(without - full, 0.0) / total
-    return shares, aliased
+        return {"eta_squared": eta, "involved": involved, "epsilon": epsilon, "aliased": aliased}
+    for k, term in enumerate(terms):
+        if len(term) > 1:  # an interaction: the full model without it
+            without, rank_without = _residual_ss(y, blocks[:k] + blocks[k + 1 :])
+            with_term, rank_with = full, rank
+        else:  # a main effect: every term not containing it, without and with it
+            base = [b for j, b in enumerate(blocks) if term[0] not in terms[j]]
+            without, rank_without = _residual_ss(y, base)
+            with_term, rank_with = _residual_ss(y, [*base, blocks[k]])
+        aliased[k] = blocks[k].shape[1] - (rank_with - rank_without)
+        if rank_with > rank_without:
+            eta[k] = max(without - with_term, 0.0) / total
+        if rank > rank_without:  # every term containing it, against the full model
+            involved[k] = max(without - full, 0.0) / total
+            chance = (rank - rank_without) * full / (len(y) - rank)  # its df x residual mean square
+            epsilon[k] = (without - full - chance) / total
+    return {"eta_squared": eta, "involved": involved, "epsilon": epsilon, "aliased": aliased}
 
 
 def _dummies(codes: np.ndarray) -> np.ndarray:

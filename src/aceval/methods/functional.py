@@ -47,8 +47,9 @@ AXIS_METHODS = functional_design()
 #: random starting quaternions per LM fit (Ricci Sec. 3: "converges from random initial values")
 RANDOM_STARTS = 5
 #: a start "reaches the optimum" when its result is within this angle of the closed-form optimum:
-#: a tenth of Kong's 1 deg test-retest bound (Obj 4), closer calibrations are the same for either paper
-SAME_SOLUTION_DEG = 0.1
+#: Kong's own threshold for a calibration that no longer changes ("after including three
+#: repetitions the change ... is less than one degree", Kong et al. 2016, Sec. 3.3)
+SAME_SOLUTION_DEG = 1.0
 
 
 def pool(recordings: pd.DataFrame, orient: str | np.ndarray = "mean") -> AxisEstimate:

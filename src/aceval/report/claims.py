@@ -1,38 +1,66 @@
 """The vocabulary of SUMMARY.md's claims: a :class:`Claim` (the paper's words, the rule that tests
-them, the verdict and the numbers behind it), the four verdicts, and how a rule reaches one from
-estimates with their uncertainty. Each paper's rules, as data: :mod:`aceval.report.kong_claims`,
-:mod:`aceval.report.ricci_claims`.
+them, the verdict and the numbers behind it), the four verdicts, and how a rule reaches one.
+Each paper's rules, as data: :mod:`aceval.report.kong_claims`, :mod:`aceval.report.ricci_claims`.
 
-Every claim is judged on the subject as the independent unit: a table cell's value is the mean of
-the subjects' own means for that cell, with its 95 % t-interval over the subjects (a statistic of
-several cells, such as a share, by resampling the subjects). A rule compares that interval with
-the claim's number:
+Every claim with subjects is judged on *cells* (:class:`Cells`): one value per subject and cell
+(the subject is the independent unit), each cell with the side of the paper's number it must be
+on. :mod:`aceval.evaluation.verdicts` makes the cells' 95 % t-intervals simultaneous over the
+claim's cells (Bonferroni) and reads both verdicts from the same intervals:
 
-* **holds**: the whole interval is on the claim's side;
-* **does not hold**: the whole interval is on the other side;
-* **inconclusive**: the interval includes both (one subject gives no interval at all);
+* **holds**: every cell's interval is on the claim's side (for "mostly": more than half);
+* **does not hold**: a cell's interval is wholly on the other side, after the adjustment;
+* **inconclusive**: neither; it says which way the point estimates lean and how many subjects
+  would decide it with 80 % probability;
 * **not testable**: this dataset has nothing to judge it on.
 
-"No difference" is an equivalence (two one-sided tests, the 90 % interval inside a stated margin).
-Every number a rule compares with is the paper's own (its words, its tables' values and SDs) or a
-cited convention; the rule says which.
+"No difference" and "reproduces the paper's value" are equivalences (the interval within a margin
+fixed in advance), never p >= 0.05. Every number a rule compares with is the paper's own (its
+words, its tables' values) or a cited smallest effect of interest; the rule says which. A claim
+without subjects (one rigid box, the code checks) is judged on its values.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
 
-HOLDS, FAILS, INCONCLUSIVE = "holds", "does not hold", "inconclusive"
-UNTESTABLE = "not testable on this dataset"
-VERDICTS = (HOLDS, FAILS, INCONCLUSIVE, UNTESTABLE)
+from aceval.evaluation.verdicts import (
+    FAILS,
+    HOLDS,
+    INCONCLUSIVE,
+    UNTESTABLE,
+    VERDICTS,
+    Judgement,
+    Requirement,
+    judge,
+)
+
+__all__ = [
+    "CODE",
+    "FAILS",
+    "GROUND_TRUTH",
+    "HOLDS",
+    "INCONCLUSIVE",
+    "LOWER",
+    "PAPER",
+    "UNTESTABLE",
+    "UPPER",
+    "VERDICTS",
+    "Cells",
+    "Claim",
+    "Requirement",
+    "Rule",
+    "interval",
+    "every_cell",
+    "labelled",
+    "one_cell",
+    "subject_cells",
+]
+
 UPPER, LOWER = ["head", "chest", "waist"], ["thigh", "shank", "foot"]
-#: the resamples of the subjects behind a statistic of several cells (its 2.5th and 97.5th
-#: percentiles are the 25th smallest and largest)
-N_RESAMPLES = 1000
 
 #: where a check is reported: a claim of a paper, a check of aceval's code, or aceval's own
 #: comparison with a ground truth (beyond the papers)
@@ -40,8 +68,27 @@ PAPER, CODE, GROUND_TRUTH = "paper", "code", "ground truth"
 
 
 @dataclass
+class Cells:
+    """What a rule judges a claim on: ``cells`` (``cell``, ``subject``, ``value``: one value per
+    subject and cell), each cell's :class:`Requirement` (in the order shown), how the cells
+    combine ('all', or 'majority' for "mostly"), the values' unit and digits, and ``note``: what
+    the numbers add after the interval (the paper's values, a sensitivity).
+    """
+
+    cells: pd.DataFrame
+    requirements: dict
+    combine: str = "all"
+    unit: str = ""
+    digits: int = 2
+    note: str = ""
+    subjects: str = "subjects"
+
+
+@dataclass
 class Claim:
-    """One claim of a paper, the rule that tests it, the verdict and the numbers behind it."""
+    """One claim of a paper, the rule that tests it, the verdict and the numbers behind it; for a
+    claim judged on cells, its :class:`~aceval.evaluation.verdicts.Judgement` and the cells.
+    """
 
     objective: str
     claim: str
@@ -49,13 +96,17 @@ class Claim:
     verdict: str
     numbers: str
     section: str = PAPER
+    key: str = ""
+    judgement: Judgement | None = None
+    cells: pd.DataFrame | None = field(default=None, repr=False)
 
 
 @dataclass(frozen=True)
 class Rule:
     """One claim as data: its objective, the paper's words, the rule (with the source of every
-    number it compares with) and the judge that reads the evidence: ``judge(evidence) ->
-    (verdict, numbers)``, or ``(UNTESTABLE, why)``.
+    number it compares with) and the judge that reads the evidence: ``judge(evidence)`` returns
+    :class:`Cells`, or ``(verdict, numbers)`` for a claim without subjects or ``(UNTESTABLE,
+    why)``. ``key``: a short stable name (the committed tables' ``claim`` column).
     """
 
     objective: str
@@ -63,14 +114,31 @@ class Rule:
     rule: str
     judge: Callable
     section: str = PAPER
+    key: str = ""
 
     def apply(self, evidence) -> Claim:
         """The claim judged on ``evidence``."""
-        verdict, numbers = self.judge(evidence)
-        return Claim(self.objective, self.claim, self.rule, verdict, numbers, self.section)
+        found = self.judge(evidence)
+        if not isinstance(found, Cells):
+            verdict, numbers = found
+            return Claim(
+                self.objective, self.claim, self.rule, verdict, numbers, self.section, self.key
+            )
+        judgement = judge(found.cells, found.requirements, found.combine)
+        return Claim(
+            self.objective,
+            self.claim,
+            self.rule,
+            judgement.verdict,
+            described(judgement, found),
+            self.section,
+            self.key,
+            judgement,
+            found.cells[["cell", "subject", "value"]],
+        )
 
 
-# --- estimates: a cell's value over the subjects ----------------------------------------------
+# --- cells ------------------------------------------------------------------------------------
 
 
 def subject_cells(frame: pd.DataFrame, keys: list[str], value: str) -> pd.DataFrame:
@@ -78,92 +146,27 @@ def subject_cells(frame: pd.DataFrame, keys: list[str], value: str) -> pd.DataFr
     return frame.groupby(["subject", *keys], sort=True)[value].mean().reset_index()
 
 
-def cell_estimates(cells: pd.DataFrame, keys: list[str], value: str) -> pd.DataFrame:
-    """Per cell: ``mean`` over the subjects of their means, its 95 % and 90 % t-intervals
-    (``low``, ``high``, ``low90``, ``high90``) and ``n`` subjects.
+def labelled(cells: pd.DataFrame, keys: list[str], value: str) -> pd.DataFrame:
+    """Subject cells (:func:`subject_cells`) as :class:`Cells` reads them: ``cell`` the keys'
+    values joined by spaces ('T2 waist 1'), ``subject``, ``value``.
     """
-    from aceval.evaluation.stats import mean_ci
-
-    rows = []
-    for key, group in cells.groupby(keys, sort=True):
-        mean, low, high, n = mean_ci(group[value])
-        _, low90, high90, _ = mean_ci(group[value], 0.90)
-        key = key if isinstance(key, tuple) else (key,)
-        rows.append((*key, mean, low, high, low90, high90, n))
-    return pd.DataFrame(rows, columns=[*keys, "mean", "low", "high", "low90", "high90", "n"])
+    if cells.empty:
+        return pd.DataFrame(columns=["cell", "subject", "value"])
+    label = cells[keys].astype(str).agg(" ".join, axis=1)
+    return pd.DataFrame({"cell": label, "subject": cells["subject"], "value": cells[value]})
 
 
-def resampled(wide: pd.DataFrame, statistic: Callable, seed: int = 0) -> tuple[float, float, float]:
-    """``(value, low, high)``: ``statistic`` of the subjects' table ``wide`` (one row per subject,
-    one column per cell) and its 95 % percentile interval over :data:`N_RESAMPLES` resamples of
-    the subjects with replacement (NaN interval with fewer than 2 subjects).
-    """
-    values = wide.to_numpy(float)
-    value = float(statistic(values))
-    if len(values) < 2:
-        return value, float("nan"), float("nan")
-    rng = np.random.default_rng(seed)
-    draws = rng.integers(0, len(values), size=(N_RESAMPLES, len(values)))
-    stats = np.array([statistic(values[rows]) for rows in draws], dtype=float)
-    low, high = np.nanpercentile(stats, [2.5, 97.5])
-    return value, float(low), float(high)
+def one_cell(name: str, per_subject: pd.Series) -> pd.DataFrame:
+    """One cell's long rows from a value per subject (the series' index)."""
+    return pd.DataFrame({"cell": name, "subject": per_subject.index, "value": per_subject.values})
 
 
-# --- verdicts ---------------------------------------------------------------------------------
+def every_cell(cells: pd.DataFrame, requirement: Requirement) -> dict:
+    """The same requirement for every cell of ``cells``, in their order."""
+    return {cell: requirement for cell in dict.fromkeys(cells["cell"])}
 
 
-def beyond(low: float, high: float, limit: float, side: str) -> str:
-    """The verdict of "the value is ``side`` ('<', '<=', '>', '>=') ``limit``" from its interval."""
-    if not (np.isfinite(low) and np.isfinite(high)):
-        return INCONCLUSIVE
-    holds, fails = {
-        "<": (high < limit, low >= limit),
-        "<=": (high <= limit, low > limit),
-        ">": (low > limit, high <= limit),
-        ">=": (low >= limit, high < limit),
-    }[side]
-    return HOLDS if holds else FAILS if fails else INCONCLUSIVE
-
-
-def equivalent(low90: float, high90: float, low: float, high: float, margin: float) -> str:
-    """Two one-sided tests of a difference against ``+-margin``: holds when the 90 % interval is
-    inside it, does not hold when the 95 % interval is wholly outside it, else inconclusive.
-    """
-    if not all(np.isfinite([low90, high90, low, high])):
-        return INCONCLUSIVE
-    if -margin < low90 and high90 < margin:
-        return HOLDS
-    return FAILS if low > margin or high < -margin else INCONCLUSIVE
-
-
-def equivalent_to(estimate, target: float, margin: float) -> str:
-    """:func:`equivalent` of an estimate's mean (its ``low90``, ``high90``, ``low``, ``high``)
-    and ``target``: the two agree within ``margin``.
-    """
-    return equivalent(
-        estimate["low90"] - target,
-        estimate["high90"] - target,
-        estimate["low"] - target,
-        estimate["high"] - target,
-        margin,
-    )
-
-
-def every(verdicts) -> str:
-    """All of several verdicts: does not hold if one does not, holds if all do, else
-    inconclusive; nothing to judge: not testable.
-    """
-    verdicts = list(verdicts)
-    if not verdicts:
-        return UNTESTABLE
-    if FAILS in verdicts:
-        return FAILS
-    return HOLDS if all(v == HOLDS for v in verdicts) else INCONCLUSIVE
-
-
-def tally(verdicts: list[str]) -> str:
-    """'holds / fails / undecided' counts of several cells' verdicts, e.g. '62 / 0 / 10'."""
-    return " / ".join(str(verdicts.count(v)) for v in (HOLDS, FAILS, INCONCLUSIVE))
+# --- numbers ----------------------------------------------------------------------------------
 
 
 def interval(mean: float, low: float, high: float, digits: int = 2) -> str:
@@ -175,8 +178,105 @@ def interval(mean: float, low: float, high: float, digits: int = 2) -> str:
     return f"{mean:.{digits}f} [{low:.{digits}f}, {high:.{digits}f}]"
 
 
-def _cells(table: pd.DataFrame | None) -> pd.DataFrame:
+def adjustment(m: int) -> str:
+    """How the intervals are adjusted over a claim's ``m`` cells."""
+    if m <= 1:
+        return "95 % interval, one cell"
+    return f"{100 * (1 - 0.05 / m):.3g} % intervals: simultaneous 95 % over {m} cells (Bonferroni)"
+
+
+def described(judgement: Judgement, found: Cells) -> str:
+    """The numbers of a claim judged on cells: the deciding cell's interval, the adjustment, the
+    cells' states and the note.
+    """
+    table = judgement.estimates
+    if table.empty:
+        return "no cell"
+    row = judgement.deciding
+    unit = f" {found.unit}" if found.unit else ""
+    which = {HOLDS: "closest to its bound", FAILS: "farthest beyond its bound"}.get(
+        judgement.verdict, "closest to failing"
+    )
+    which = "at the majority" if found.combine == "majority" else which
+    states = " / ".join(str((table["state"] == s).sum()) for s in ("shown", "beyond", "undecided"))
+    text = (
+        f"cell {which}: {row['cell']} {interval(row['mean'], row['low'], row['high'], found.digits)}"
+        f"{unit} ({row['requirement']}{unit}); {adjustment(judgement.m)}; cells shown / beyond / "
+        f"undecided: {states}; n {int(table['n'].max())} {found.subjects}"
+    )
+    return text + (f"; {found.note}" if found.note else "")
+
+
+def verdict_text(claim: Claim) -> str:
+    """The verdict as SUMMARY.md shows it: an inconclusive one with its leaning and the subjects
+    that would decide it.
+    """
+    j = claim.judgement
+    if claim.verdict != INCONCLUSIVE or j is None:
+        return claim.verdict
+    if not j.leaning:
+        return f"{claim.verdict} (the estimates lean neither way)"
+    n = j.n_to_decide
+    needed = (
+        f"about {int(n)} subjects would decide it (80 %)"
+        if np.isfinite(n)
+        else "not decidable with 100,000 subjects at these effects"
+    )
+    return f"{claim.verdict} (leans '{j.leaning}'; {needed})"
+
+
+def claims_table(found: list[Claim]) -> pd.DataFrame:
+    """One row per claim: its verdict, leaning, subjects that would decide it, the adjustment
+    and the deciding cell's interval (``claims.csv``).
+    """
+    rows = []
+    for c in found:
+        j = c.judgement
+        row = j.deciding if j is not None and len(j.estimates) else None
+        rows.append(
+            {
+                "claim": c.key,
+                "section": c.section,
+                "objective": c.objective,
+                "verdict": c.verdict,
+                "leaning": j.leaning if j is not None else "",
+                "n_to_decide": j.n_to_decide if j is not None else np.nan,
+                "cells": j.m if j is not None else 0,
+                "combine": j.combine if j is not None else "",
+                "level": j.level if j is not None and j.m else np.nan,
+                "deciding_cell": row["cell"] if row is not None else "",
+                "n": row["n"] if row is not None else np.nan,
+                "mean": row["mean"] if row is not None else np.nan,
+                "low": row["low"] if row is not None else np.nan,
+                "high": row["high"] if row is not None else np.nan,
+                "requirement": row["requirement"] if row is not None else "",
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def estimates_table(found: list[Claim]) -> pd.DataFrame:
+    """Every cell of every claim judged on cells, with its interval and state
+    (``claim_estimates.csv``).
+    """
+    parts = [c.judgement.estimates.assign(claim=c.key) for c in found if c.judgement is not None]
+    parts = [p for p in parts if len(p)]
+    if not parts:
+        return pd.DataFrame(columns=["claim", "cell"])
+    table = pd.concat(parts, ignore_index=True)
+    return table[["claim", *[c for c in table.columns if c != "claim"]]]
+
+
+def cells_table(found: list[Claim]) -> pd.DataFrame:
+    """The per-subject cells behind every verdict (``claim_cells.csv``)."""
+    parts = [c.cells.assign(claim=c.key) for c in found if c.cells is not None and len(c.cells)]
+    if not parts:
+        return pd.DataFrame(columns=["claim", "cell", "subject", "value"])
+    return pd.concat(parts, ignore_index=True)[["claim", "cell", "subject", "value"]]
+
+
+def present(table: pd.DataFrame | None) -> pd.DataFrame:
     """Rows of a reproduced table that this run has values for."""
-    if table is None:
+    if table is None or not len(table):
         return pd.DataFrame()
     return table[table["n"] > 0]

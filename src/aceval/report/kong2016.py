@@ -79,8 +79,9 @@ TABLES = {
     ),
 }
 CORRELATION_FLAG = 0.95  # Kong's grey cells: correlation <= 0.95
-#: resamples of the subjects behind the shares of variance's intervals (correlation_factors)
-FACTOR_RESAMPLES = 1000
+#: a heading error is "detected" by Obj 1's correlation when at least this share of the units
+#: falls below the 5th percentile of the correct calibrations of their cell
+DETECTED_SHARE = 0.5
 
 
 def reference(number: int) -> pd.DataFrame:
@@ -156,15 +157,36 @@ def table6(correlations: pd.DataFrame, paper_names: dict) -> pd.DataFrame:
     return _flag_low(_compare(result, reference(6), ["pair", "t_ap"], ["mean", "sd"]))
 
 
+#: the terms of the Obj 1-2 factor models: T_ex, T_ap, segment (Obj 2: pair) and the T_ap x
+#: segment (pair) interaction, which the additive model left in its residual (issue 42)
+FACTOR_MODELS = {
+    "Obj 1": (["t_ex", "t_ap", "segment"], [("t_ap", "segment")]),
+    "Obj 2": (["t_ex", "t_ap", "pair"], [("t_ap", "pair")]),
+}
+
+
 def correlation_factors(correlations: pd.DataFrame | None) -> pd.DataFrame:
     """Kong Obj 1-2, "not related with T_ex but highly related with T_ap and body segment": the
-    share of variance (eta squared, :func:`aceval.evaluation.stats.variance_shares`) of the
-    correlations of Table 3's units (factors T_ex, T_ap, segment) and Table 6's (T_ex, T_ap,
-    pair), each with its 95 % interval from resampling the subjects (:data:`FACTOR_RESAMPLES`).
+    share of variance of the correlations of Table 3's units (T_ex, T_ap, segment and T_ap x
+    segment) and Table 6's (T_ex, T_ap, pair and T_ap x pair)
+    (:func:`aceval.evaluation.stats.variance_shares`): pooled type II eta squared, each factor's
+    share with its interaction (``involved``), and over the subjects the mean of each subject's
+    own share (chance removed: epsilon squared) with its 95 % t-interval.
     """
     from aceval.evaluation.stats import variance_shares
 
-    columns = ["objective", "factor", "eta_squared", "low", "high", "aliased", "n", "n_subjects"]
+    columns = [
+        "objective",
+        "factor",
+        "eta_squared",
+        "involved",
+        "subject_mean",
+        "low",
+        "high",
+        "aliased",
+        "n",
+        "n_subjects",
+    ]
     if correlations is None or correlations.empty:
         return pd.DataFrame(columns=columns)
     obj1 = _frontal_lateral_units(correlations, "acc")
@@ -173,11 +195,8 @@ def correlation_factors(correlations: pd.DataFrame | None) -> pd.DataFrame:
         "correlation"
     ].mean()
     tables = [
-        variance_shares(units, "correlation", factors, FACTOR_RESAMPLES).assign(objective=objective)
-        for objective, units, factors in (
-            ("Obj 1", obj1, ["t_ex", "t_ap", "segment"]),
-            ("Obj 2", obj2, ["t_ex", "t_ap", "pair"]),
-        )
+        variance_shares(units, "correlation", *FACTOR_MODELS[objective]).assign(objective=objective)
+        for objective, units in (("Obj 1", obj1), ("Obj 2", obj2))
         if not units.empty
     ]
     return (
@@ -192,7 +211,10 @@ def correlation_sensitivity(correlations: pd.DataFrame | None) -> pd.DataFrame:
     that drop in units of the SD between units at no error (``drop_over_sd``: the error is visible
     against the spread of correct calibrations when it is well above 1), and the share of units
     whose correlation falls below the 5th percentile of the correct calibrations of their own
-    cell (mode, segment and T_ap, as Table 3 reads them: ``detected_share``, about 0.05 by chance).
+    cell (mode, segment and T_ap, as Table 3 reads them: ``detected_share``, about 0.05 by chance);
+    ``detection_threshold_deg``: per mode, the smallest heading error detected in at least half
+    of the units (:data:`DETECTED_SHARE`; NaN when none is): the one number SUMMARY.md and the
+    docs quote as what Obj 1 can detect.
     """
     columns = [
         "mode",
@@ -203,6 +225,7 @@ def correlation_sensitivity(correlations: pd.DataFrame | None) -> pd.DataFrame:
         "drop",
         "drop_over_sd",
         "detected_share",
+        "detection_threshold_deg",
     ]
     if correlations is None or correlations.empty:
         return pd.DataFrame(columns=columns)
@@ -224,6 +247,9 @@ def correlation_sensitivity(correlations: pd.DataFrame | None) -> pd.DataFrame:
     units["detected"] = units["correlation"] < units["reference"]
     detected = units.groupby(["mode", "heading_error_deg"])["detected"].mean()
     table = table.merge(detected.rename("detected_share").reset_index(), how="left")
+    half = table[table["detected_share"] >= DETECTED_SHARE]
+    threshold = half.groupby("mode")["heading_error_deg"].min()
+    table["detection_threshold_deg"] = table["mode"].map(threshold)
     return table[columns]
 
 
@@ -429,11 +455,13 @@ _TTEST_NOTE = (
     "not two units), on which aceval judges the paper's set-preference claims, with the "
     "smallest p an exact test on that many subjects reaches (2 / 2^n: 0.0625 for 5); a linear "
     "mixed model of the cells' paired differences (a cell: one IMU, Table 7: one side, of one "
-    "subject; statsmodels MixedLM, REML, Wald z) with a random intercept per subject. A fit "
-    "that did not converge or whose Hessian is not positive definite has no p and is not in "
-    "the Holm family; a subjects' variance estimated at zero is flagged 'boundary'. With 5 "
-    "subjects a Wald z is optimistic. d_z = mean difference / SD of the differences. The cells "
-    "are in table set_test_units. "
+    "subject; statsmodels MixedLM, REML) with a random intercept per subject, its estimate over "
+    "its standard error referred to a t with subjects - 1 degrees of freedom (between-within: "
+    "the set effect is a between-subject effect). A fit whose final optimiser did not converge "
+    "or whose Hessian is not positive definite has no p and is not in the Holm family; a "
+    "subjects' variance below a thousandth of the cells' is flagged 'boundary' (a singular "
+    "fit). d_z = mean difference / SD of the differences. The cells are in table "
+    "set_test_units. "
 )
 
 

@@ -252,8 +252,14 @@ def write_results(
             write_figure(output, data, results / output.path, files)
         progress(output.path)
     if "table" in kinds:
-        _write_text(results / "SUMMARY.md", summary_text(tables, analyses, data, notes), files)
+        from aceval.report import summary
+
+        found = summary.claims(tables, data)
+        _write_text(
+            results / "SUMMARY.md", summary_text(found, tables, analyses, data, notes), files
+        )
         progress("SUMMARY.md")
+        write_claim_tables(found, results / "tables", files)
         if validation is not None:
             _write_text(results / "validation.txt", validation, files)
 
@@ -265,8 +271,33 @@ def _no_angles() -> pd.DataFrame:
     return pd.DataFrame(columns=ANGLE_COLUMNS)
 
 
-def summary_text(tables: dict, analyses: list[str], data: dict, notes: list[str]) -> str:
-    """SUMMARY.md from the tables as read back (Kong's keyed by number, the others by name)."""
+#: the tables behind SUMMARY.md's verdicts (aceval.report.claims): one row per claim, per cell of
+#: a claim (its simultaneous interval) and per subject and cell (the values it is judged on)
+CLAIM_TABLES = {
+    "claims": "claims_table",
+    "claim_estimates": "estimates_table",
+    "claim_cells": "cells_table",
+}
+
+
+def write_claim_tables(found: list, folder: Path, files: FileSet | None = None) -> None:
+    """The claims' tables (:data:`CLAIM_TABLES`) as CSV in ``folder`` (numbers to 10 significant
+    digits: enough to recompute every interval, stable across machines).
+    """
+    from aceval.report import claims
+
+    folder.mkdir(parents=True, exist_ok=True)
+    for name, function in CLAIM_TABLES.items():
+        text = getattr(claims, function)(found).to_csv(index=False, float_format="%.10g")
+        _write_text(folder / f"{name}.csv", text, files)
+
+
+def summary_text(
+    found: list, tables: dict, analyses: list[str], data: dict, notes: list[str]
+) -> str:
+    """SUMMARY.md from the claims ``found`` and the tables as read back (Kong's keyed by number,
+    the others by name).
+    """
     from aceval.evaluation.truth_warnings import truth_warning
     from aceval.report import summary
     from aceval.report.decisions import decision_section
@@ -278,7 +309,7 @@ def summary_text(tables: dict, analyses: list[str], data: dict, notes: list[str]
     if calibrations is not None and (warning := truth_warning(calibrations, truth)):
         notes.append(f"- {warning}")
     return summary.to_markdown(
-        summary.claims(tables, data),
+        found,
         meta.get("name", ""),
         meta.get("description", ""),
         bool(meta.get("simulated")),

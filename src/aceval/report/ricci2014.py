@@ -127,7 +127,7 @@ def lm_table(calibrations: pd.DataFrame) -> pd.DataFrame:
     """LM iterations per frame with Ricci's adaptive damping (columns without a prefix: mean, SD,
     n IMUs; the published values beside) and with lambda fixed at 1e-3 (``fixed_*``), each with its
     final cost, its distance to the closed-form optimum (median and largest, deg; the share more
-    than 0.1 deg away) and the share that converged (the gradient on the sphere reached
+    than SAME_SOLUTION_DEG, 1 deg, away) and the share that converged (the gradient on the sphere reached
     :data:`aceval.methods.ricci.GRAD_TOL`); the random starts: the share that reach the closed-form
     optimum and their iterations.
     """

@@ -33,7 +33,7 @@ TTEST_TABLE_COLUMNS = [
     "n",
     "n_groups",
     "t",
-    "z",
+    "df",
     "p",
     "smallest_p",
     "note",

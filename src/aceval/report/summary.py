@@ -29,6 +29,8 @@ from aceval.report.claims import (
     UNTESTABLE,
     VERDICTS,
     Claim,
+    interval,
+    verdict_text,
 )
 from aceval.report.kong_claims import kong_claims
 from aceval.report.ricci_claims import ricci_claims
@@ -101,6 +103,25 @@ def _fully_flagged(methods: pd.DataFrame) -> list[str]:
     return [f"Every calibration flagged (no number, the row kept in table `methods`): {cells}."]
 
 
+def _ranking_lines(ranking: pd.DataFrame | None) -> list[str]:
+    """The methods ranked over the subjects (table ``methods_ranking``), with intervals."""
+    if ranking is None or ranking.empty:
+        return []
+    parts = [f"{ranking['method'].iloc[0]} {interval(*ranking.iloc[0][['mean', 'low', 'high']])}"]
+    for _, r in ranking.iloc[1:].iterrows():
+        to_first = interval(*r[["difference_to_first", "difference_low", "difference_high"]])
+        parts.append(f"{r['method']} {interval(*r[['mean', 'low', 'high']])} ({to_first})")
+    return [
+        "",
+        f"Ranked on the same {int(ranking['cells'].iloc[0])} cell(s) over the "
+        f"{int(ranking['n_subjects'].iloc[0])} subjects (each subject's mean error there, its sides "
+        "and sets inside it; table `methods_ranking`): mean [95 % interval] deg, and in brackets "
+        f"the difference to the first, simultaneous over the {len(ranking) - 1} comparison(s): "
+        + "; ".join(parts)
+        + ".",
+    ]
+
+
 def methods_section(tables: dict) -> list[str]:
     """Which method and which test, per segment, against the ground truth (tables methods*)."""
     best, methods = tables.get("methods_best"), tables.get("methods")
@@ -125,7 +146,12 @@ def methods_section(tables: dict) -> list[str]:
     lines += _fully_flagged(methods)
     static = _static_pose_methods()  # a static pose: its own cells
     moving = [m for m in overall.index if m not in static]
-    lines += ["", _shared_cells_line(methods, moving), *_design_notes(methods)]
+    lines += [
+        "",
+        _shared_cells_line(methods, moving),
+        *_ranking_lines(tables.get("methods_ranking")),
+    ]
+    lines += _design_notes(methods)
     if "note" in methods:
         never = methods[~methods["method"].isin(overall.index)].groupby("method")["note"].first()
         lines += (
@@ -177,7 +203,7 @@ def _claims_table(found: list[Claim]) -> list[str]:
             {
                 "objective": c.objective,
                 "claim": c.claim,
-                "verdict": c.verdict,
+                "verdict": verdict_text(c),
                 "numbers (this run)": c.numbers,
                 "rule": c.rule,
             }
@@ -510,10 +536,14 @@ def to_markdown(
         "",
         f"{counts[HOLDS]} hold, {counts[FAILS]} do not hold, {counts[INCONCLUSIVE]} inconclusive, "
         f"{counts[UNTESTABLE]} not testable. Each claim is judged on the subjects as independent "
-        "units, from the 95 % interval of its number (docs/objectives.md, 'How a claim is "
-        "judged'): holds when the whole interval is on the claim's side, does not hold when it is "
-        "wholly on the other, inconclusive when it includes both. The claims that cannot be "
-        "tested here come last.",
+        "units (docs/objectives.md, 'How a claim is judged'): per cell, the 95 % t-interval of "
+        "the subjects' mean, made simultaneous over the claim's cells (Bonferroni: the numbers "
+        "say how many); holds when every cell's interval is on the claim's side, does not hold "
+        "when one cell's is wholly on the other side, inconclusive otherwise, with the way the "
+        "estimates lean and how many subjects would decide it with 80 % probability at these "
+        "effects. The cells behind every verdict are in tables/claim_cells.csv, each cell's "
+        "interval in tables/claim_estimates.csv. The claims that cannot be tested here come "
+        "last.",
         "",
     ]
     lines += notes + ([""] if notes else [])
