@@ -1,148 +1,150 @@
-"""Every comparator of the claims' rules (report/claims.py), table-driven: each side, both
-boundaries, NaN and infinities, and the formatting of the numbers a claim prints (issue 44)."""
+"""Every comparator of the claims' rules, table-driven (issue 44, on issue 42's rule in
+evaluation/verdicts.py): each side of a bound, both boundaries, NaN and infinities, equivalence
+margins, how cells combine into a verdict, and the formatting of the numbers a claim prints."""
 
+import numpy as np
 import pandas as pd
 import pytest
 
+from aceval.evaluation import verdicts
+from aceval.evaluation.verdicts import Requirement, requirement_arrays
 from aceval.report import claims
 from aceval.report.claims import FAILS, HOLDS, INCONCLUSIVE, UNTESTABLE
 
 NAN, INF = float("nan"), float("inf")
 
-# (low, high, limit, side, verdict): an interval wholly on one side, wholly on the other,
+
+def state(low, high, requirement: Requirement) -> str:
+    """One cell's interval against its requirement: 'shown', 'beyond' or 'undecided'."""
+    shown, beyond = verdicts.cell_states(
+        np.array([low]), np.array([high]), requirement_arrays([requirement])
+    )
+    assert not (shown[0] and beyond[0]), "a cell cannot be on both sides"
+    return "shown" if shown[0] else "beyond" if beyond[0] else "undecided"
+
+
+# (low, high, limit, side, state): an interval wholly on one side, wholly on the other,
 # straddling the limit, and touching it from each end
-BEYOND = [
-    # "<": holds when the whole interval is below; at the limit is not below
-    (0.1, 0.4, 0.5, "<", HOLDS),
-    (0.1, 0.5, 0.5, "<", INCONCLUSIVE),
-    (0.4, 0.6, 0.5, "<", INCONCLUSIVE),
-    (0.5, 0.9, 0.5, "<", FAILS),
-    (0.6, 0.9, 0.5, "<", FAILS),
+SIDES = [
+    # "<": shown when the whole interval is below; at the limit is not below
+    (0.1, 0.4, 0.5, "<", "shown"),
+    (0.1, 0.5, 0.5, "<", "undecided"),
+    (0.4, 0.6, 0.5, "<", "undecided"),
+    (0.5, 0.9, 0.5, "<", "beyond"),
+    (0.6, 0.9, 0.5, "<", "beyond"),
     # "<=": the limit itself is on the claim's side
-    (0.1, 0.5, 0.5, "<=", HOLDS),
-    (0.1, 0.4, 0.5, "<=", HOLDS),
-    (0.4, 0.6, 0.5, "<=", INCONCLUSIVE),
-    (0.5, 0.9, 0.5, "<=", INCONCLUSIVE),
-    (0.6, 0.9, 0.5, "<=", FAILS),
+    (0.1, 0.5, 0.5, "<=", "shown"),
+    (0.1, 0.4, 0.5, "<=", "shown"),
+    (0.4, 0.6, 0.5, "<=", "undecided"),
+    (0.5, 0.9, 0.5, "<=", "undecided"),
+    (0.6, 0.9, 0.5, "<=", "beyond"),
     # ">"
-    (0.6, 0.9, 0.5, ">", HOLDS),
-    (0.5, 0.9, 0.5, ">", INCONCLUSIVE),
-    (0.4, 0.6, 0.5, ">", INCONCLUSIVE),
-    (0.1, 0.5, 0.5, ">", FAILS),
-    (0.1, 0.4, 0.5, ">", FAILS),
+    (0.6, 0.9, 0.5, ">", "shown"),
+    (0.5, 0.9, 0.5, ">", "undecided"),
+    (0.4, 0.6, 0.5, ">", "undecided"),
+    (0.1, 0.5, 0.5, ">", "beyond"),
+    (0.1, 0.4, 0.5, ">", "beyond"),
     # ">="
-    (0.5, 0.9, 0.5, ">=", HOLDS),
-    (0.6, 0.9, 0.5, ">=", HOLDS),
-    (0.4, 0.6, 0.5, ">=", INCONCLUSIVE),
-    (0.1, 0.5, 0.5, ">=", INCONCLUSIVE),
-    (0.1, 0.4, 0.5, ">=", FAILS),
+    (0.5, 0.9, 0.5, ">=", "shown"),
+    (0.6, 0.9, 0.5, ">=", "shown"),
+    (0.4, 0.6, 0.5, ">=", "undecided"),
+    (0.1, 0.5, 0.5, ">=", "undecided"),
+    (0.1, 0.4, 0.5, ">=", "beyond"),
     # negative limits and a point interval
-    (-2.0, -1.5, -1.0, "<", HOLDS),
-    (-0.5, -0.5, -1.0, ">", HOLDS),
-    (-1.0, -1.0, -1.0, ">=", HOLDS),
-    (-1.0, -1.0, -1.0, ">", FAILS),
+    (-2.0, -1.5, -1.0, "<", "shown"),
+    (-0.5, -0.5, -1.0, ">", "shown"),
+    (-1.0, -1.0, -1.0, ">=", "shown"),
+    (-1.0, -1.0, -1.0, ">", "beyond"),
 ]
 
 
-@pytest.mark.parametrize("low, high, limit, side, verdict", BEYOND)
-def test_beyond_on_every_side_and_boundary(low, high, limit, side, verdict):
-    assert claims.beyond(low, high, limit, side) == verdict
+@pytest.mark.parametrize("low, high, limit, side, expected", SIDES)
+def test_a_cell_on_every_side_and_boundary(low, high, limit, side, expected):
+    assert state(low, high, Requirement.of(side, limit)) == expected
 
 
 @pytest.mark.parametrize("side", ["<", "<=", ">", ">="])
-@pytest.mark.parametrize("low, high", [(NAN, NAN), (NAN, 0.4), (0.1, NAN), (-INF, 0.4), (0.1, INF)])
-def test_beyond_without_a_finite_interval_is_inconclusive(low, high, side):
-    assert claims.beyond(low, high, 0.5, side) == INCONCLUSIVE
+@pytest.mark.parametrize("low, high", [(NAN, NAN), (-INF, INF)])
+def test_a_cell_without_a_finite_interval_is_undecided(low, high, side):
+    """Fewer than two subjects give NaN bounds; neither side is shown."""
+    assert state(low, high, Requirement.of(side, 0.5)) == "undecided"
 
 
-def test_beyond_refuses_an_unknown_side():
-    with pytest.raises(KeyError):
-        claims.beyond(0.1, 0.2, 0.5, "==")
+def test_an_unknown_side_is_refused():
+    with pytest.raises(ValueError, match="not one of"):
+        Requirement.of("==", 0.5)
 
 
-# (low90, high90, low, high, margin, verdict): the 90 % interval inside +-margin holds; the 95 %
-# interval wholly outside it on either side fails; anything else is undecided
+# (low, high, margin, state): equivalence is the open region target +- margin (two one-sided
+# tests on the same simultaneous interval)
 EQUIVALENT = [
-    (-0.01, 0.01, -0.02, 0.02, 0.019, HOLDS),
-    (-0.018, 0.018, -0.03, 0.03, 0.019, HOLDS),  # the 95 % interval may reach beyond
-    (-0.019, 0.01, -0.02, 0.02, 0.019, INCONCLUSIVE),  # touching the margin is not inside
-    (-0.01, 0.019, -0.02, 0.02, 0.019, INCONCLUSIVE),
-    (-0.01, 0.03, -0.02, 0.04, 0.019, INCONCLUSIVE),
-    (-0.03, 0.01, -0.04, 0.02, 0.019, INCONCLUSIVE),
-    (0.03, 0.05, 0.025, 0.06, 0.019, FAILS),  # wholly above +margin
-    (-0.05, -0.03, -0.06, -0.025, 0.019, FAILS),  # wholly below -margin
-    (0.03, 0.05, 0.019, 0.06, 0.019, INCONCLUSIVE),  # the 95 % interval touches +margin
-    (-0.05, -0.03, -0.06, -0.019, 0.019, INCONCLUSIVE),  # ... and -margin
-    (-0.05, 0.05, -0.06, 0.06, 0.019, INCONCLUSIVE),  # wide: neither
-    (0.0, 0.0, 0.0, 0.0, 0.0, INCONCLUSIVE),  # no margin: never inside, never outside
+    (-0.01, 0.01, 0.019, "shown"),
+    (-0.018, 0.018, 0.019, "shown"),
+    (-0.019, 0.01, 0.019, "undecided"),  # touching the margin is not inside
+    (-0.01, 0.019, 0.019, "undecided"),
+    (-0.01, 0.03, 0.019, "undecided"),
+    (-0.03, 0.01, 0.019, "undecided"),
+    (-0.05, 0.05, 0.019, "undecided"),  # wide: neither
+    (0.03, 0.05, 0.019, "beyond"),  # wholly above +margin
+    (-0.05, -0.03, 0.019, "beyond"),  # wholly below -margin
+    (0.019, 0.06, 0.019, "beyond"),  # from the open region's edge outwards: outside it
+    (-0.06, -0.019, 0.019, "beyond"),
 ]
 
 
-@pytest.mark.parametrize("low90, high90, low, high, margin, verdict", EQUIVALENT)
-def test_equivalent_on_both_sides_and_boundaries(low90, high90, low, high, margin, verdict):
-    assert claims.equivalent(low90, high90, low, high, margin) == verdict
-
-
-@pytest.mark.parametrize("missing", range(4))
-@pytest.mark.parametrize("value", [NAN, INF, -INF])
-def test_equivalent_without_a_finite_interval_is_inconclusive(missing, value):
-    bounds = [-0.01, 0.01, -0.02, 0.02]
-    bounds[missing] = value
-    assert claims.equivalent(*bounds, 0.019) == INCONCLUSIVE
+@pytest.mark.parametrize("low, high, margin, expected", EQUIVALENT)
+def test_equivalence_on_both_sides_and_boundaries(low, high, margin, expected):
+    assert state(low, high, Requirement.within(0.0, margin)) == expected
 
 
 @pytest.mark.parametrize(
-    "target, verdict",
-    [
-        (1.0, HOLDS),
-        (1.0 - 0.005, HOLDS),
-        (1.0 + 0.005, HOLDS),
-        (1.2, FAILS),
-        (0.8, FAILS),
-        (1.0 + 0.04, INCONCLUSIVE),
-        (1.0 - 0.04, INCONCLUSIVE),
-    ],
+    "target, expected",
+    [(1.0, "shown"), (0.995, "shown"), (1.005, "shown"), (1.2, "beyond"), (0.8, "beyond")]
+    + [(1.04, "undecided"), (0.96, "undecided")],
 )
-def test_equivalent_to_shifts_the_estimate_by_the_target(target, verdict):
-    """An estimate 1.0 with a 90 % interval +-0.01 and a 95 % one +-0.02, margin 0.05."""
-    estimate = pd.Series({"low90": 0.99, "high90": 1.01, "low": 0.98, "high": 1.02})
-    assert claims.equivalent_to(estimate, target, 0.05) == verdict
-    # the same through a dict, as the rules pass rows of cell estimates
-    assert claims.equivalent_to(dict(estimate), target, 0.05) == verdict
+def test_equivalence_is_centred_on_its_target(target, expected):
+    """An interval 1.0 +- 0.02 against target +- 0.05."""
+    assert state(0.98, 1.02, Requirement.within(target, 0.05)) == expected
 
 
-def test_equivalent_to_reads_each_bound_from_its_own_column():
-    """A 90 % interval inside the margin and a 95 % one far outside it: holds (the 90 % one
-    decides); swapping the columns would fail it."""
-    estimate = {"low90": 1.0, "high90": 1.04, "low": 1.06, "high": 1.2}
-    assert claims.equivalent_to(estimate, 1.02, 0.03) == HOLDS
-    assert claims.equivalent_to(estimate, 0.9, 0.03) == FAILS  # the 95 % wholly above 0.93
+def test_requirements_print_their_bounds():
+    assert Requirement.of("<", 2.5).text() == "< 2.5"
+    assert Requirement.of(">=", 0.14).text() == ">= 0.14"
+    assert Requirement.within(0.0, 0.004).text() == "> -0.004 and < 0.004"
 
 
-@pytest.mark.parametrize(
-    "verdicts, combined",
-    [
-        ([], UNTESTABLE),
-        ([HOLDS], HOLDS),
-        ([HOLDS, HOLDS, HOLDS], HOLDS),
-        ([FAILS], FAILS),
-        ([HOLDS, FAILS], FAILS),
-        ([INCONCLUSIVE, FAILS], FAILS),
-        ([HOLDS, INCONCLUSIVE], INCONCLUSIVE),
-        ([INCONCLUSIVE], INCONCLUSIVE),
-        ([HOLDS, UNTESTABLE], INCONCLUSIVE),  # a part not judged: the whole is not shown
-        ([UNTESTABLE, FAILS], FAILS),
-    ],
-)
-def test_every_needs_all_parts(verdicts, combined):
-    assert claims.every(verdicts) == combined
-    assert claims.every(iter(verdicts)) == combined  # a generator, as the rules pass
+# (cell states, combine, verdict): 'all' needs every cell shown and fails on one beyond;
+# 'majority' ("mostly") holds on more than half shown and fails on at least half beyond
+COMBINED = [
+    (["shown"], "all", HOLDS),
+    (["shown"] * 3, "all", HOLDS),
+    (["beyond"], "all", FAILS),
+    (["shown", "beyond"], "all", FAILS),
+    (["undecided", "beyond"], "all", FAILS),
+    (["shown", "undecided"], "all", INCONCLUSIVE),
+    (["undecided"], "all", INCONCLUSIVE),
+    (["shown", "shown", "undecided"], "majority", HOLDS),
+    (["shown", "undecided"], "majority", INCONCLUSIVE),  # one of two is not more than half
+    (["shown", "beyond"], "majority", FAILS),  # half beyond
+    (["shown", "shown", "beyond"], "majority", HOLDS),
+    (["undecided", "undecided", "beyond"], "majority", INCONCLUSIVE),
+]
 
 
-def test_tally_counts_holds_fails_and_undecided_in_that_order():
-    verdicts = [HOLDS, FAILS, INCONCLUSIVE, HOLDS, UNTESTABLE, HOLDS, INCONCLUSIVE]
-    assert claims.tally(verdicts) == "3 / 1 / 2"
-    assert claims.tally([]) == "0 / 0 / 0"
+@pytest.mark.parametrize("states, combine, verdict", COMBINED)
+def test_cells_combine_into_a_verdict(states, combine, verdict):
+    states = np.array(states)
+    code = verdicts.combined(states == "shown", states == "beyond", combine)
+    assert verdicts.CODES[int(code)] == verdict
+
+
+def test_an_unknown_combination_is_refused():
+    with pytest.raises(ValueError, match="not one of"):
+        verdicts.combined(np.array([True]), np.array([False]), "any")
+
+
+def test_a_claim_without_cells_is_not_testable():
+    assert verdicts.judge(pd.DataFrame(), {}).verdict == UNTESTABLE
 
 
 @pytest.mark.parametrize(
@@ -165,10 +167,10 @@ def test_interval_prints_two_decimals_by_default():
     assert claims.interval(2.494, 1.925, 3.0549) == "2.49 [1.93, 3.05]"
 
 
-def test_cells_keeps_the_rows_with_subjects():
+def test_present_keeps_the_rows_with_subjects():
     table = pd.DataFrame({"cell": ["a", "b", "c"], "n": [5, 0, 1]})
-    assert claims._cells(table)["cell"].tolist() == ["a", "c"]
-    assert claims._cells(None).empty
+    assert claims.present(table)["cell"].tolist() == ["a", "c"]
+    assert claims.present(None).empty
 
 
 def test_a_rule_applies_its_judge_and_keeps_its_words():

@@ -73,7 +73,7 @@ def test_methods_are_compared_on_the_cells_they_share():
     the others on those cells only, with the count; each method's own median keeps its count."""
     import pandas as pd
 
-    from aceval.report.summary import _shared_cells_line, methods_section
+    from aceval.report.methods_section import _shared_cells_line, methods_section
 
     rows = [
         ("chest", "T1", "kong", 2.0), ("chest", "T1", "triad", 3.0),

@@ -8,7 +8,7 @@ import pytest
 from scipy import stats
 
 from aceval.evaluation import conditioning, methods_comparison, truth_warnings
-from aceval.report import outputs, ricci2014, summary
+from aceval.report import methods_section, outputs, ricci2014, summary
 
 
 def axes_table(rho: dict) -> pd.DataFrame:
@@ -182,7 +182,7 @@ def test_methods_table_statistics_and_best_test():
     best = methods_comparison.best_tests(calibrations).set_index("method")
     assert best.loc["kong", "best_test"] == "T3" and best.loc["triad", "best_test"] == "T6"
     assert best.loc["kong", "kong_recommends"] == "T3"
-    lines = summary.methods_section(
+    lines = methods_section.methods_section(
         {
             "methods": methods_comparison.methods_table(calibrations),
             "methods_best": methods_comparison.best_tests(calibrations),

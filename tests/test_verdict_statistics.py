@@ -12,7 +12,7 @@ import pytest
 from scipy import stats as scipy_stats
 from statsmodels.stats.multitest import multipletests
 
-from aceval.evaluation import stats
+from aceval.evaluation import stats, verdicts
 from aceval.report import claims
 
 #: five subjects' values (a verdict's usual sample) and a second, skewed sample
@@ -206,10 +206,12 @@ def test_coverage_interval_resamples_whole_subjects_from_five_on():
     assert every[:2] == (1.0, 1.0)
 
 
-# --- the claims' estimates (report/claims.py) -------------------------------------------------
+# --- the claims' estimates (report/claims.py, evaluation/verdicts.py) ---------------------------
 
 
-def test_cell_estimates_are_scipys_95_and_90_intervals_over_subject_means():
+def test_cell_estimates_are_scipys_simultaneous_intervals_over_subject_means():
+    """Two cells: each cell's interval is scipy's t-interval of its subjects' means at
+    1 - 0.05 / 2 (Bonferroni over the claim's two cells), not at 95 %."""
     rng = np.random.default_rng(3)
     frame = pd.DataFrame(
         {
@@ -222,16 +224,19 @@ def test_cell_estimates_are_scipys_95_and_90_intervals_over_subject_means():
     by_hand = frame.groupby(["subject", "segment"])["v"].mean()
     assert len(cells) == 10
     np.testing.assert_allclose(cells.set_index(["subject", "segment"])["v"], by_hand)
-    estimates = claims.cell_estimates(cells, ["segment"], "v").set_index("segment")
+    labelled = claims.labelled(cells, ["segment"], "v")
+    requirements = claims.every_cell(labelled, claims.Requirement.of("<", 2.0))
+    estimates = verdicts.estimates(labelled, requirements).set_index("cell")
     for segment in ("head", "thigh"):
         values = by_hand.xs(segment, level="segment").to_numpy()
         row = estimates.loc[segment]
         assert row["mean"] == pytest.approx(values.mean()) and row["n"] == 5
-        assert (row["low"], row["high"]) == pytest.approx(t_interval(values, 0.95), rel=1e-12)
-        assert (row["low90"], row["high90"]) == pytest.approx(t_interval(values, 0.9), rel=1e-12)
+        assert row["sd"] == pytest.approx(np.std(values, ddof=1))
+        assert (row["low"], row["high"]) == pytest.approx(t_interval(values, 0.975), rel=1e-12)
+        assert row["low"] < t_interval(values, 0.95)[0]  # wider than the unadjusted interval
 
 
-def test_cell_estimates_of_several_keys_keep_each_key_in_its_column():
+def test_cell_labels_of_several_keys_join_each_key_in_order():
     cells = pd.DataFrame(
         {
             "subject": ["S1", "S2", "S1", "S2"],
@@ -240,28 +245,16 @@ def test_cell_estimates_of_several_keys_keep_each_key_in_its_column():
             "v": [1.0, 2.0, 3.0, 5.0],
         }
     )
-    estimates = claims.cell_estimates(cells, ["a", "b"], "v")
-    assert estimates[["a", "b"]].values.tolist() == [["x", 1], ["y", 2]]
+    labelled = claims.labelled(cells, ["a", "b"], "v")
+    assert labelled["cell"].tolist() == ["x 1", "x 1", "y 2", "y 2"]
+    estimates = verdicts.estimates(labelled, claims.every_cell(labelled, claims.Requirement()))
+    assert estimates["cell"].tolist() == ["x 1", "y 2"]
     assert estimates["mean"].tolist() == [1.5, 4.0] and estimates["n"].tolist() == [2, 2]
 
 
-def test_resampled_is_the_percentile_interval_of_the_subjects_resamples():
-    wide = pd.DataFrame({"a": [0.2, 0.9, 0.5, 0.7, 0.1], "b": [1.0, 0.3, 0.8, 0.6, 0.4]})
-    statistic = lambda v: float(np.mean(v[:, 0] > v[:, 1]))  # noqa: E731
-    value, low, high = claims.resampled(wide, statistic, seed=5)
-    values = wide.to_numpy(float)
-    draws = np.random.default_rng(5).integers(0, 5, size=(claims.N_RESAMPLES, 5))
-    by_hand = np.nanpercentile([statistic(values[rows]) for rows in draws], [2.5, 97.5])
-    assert value == pytest.approx(0.4)
-    assert (low, high) == pytest.approx(tuple(by_hand))
-    assert claims.N_RESAMPLES == 1000
-    one = claims.resampled(wide.iloc[:1], statistic)
-    assert one[0] == 0.0 and np.isnan(one[1]) and np.isnan(one[2])
-
-
-def test_subject_cells_and_cell_estimates_come_sorted_whatever_the_input_order():
-    """The subjects' cells sorted by subject and cell, the estimates by cell: the tables and the
-    claims list them in that order (and sum them in it), not in the order the rows arrived."""
+def test_subject_cells_come_sorted_and_estimates_follow_the_requirements_order():
+    """The subjects' cells sorted by subject and cell; the estimates in the order the claim lists
+    its requirements, not in the order the rows arrived."""
     frame = pd.DataFrame(
         {
             "subject": ["S2", "S2", "S1", "S1", "S3"],
@@ -277,8 +270,10 @@ def test_subject_cells_and_cell_estimates_come_sorted_whatever_the_input_order()
         ["S2", "thigh"],
         ["S3", "head"],
     ]
-    estimates = claims.cell_estimates(cells.iloc[[1, 0, 3, 2, 4]], ["segment"], "v")  # thigh first
-    assert estimates["segment"].tolist() == ["head", "thigh"]
+    labelled = claims.labelled(cells.iloc[[1, 0, 3, 2, 4]], ["segment"], "v")  # thigh first
+    requirement = claims.Requirement.of(">", 0.0)
+    estimates = verdicts.estimates(labelled, {"head": requirement, "thigh": requirement})
+    assert estimates["cell"].tolist() == ["head", "thigh"]
     assert estimates["mean"].tolist() == [pytest.approx(11 / 3), 2.0]
 
 
@@ -298,11 +293,10 @@ def _eta_by_hand(frame: pd.DataFrame, value: str, factors: list[str]) -> list[fl
     return [(residual([g for g in factors if g != f]) - full) / total for f in factors]
 
 
-def test_variance_share_intervals_resample_whole_subjects_as_by_hand():
-    """The intervals of the shares (Obj 1-2's factors table): the 2.5th and 97.5th percentiles
-    over resamples of the subjects (sorted, drawn with the seed's generator), each drawn subject
-    bringing all its rows; the same on values scaled by 1/1000 (the shares do not depend on the
-    units)."""
+def test_variance_share_intervals_are_the_subjects_own_shares_t_interval():
+    """The intervals of the shares (Obj 1-2's factors table): the mean over the subjects of each
+    subject's own share (epsilon squared, :func:`subject_shares`) and its 95 % t-interval (the
+    subject is the unit); the pooled eta squared beside them; neither depends on the units."""
     rng = np.random.default_rng(8)
     n = 160
     data = pd.DataFrame(
@@ -313,26 +307,19 @@ def test_variance_share_intervals_resample_whole_subjects_as_by_hand():
         }
     )
     data["v"] = (data["a"] == "q") * 0.6 + (data["b"] == "u") * 0.3 + rng.normal(size=n)
-    shares = stats.variance_shares(data, "v", ["a", "b"], n_resamples=30).set_index("factor")
+    shares = stats.variance_shares(data, "v", ["a", "b"]).set_index("factor")
     np.testing.assert_allclose(shares["eta_squared"], _eta_by_hand(data, "v", ["a", "b"]))
-    groups = [data[data["subject"] == s] for s in sorted(data["subject"].unique())]
-    picks = np.random.default_rng(0).integers(0, len(groups), (30, len(groups)))
-    draws = np.array(
-        [_eta_by_hand(pd.concat([groups[k] for k in p]), "v", ["a", "b"]) for p in picks]
-    )
-    low, high = np.percentile(draws, [2.5, 97.5], axis=0)
-    assert (np.percentile(draws, 98.5, axis=0) != high).all()  # the case tells them apart
-    np.testing.assert_allclose(shares["low"], low, rtol=1e-9)
-    np.testing.assert_allclose(shares["high"], high, rtol=1e-9)
+    per_subject = stats.subject_shares(data, "v", ["a", "b"])
+    assert sorted(per_subject.index) == [f"S{k}" for k in range(1, 9)]
+    for factor in ("a", "b"):
+        values = per_subject[factor].dropna().to_numpy()
+        assert shares.loc[factor, "subject_mean"] == pytest.approx(values.mean())
+        low, high = t_interval(values, 0.95)
+        assert shares.loc[factor, ["low", "high"]].tolist() == pytest.approx([low, high])
     assert (shares["n"] == n).all() and (shares["n_subjects"] == 8).all()
-    small = stats.variance_shares(data.assign(v=data["v"] / 1000), "v", ["a", "b"], n_resamples=30)
-    np.testing.assert_allclose(
-        small[["eta_squared", "low", "high"]],
-        shares.reset_index()[["eta_squared", "low", "high"]],
-        rtol=1e-9,
-    )
-    without = stats.variance_shares(data, "v", ["a", "b"])  # no resamples asked: no interval
-    assert without["low"].isna().all() and without["high"].isna().all()
+    small = stats.variance_shares(data.assign(v=data["v"] / 1000), "v", ["a", "b"])
+    columns = ["eta_squared", "subject_mean", "low", "high"]
+    np.testing.assert_allclose(small[columns], shares.reset_index()[columns], rtol=1e-9)
 
 
 def test_variance_shares_need_residual_degrees_of_freedom():
@@ -380,10 +367,10 @@ def test_variance_share_intervals_need_two_subjects_and_a_share():
             "v": rng.normal(size=60),
         }
     )
-    two = stats.variance_shares(data, "v", ["a", "c"], n_resamples=30).set_index("factor")
+    two = stats.variance_shares(data, "v", ["a", "c"]).set_index("factor")
     assert np.isfinite(two.loc["a", ["low", "high"]].astype(float)).all()
     assert two.loc["c", ["eta_squared", "low", "high"]].isna().all()  # one level: no share
-    one = stats.variance_shares(data.assign(subject="S1"), "v", ["a"], n_resamples=30)
+    one = stats.variance_shares(data.assign(subject="S1"), "v", ["a"])
     assert np.isfinite(one["eta_squared"]).all() and one[["low", "high"]].isna().all().all()
 
 
@@ -414,7 +401,8 @@ def test_mixed_model_of_cells_is_statsmodels_random_intercept_fit():
     out = stats.mixed_model_of_cells(cells)
     d = (cells["mean_a"] - cells["mean_b"]).to_numpy()
     fit = MixedLM(d, np.ones((len(d), 1)), groups=cells["subject"]).fit(reml=True)
-    low, high = fit.conf_int()[0]
+    df = cells["subject"].nunique() - 1
+    half = scipy_stats.t.ppf(0.975, df) * fit.bse[0]
     assert set(out) == {
         "mean_a",
         "mean_b",
@@ -423,7 +411,8 @@ def test_mixed_model_of_cells_is_statsmodels_random_intercept_fit():
         "ci95_high",
         "n",
         "n_groups",
-        "z",
+        "t",
+        "df",
         "p",
         "note",
         "fit_flags",
@@ -432,34 +421,36 @@ def test_mixed_model_of_cells_is_statsmodels_random_intercept_fit():
     assert out["mean_a"] == pytest.approx(cells["mean_a"].mean())
     assert out["mean_b"] == pytest.approx(cells["mean_b"].mean())
     assert out["mean_difference"] == pytest.approx(fit.params[0], rel=1e-9)
+    low, high = fit.params[0] - half, fit.params[0] + half
     assert (out["ci95_low"], out["ci95_high"]) == pytest.approx((low, high), rel=1e-9)
-    assert out["z"] == pytest.approx(fit.tvalues[0], rel=1e-9)
-    assert out["p"] == pytest.approx(fit.pvalues[0], rel=1e-9)
+    assert out["t"] == pytest.approx(fit.tvalues[0], rel=1e-9) and out["df"] == df == 5
+    assert out["p"] == pytest.approx(2 * scipy_stats.t.sf(abs(fit.tvalues[0]), df), rel=1e-9)
     empty = stats.mixed_model_of_cells(cells.iloc[:0])
     assert empty["n"] == 0 and empty["n_groups"] == 0 and np.isnan(empty["mean_b"])
     assert np.isnan(empty["mean_a"]) and empty["note"].startswith("not fitted")
 
 
 @pytest.mark.parametrize(
-    "message, flags, tested",
+    "message, converged, flags, tested",
     [
-        (
-            "MixedLM optimization failed, trying a different optimizer may help.",
-            "not_converged",
-            False,
-        ),
-        ("Gradient optimization failed, |grad| = 0.3", "not_converged", False),
+        # statsmodels' "retrying" of its other optimisers: the final fit decides, not the retry
+        ("MixedLM optimization failed, trying a different optimizer may help.", True, "", True),
+        ("Gradient optimization failed, |grad| = 0.3", True, "", True),
+        ("Gradient optimization failed, |grad| = 0.3", False, "not_converged", False),
         (
             "The Hessian matrix at the estimated parameter values is not positive definite.",
+            True,
             "hessian_not_pd",
             False,
         ),
-        ("The MLE may be on the boundary of the parameter space.", "boundary", True),
+        # statsmodels' absolute test (variance < 0.01 in the data's units) is not aceval's boundary
+        ("The MLE may be on the boundary of the parameter space.", True, "", True),
     ],
 )
-def test_mixed_model_flags_how_statsmodels_says_the_fit_ended(monkeypatch, message, flags, tested):
-    """Each ConvergenceWarning statsmodels gives becomes its flag, exactly; a fit that did not
-    converge or has no positive-definite Hessian has no p, a boundary fit keeps its p."""
+def test_mixed_model_flags_how_the_final_fit_ended(monkeypatch, message, converged, flags, tested):
+    """Issue 42: the flags read the final fit (its ``converged``, a Hessian warning) and the
+    subjects' variance against the residual one, not statsmodels' intermediate warnings; a fit
+    that did not converge or has no positive-definite Hessian has no p."""
     import warnings
 
     from statsmodels.regression.mixed_linear_model import MixedLM
@@ -470,28 +461,14 @@ def test_mixed_model_flags_how_statsmodels_says_the_fit_ended(monkeypatch, messa
     def warned(self, *args, **kwargs):
         fit = real(self, *args, **kwargs)
         warnings.warn(message, ConvergenceWarning, stacklevel=2)
+        fit.converged = converged
         return fit
 
     monkeypatch.setattr(MixedLM, "fit", warned)
     out = stats.mixed_model_of_cells(_mixed_cells())
     assert out["fit_flags"] == flags and np.isfinite(out["mean_difference"])
     assert np.isfinite(out["p"]) == tested and np.isfinite(out["ci95_low"]) == tested
-    assert np.isfinite(out["ci95_high"]) == tested and np.isfinite(out["z"]) == tested
-
-
-def test_resampled_defaults_seed_zero_and_two_subjects_give_an_interval():
-    rng = np.random.default_rng(6)
-    wide = pd.DataFrame({"a": rng.normal(1.0, 0.3, 12), "b": rng.normal(0.5, 0.2, 12)})
-    statistic = lambda v: float(np.nanmean(v[:, 0] - v[:, 1]))  # noqa: E731
-    value, low, high = claims.resampled(wide, statistic)
-    draws = np.random.default_rng(0).integers(0, 12, size=(claims.N_RESAMPLES, 12))
-    stats_by_hand = [statistic(wide.to_numpy()[rows]) for rows in draws]
-    expected = np.percentile(stats_by_hand, [2.5, 97.5])
-    assert not np.isclose(np.percentile(stats_by_hand, 3.5), expected[0])  # percentiles differ
-    assert (low, high) == pytest.approx(tuple(expected), rel=1e-12)
-    assert value == pytest.approx(statistic(wide.to_numpy()))
-    two = claims.resampled(wide.iloc[:2], statistic)
-    assert np.isfinite(two[1]) and np.isfinite(two[2]) and two[1] <= two[0] <= two[2]
+    assert np.isfinite(out["ci95_high"]) == tested and np.isfinite(out["t"]) == tested
 
 
 def test_two_pairs_are_a_test_and_their_sds_are_numbers():

@@ -14,6 +14,16 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from aceval.report.builders import (
+    figure,
+    kong_figure,
+    kong_markdown,
+    kong_table,
+    kong_units,
+    named,
+    named_markdown,
+)
+
 #: the tidy tables an output can be built from: the per-subject outputs of ``aceval calibrate``
 #: (calibrations, axes, correlations), the Obj 3-5 angles, and an imported dataset's sheets on its
 #: ground truth (ground_truth_method.tsv) or a loose reference (loose_reference.tsv)
@@ -49,90 +59,6 @@ class Output:
     def path(self) -> str:
         """Where it lives under ``results/<dataset>/`` (tables: the CSV; the Markdown beside)."""
         return f"{self.kind}s/{self.name}.{'csv' if self.kind == 'table' else 'png'}"
-
-
-# --- builders (lazy imports) -------------------------------------------------------------------
-
-
-def _kong_table(number: int) -> Callable:
-    def build(data: dict):
-        from aceval.report import kong2016
-
-        return kong2016.build(
-            number,
-            data.get("correlations"),
-            data.get("angles"),
-            data["sensor_sets"],
-            data["paper_names"],
-        )
-
-    return build
-
-
-def _kong_markdown(table, output: Output, dataset: str, simulated: bool) -> str:
-    from aceval.report import kong2016
-
-    return kong2016.to_markdown(table, output, dataset, simulated)
-
-
-def _named_markdown(table, output: Output, dataset: str, simulated: bool) -> str:
-    from aceval.report.kong2016 import named_markdown
-
-    return named_markdown(table, output.title, output.unit, dataset, simulated)
-
-
-def _named(
-    function: str, *kinds: str, optional: tuple[str, ...] = (), exact: bool = False
-) -> Callable:
-    """A builder calling ``module.function(data[kind], ...)`` (``optional`` kinds may be None),
-    then rounding as every table is rounded (``exact``: not, for a table whose numbers feed a
-    recomputation).
-    """
-    module, name = function.rsplit(".", 1)
-
-    def build(data: dict):
-        import importlib
-
-        from aceval.report.kong2016 import rounded
-
-        call = getattr(importlib.import_module(f"aceval.{module}"), name)
-        arguments = [data[k] for k in kinds] + [data.get(k) for k in optional]
-        table = call(*arguments).reset_index(drop=True)
-        return table if exact else rounded(table)
-
-    return build
-
-
-def _kong_units(function: str) -> Callable:
-    def build(data: dict):
-        from aceval.evaluation import conditioning
-        from aceval.report.kong2016 import rounded
-
-        units = conditioning.kong_units(data["axes"], data["calibrations"], data.get("angles"))
-        return rounded(getattr(conditioning, function)(units).reset_index(drop=True))
-
-    return build
-
-
-def _kong_figure(number: int) -> Callable:
-    def draw(data: dict, out, title: str) -> None:
-        from aceval.report import figures
-
-        figures.plot(
-            number, data.get("correlations"), data.get("angles"), out, title, data["paper_names"]
-        )
-
-    return draw
-
-
-def _named_figure(data: dict, out, title: str, name: str = "") -> None:
-    from aceval.report import figures
-
-    figures.plot_named(name, data, out, title)
-
-
-def _figure(name: str) -> Callable:
-    return lambda data, out, title: _named_figure(data, out, title, name)
 
 
 # --- the registry ------------------------------------------------------------------------------
@@ -227,8 +153,8 @@ _ENTRIES = [
             ("correlations",) if n <= 7 else ("angles",),
             title,
             unit,
-            _kong_table(n),
-            _kong_markdown,
+            kong_table(n),
+            kong_markdown,
         )
         for n, (objective, title, unit) in _KONG_TABLES.items()
     ),
@@ -242,13 +168,13 @@ _ENTRIES = [
         "subject and IMU (Table 7: side), the mean of the paired values in each sensor set; the "
         "test on subjects averages a subject's cells, the mixed model reads their differences",
         "subject x IMU (Table 7: subject x side), repetitions and subsets averaged inside each",
-        _named(
+        named(
             "report.set_tests.set_test_units",
             "sensor_sets",
             optional=("correlations", "angles"),
             exact=True,
         ),
-        _named_markdown,
+        named_markdown,
     ),
     Output(
         "correlation_factors",
@@ -263,8 +189,8 @@ _ENTRIES = [
         "high its 95 % interval from 1,000 resamples of the subjects; aliased: how many of the "
         "factor's contrasts the others span (Obj 2's pairs are each recorded in their own tests: "
         "a factor wholly confounded has no share of its own, shown empty)",
-        _named("report.kong2016.correlation_factors", "correlations"),
-        _named_markdown,
+        named("report.kong2016.correlation_factors", "correlations"),
+        named_markdown,
     ),
     Output(
         "obj1_sensitivity",
@@ -275,8 +201,8 @@ _ENTRIES = [
         "What Kong's Obj 1 correlation can detect: the frontal vs lateral acceleration correlation "
         "when the lateral calibration is turned by a known heading error, per correlation mode",
         "subject x IMU x T_ex x T_ap (Table 3's units), each averaged over the repetitions",
-        _named("report.kong2016.correlation_sensitivity", "correlations"),
-        _named_markdown,
+        named("report.kong2016.correlation_sensitivity", "correlations"),
+        named_markdown,
     ),
     Output(
         "reliability",
@@ -287,8 +213,8 @@ _ENTRIES = [
         "Reliability indices of Kong's tests in Ricci Table 1's layout: rho of the gyroscope "
         "axis and Kong planarity",
         "subject x sensor set x IMU (both from all repetitions of the test)",
-        _kong_units("kong_reliability_table"),
-        _named_markdown,
+        kong_units("kong_reliability_table"),
+        named_markdown,
     ),
     Output(
         "reliability_retest",
@@ -299,8 +225,8 @@ _ENTRIES = [
         "Does a reliability index predict the Obj 4 test-retest angle? Spearman rank correlation",
         "subject x sensor set x IMU x test (index from all repetitions; angle = mean over the "
         "pairs of 3-repetition subsets)",
-        _kong_units("reliability_vs_retest"),
-        _named_markdown,
+        kong_units("reliability_vs_retest"),
+        named_markdown,
     ),
     Output(
         "variability",
@@ -313,10 +239,8 @@ _ENTRIES = [
         "eigenvalue ratio and planarity of all repetitions' accelerations (Eq. 3), two sensors "
         "on one segment (Obj 1): the same statistics on real and simulated data",
         "subject x test x segment, each the median over the subject's IMUs and sensor sets",
-        _named(
-            "evaluation.variability.variability_table", "calibrations", "angles", "correlations"
-        ),
-        _named_markdown,
+        named("evaluation.variability.variability_table", "calibrations", "angles", "correlations"),
+        named_markdown,
     ),
     Output(
         "conditioning",
@@ -327,8 +251,8 @@ _ENTRIES = [
         "How well each test determines each IMU's heading by Kong's plane: eigenvalue ratio "
         "(smallest/middle; above 0.5 undetermined) and planarity, flagged calibrations included",
         "subject x sensor set x IMU x test (the calibration from all repetitions)",
-        _named("evaluation.conditioning.conditioning_table", "calibrations"),
-        _named_markdown,
+        named("evaluation.conditioning.conditioning_table", "calibrations"),
+        named_markdown,
     ),
     *(
         Output(
@@ -338,7 +262,7 @@ _ENTRIES = [
             f"Kong et al. 2016, Figure {n} ({objective})",
             (source,),
             caption,
-            build=_kong_figure(n),
+            build=kong_figure(n),
         )
         for n, (objective, source, caption) in _KONG_FIGURES.items()
     ),
@@ -351,7 +275,7 @@ _ENTRIES = [
         "What Kong's Obj 1 can detect: frontal vs lateral acceleration correlation against a "
         "heading error imposed on the lateral calibration, per correlation mode (mean and SD over "
         "Table 3's units)",
-        build=_figure("obj1_sensitivity"),
+        build=figure("obj1_sensitivity"),
     ),
     Output(
         "reliability",
@@ -361,7 +285,7 @@ _ENTRIES = [
         ("axes", "calibrations", "angles"),
         "Reliability index of each Kong test (rho of the gyroscope axis; Kong planarity) against "
         "the Obj 4 test-retest angle, one point per subject x set x IMU x test",
-        build=_figure("reliability"),
+        build=figure("reliability"),
     ),
     Output(
         "ricci_table1",
@@ -371,8 +295,8 @@ _ENTRIES = [
         ("axes",),
         "Ricci et al. 2014, Table 1: reliability index rho per movement and segment",
         "subjects (each child's rho pooled over its 3 trials, as Ricci: 9-12 repetitions)",
-        _named("report.ricci2014.rho_table", "axes", "paper_names"),
-        _named_markdown,
+        named("report.ricci2014.rho_table", "axes", "paper_names"),
+        named_markdown,
     ),
     Output(
         "ricci_ttest",
@@ -384,8 +308,8 @@ _ENTRIES = [
         "children, one pair per child and side (rho pooled over the 3 trials); sides tested "
         "separately; p raw and Holm-corrected within each reading; the paper reports only p < "
         "0.05 for each frame",
-        _named("report.ricci2014.supported_ttest", "axes"),
-        _named_markdown,
+        named("report.ricci2014.supported_ttest", "axes"),
+        named_markdown,
     ),
     Output(
         "ricci_lm",
@@ -400,8 +324,8 @@ _ENTRIES = [
         "the sphere < 1e-6, converged = that gradient reached; off_optimum: more than 1 deg "
         "from SciPy's closed-form solution; each fit also from random unit quaternions (how many: "
         "random_starts), counted as reaching the optimum when within 1 deg of it (Kong Sec. 3.3)",
-        _named("report.ricci2014.lm_table", "calibrations"),
-        _named_markdown,
+        named("report.ricci2014.lm_table", "calibrations"),
+        named_markdown,
     ),
     Output(
         "ricci_residuals",
@@ -412,8 +336,8 @@ _ENTRIES = [
         "Ricci et al. 2014, Fig. 5 / Eq. 13: residual angle between each reference axis and its "
         "estimate, before (identity) and after the LM fit (deg)",
         "IMUs (subject x side)",
-        _named("report.ricci2014.residual_table", "axes", "paper_names"),
-        _named_markdown,
+        named("report.ricci2014.residual_table", "axes", "paper_names"),
+        named_markdown,
     ),
     Output(
         "ricci_figure4",
@@ -423,7 +347,7 @@ _ENTRIES = [
         ("axes",),
         "Ricci Fig. 4 in spirit: the LM fit of one thorax frame per iteration (quaternion, "
         "roll/pitch/yaw, residual vector, cost), and the cost from 10 random starts",
-        build=_figure("ricci_figure4"),
+        build=figure("ricci_figure4"),
     ),
     Output(
         "ricci_figure5",
@@ -433,7 +357,7 @@ _ENTRIES = [
         ("axes",),
         "Ricci Fig. 5 in spirit: residual angle between each reference axis and its estimate "
         "before (identity) and after the LM fit, mean and SD over children",
-        build=_figure("ricci_figure5"),
+        build=figure("ricci_figure5"),
     ),
     Output(
         "decision",
@@ -446,13 +370,13 @@ _ENTRIES = [
         "(or, without a ground truth, most repeatable); its uncertainty, the spread between the "
         "methods, how many calibrations it rests on, and a verdict",
         "one row per IMU of a subject",
-        _named(
+        named(
             "evaluation.decision.decision_table",
             "calibrations",
             "test_retest_k",
             optional=("retest_units",),
         ),
-        _named_markdown,
+        named_markdown,
     ),
     Output(
         "methods",
@@ -463,13 +387,13 @@ _ENTRIES = [
         "Every method against the ground truth: error angle to the true mounting (deg)",
         "subjects (each IMU's calibration from all repetitions of the test; Ricci's design: from "
         "all its axes); retest_*: Kong Obj 4 for each method, subject x IMU units (methods_retest)",
-        _named(
+        named(
             "evaluation.methods_comparison.methods_table",
             "calibrations",
             "test_retest_k",
             optional=("retest_units",),
         ),
-        _named_markdown,
+        named_markdown,
     ),
     Output(
         "methods_retest",
@@ -480,13 +404,13 @@ _ENTRIES = [
         "Every method's test-retest: error angle (deg) between its calibrations from two distinct "
         "subsets of k repetitions of one test (Kong Eq. 15), no ground truth needed",
         "subject x sensor set x IMU (each the mean over the pairs of k-repetition subsets)",
-        _named(
+        named(
             "evaluation.methods_comparison.retest_table",
             "calibrations",
             "test_retest_k",
             optional=("retest_units",),
         ),
-        _named_markdown,
+        named_markdown,
     ),
     Output(
         "uncertainty",
@@ -501,8 +425,8 @@ _ENTRIES = [
         "95 % interval; beside it the coverage of the repetitions' spread alone",
         "calibrations from all repetitions of both sensor sets (unflagged, with a cone); rows "
         "'all': the method over every segment and test",
-        _named("evaluation.methods_comparison.uncertainty_table", "calibrations", "truth_method"),
-        _named_markdown,
+        named("evaluation.methods_comparison.uncertainty_table", "calibrations", "truth_method"),
+        named_markdown,
     ),
     Output(
         "flag_value",
@@ -518,8 +442,8 @@ _ENTRIES = [
         "calibrations from all repetitions (every method, the peers included); p: one-sided "
         "Mann-Whitney, flagged farther than unflagged (calibrations are not independent units: "
         "a screen, not a verdict)",
-        _named("evaluation.flag_value.flag_value_table", "calibrations"),
-        _named_markdown,
+        named("evaluation.flag_value.flag_value_table", "calibrations"),
+        named_markdown,
     ),
     Output(
         "methods_best",
@@ -530,8 +454,8 @@ _ENTRIES = [
         "Which test to use for which segment: smallest median error per method, beside Kong's "
         "recommendation (T3 upper body, T6 thighs and shanks)",
         "calibrations of both sensor sets",
-        _named("evaluation.methods_comparison.best_tests", "calibrations"),
-        _named_markdown,
+        named("evaluation.methods_comparison.best_tests", "calibrations"),
+        named_markdown,
     ),
     Output(
         "methods_ranking",
@@ -545,8 +469,8 @@ _ENTRIES = [
         "set cells: sides and sets inside the subject); mean with its 95 % t-interval; the paired "
         "difference to the first-ranked method with its interval simultaneous over the "
         "comparisons (Bonferroni, difference_level)",
-        _named("evaluation.ranking.methods_ranking", "calibrations"),
-        _named_markdown,
+        named("evaluation.ranking.methods_ranking", "calibrations"),
+        named_markdown,
     ),
     Output(
         "methods",
@@ -556,7 +480,7 @@ _ENTRIES = [
         ("calibrations",),
         "Error angle to the true mounting by method and test, per segment: median and "
         "interquartile range",
-        build=_figure("methods"),
+        build=figure("methods"),
     ),
     Output(
         "truth_errors",
@@ -568,8 +492,8 @@ _ENTRIES = [
         "uncertainty, the second (marker-frame) truth, and the method's conditioning",
         "one row per sensor, test and method (all repetitions); the truths and their checks are "
         "in the dataset's ground_truth_method.tsv",
-        _named("evaluation.methods_comparison.truth_errors", "calibrations", "truth_method"),
-        _named_markdown,
+        named("evaluation.methods_comparison.truth_errors", "calibrations", "truth_method"),
+        named_markdown,
     ),
     Output(
         "loose_reference",
@@ -582,12 +506,12 @@ _ENTRIES = [
         "the verticals (deg)",
         "one row per sensor, test and method (all repetitions, flagged calibrations included); "
         "the reference and its standing check are in the dataset's loose_reference.tsv",
-        _named(
+        named(
             "evaluation.methods_comparison.loose_reference_angles",
             "calibrations",
             "loose_reference",
         ),
-        _named_markdown,
+        named_markdown,
     ),
 ]
 #: every output by (kind, name)

@@ -301,6 +301,7 @@ def summary_text(
     from aceval.evaluation.truth_warnings import truth_warning
     from aceval.report import summary
     from aceval.report.decisions import decision_section
+    from aceval.report.methods_section import methods_section
 
     meta = data["meta"]
     calibrations = data.get("calibrations") if "kong" in analyses else None
@@ -316,7 +317,7 @@ def summary_text(
         notes,
         decision_section(tables),
         summary.recommendation_section(tables)
-        + summary.methods_section(tables)
+        + methods_section(tables)
         + summary.retest_section(tables)
         + summary.uncertainty_section(tables)
         + summary.conditioning_section(tables)
