@@ -94,7 +94,8 @@ def test_a_method_added_to_the_registry_appears_in_every_table_figure_and_summar
     assert code == 0
     for table in ("methods", "methods_retest", "methods_best"):
         rows = pd.read_csv(results / "tables" / f"{table}.csv")
-        assert "identity" in set(rows["method"]), table
+        # methods_best lists a method's unflagged calibrations only: the identity has none
+        assert ("identity" in set(rows["method"])) == (table != "methods_best"), table
         cell = [
             c for c in ("segment", "test", "sensor_set") if c in rows and table != "methods_best"
         ]
@@ -103,11 +104,20 @@ def test_a_method_added_to_the_registry_appears_in_every_table_figure_and_summar
         ):  # each cell in registry order
             shown = list(group["method"])
             assert shown == sorted(shown, key=registry.rank), (table, shown)
-    # the identity is wrong by the simulated mountings (10 deg spread): its error is no small one
+    # the identity is wrong by the simulated mountings (10 deg spread): its error is no small
+    # one, and the gates catch it: every calibration is flagged (right_axis_mismatch where its y
+    # axis is not the declared right; methods_disagree where it is far from the other methods')
+    assert full["error_deg"].min() > 10.0
     errors = pd.read_csv(results / "tables" / "methods.csv")
-    assert errors.loc[errors["method"] == "identity", "median"].min() > 1.0
+    mine = errors[errors["method"] == "identity"]
+    assert len(mine) and (mine["n"] == 0).all() and (mine["n_calibrations"] > 0).all()
+    assert mine["flags"].str.contains("methods_disagree").any()
+    assert mine["flags"].str.contains("right_axis_mismatch").any()
     (legend,) = [texts for texts in legends if "step_harmonic" in texts]  # the methods figure
-    assert legend.index("identity") == legend.index("step_harmonic") + 1
+    # the figure draws unflagged calibrations only, in the registry's order: the identity has none
+    assert "identity" not in legend
+    drawn = [m for m in legend if m in registry.names()]
+    assert drawn == sorted(drawn, key=registry.rank) and "step_harmonic" in drawn
     assert "identity" in (results / "SUMMARY.md").read_text()
 
 
