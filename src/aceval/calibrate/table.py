@@ -46,7 +46,10 @@ def subset_label(subset) -> str:
 
 def has_flag(flags: pd.Series, name: str) -> pd.Series:
     """True for the rows whose ``flag`` (';'-joined, :func:`combine_flags`) includes ``name``."""
-    return flags.fillna("").astype(str).str.split(";").map(lambda names: name in names)
+    text = (
+        flags.astype(object).where(flags.notna(), "").astype(str)
+    )  # an empty column reads as float
+    return text.str.split(";").map(lambda names: name in names)
 
 
 def parse_subset(label: str) -> tuple[int, ...]:
