@@ -3,6 +3,7 @@
     python benchmarks/bench_workflow.py                       # everything (about half an hour)
     python benchmarks/bench_workflow.py --subjects 5 20       # a shorter scaling run
     python benchmarks/bench_workflow.py --repo ../before      # another checkout (e.g. "before")
+    python benchmarks/bench_workflow.py --without-peers --skip-lab --subjects   # 1 only, no peers
 
 1. The default workflow (`snakemake --cores 2`, config/config.yaml: simulate kong, box and ricci,
    then everything) from clean, and three up-to-date re-runs; the same from clean without the peer
@@ -214,6 +215,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--subjects", type=int, nargs="*", default=[5, 20, 50, 200])
     parser.add_argument("--skip-default", action="store_true")
+    parser.add_argument(
+        "--without-peers",
+        action="store_true",
+        help="part 1 without the peer tools only (its up-to-date re-runs on that run)",
+    )
+    parser.add_argument("--skip-lab", action="store_true", help="skip part 3 (Kong, 5 subjects)")
     parser.add_argument("--repo", type=Path, default=HERE, help="the checkout measured")
     parser.add_argument(
         "--plot", type=Path, default=HERE / "benchmarks" / "scaling.png", help="the scaling plot"
@@ -238,7 +245,7 @@ def main() -> None:
 
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        if not args.skip_default:
+        if not args.skip_default and not args.without_peers:
             clean, rss = run(snakemake(tmp / "default"))
             rss = max(rss, largest_job_rss(tmp / "default"))
             again = sorted(run(snakemake(tmp / "default"))[0] for _ in range(3))
@@ -248,8 +255,18 @@ def main() -> None:
                 f"{executor_plugins()})")  # fmt: skip
             say("  its jobs, summed per dataset and step (Snakemake's benchmark files):")
             say(per_step(tmp / "default"))
+        if not args.skip_default:
             bare, _ = run(snakemake(tmp / "default_no_peers", None, "--config", "peers=[]"))
             say(f"the same without the peer tools (--config peers=[]): {bare:.1f} s from clean")
+            if args.without_peers:
+                again = sorted(
+                    run(snakemake(tmp / "default_no_peers", None, "--config", "peers=[]"))[0]
+                    for _ in range(3)
+                )
+                say(
+                    f"  up-to-date re-run without the peers: {again[1]:.2f} s (median of 3: "
+                    f"{again[0]:.2f}-{again[2]:.2f})"
+                )
             say(per_step(tmp / "default_no_peers"))
             generated = sorted((tmp / "default_no_peers" / "resources").iterdir())
             whole = floor(*generated)
@@ -258,7 +275,8 @@ def main() -> None:
                 f"{whole:.1f} s; the default without the peers {bare:.1f} s; ratio "
                 f"{bare / whole:.1f}")  # fmt: skip
 
-        for file_format in ("csv", "parquet"):  # a lab's export, and the simulator's default
+        # a lab's export, and the simulator's default
+        for file_format in () if args.skip_lab else ("csv", "parquet"):
             kong = tmp / f"kong5_{file_format}"
             simulate(kong, 5, file_format)
             alone = floor(kong)
