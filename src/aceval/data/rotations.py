@@ -6,8 +6,13 @@ A calibration is a 3x3 matrix ``R`` that maps sensor-frame vectors into the body
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-from scipy.spatial.transform import Rotation
+
+if TYPE_CHECKING:  # imported where used: SciPy costs 0.3-0.4 s at the start of the jobs that
+    # only need the axis vocabulary (`aceval validate`: the sheets' right axes; issue 43)
+    from scipy.spatial.transform import Rotation
 
 #: unit vectors of the declared sensor axes (imus.tsv ``right_axis``)
 AXIS_VECTORS = {
@@ -36,6 +41,8 @@ def _as_rotation(matrices: np.ndarray) -> tuple[Rotation, tuple[int, ...]]:
     if matrices.shape[-2:] != (3, 3):
         raise ValueError(f"expected (..., 3, 3) rotation matrices, got shape {matrices.shape}")
     batch_shape = matrices.shape[:-2]
+    from scipy.spatial.transform import Rotation
+
     return Rotation.from_matrix(matrices.reshape(-1, 3, 3)), batch_shape
 
 
@@ -83,4 +90,6 @@ def vector_angle_deg(a: np.ndarray, b: np.ndarray, sign_free: bool = False) -> n
 
 def random_rotations(n: int, seed: int | np.random.Generator | None = None) -> np.ndarray:
     """``n`` uniformly random rotation matrices, shape (n, 3, 3)."""
+    from scipy.spatial.transform import Rotation
+
     return Rotation.random(n, random_state=seed).as_matrix()
