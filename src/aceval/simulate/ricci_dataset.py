@@ -98,34 +98,49 @@ def _axis_rotvec(axis: str, angle):
     return vector
 
 
-def _poses(child: Child, relative: dict, base: np.ndarray):
-    """Chain thorax -> upper arms -> forearms. ``relative[seg]`` (M, 3, 3) rotates each segment
-    relative to its parent (thorax relative to the world ``base``).
+def _compose(A, B):
+    """``A @ B`` of two stacks of rotations, where ``None`` is the identity: its product is
+    skipped (a product with the identity gives the other factor's values; issue 43).
     """
-    R = {"thorax": base @ relative["thorax"]}
-    origin = {"thorax": np.zeros((len(base), 3))}
+    if A is None:
+        return B
+    return A if B is None else A @ B
+
+
+def _rotate(R, v: np.ndarray):
+    """``R @ v`` for a stack ``R`` (``None``: the identity, ``v`` itself)."""
+    return v if R is None else R @ v
+
+
+def _poses(child: Child, relative: dict, base, n: int):
+    """Chain thorax -> upper arms -> forearms on ``n`` samples. ``relative[seg]`` (n, 3, 3)
+    rotates each segment relative to its parent (thorax relative to the world ``base``); ``None``
+    (in ``relative`` or as ``base``) is the identity.
+    """
+    R = {"thorax": _compose(base, relative["thorax"])}
+    origin = {"thorax": np.zeros((n, 3))}
     for s, sign in (("r", 1.0), ("l", -1.0)):
         shoulder = np.array([0.0, sign * child.shoulder_half_width, -child.shoulder_drop])
-        R[f"upper_arm_{s}"] = R["thorax"] @ relative[f"upper_arm_{s}"]
-        origin[f"upper_arm_{s}"] = origin["thorax"] + R["thorax"] @ shoulder
-        R[f"forearm_{s}"] = R[f"upper_arm_{s}"] @ relative[f"forearm_{s}"]
-        origin[f"forearm_{s}"] = origin[f"upper_arm_{s}"] + R[f"upper_arm_{s}"] @ np.array(
-            [0, 0, child.upper_arm]
+        R[f"upper_arm_{s}"] = _compose(R["thorax"], relative[f"upper_arm_{s}"])
+        origin[f"upper_arm_{s}"] = origin["thorax"] + _rotate(R["thorax"], shoulder)
+        R[f"forearm_{s}"] = _compose(R[f"upper_arm_{s}"], relative[f"forearm_{s}"])
+        origin[f"forearm_{s}"] = origin[f"upper_arm_{s}"] + _rotate(
+            R[f"upper_arm_{s}"], np.array([0, 0, child.upper_arm])
         )
-    return R, origin
+    identity = np.tile(np.eye(3), (n, 1, 1))
+    return {seg: identity if rotation is None else rotation for seg, rotation in R.items()}, origin
 
 
 def _trial(rng, child, test, fs, offplane):
     """One trial: 1 s rest, 3-4 repetitions of the movement, 1 s rest."""
     if test == "S":
         t = fine_time(5.0, fs)
-        identity = np.tile(np.eye(3), (len(t), 1, 1))
-        relative = {seg: identity for seg in SEGMENTS}
+        relative = dict.fromkeys(SEGMENTS)  # None: the identity (_poses)
         for s, sign in (("r", 1.0), ("l", -1.0)):  # palms facing down: forearms pronated 90 deg
             relative[f"forearm_{s}"] = euler_pitch_roll_yaw(np.zeros(len(t)), 0.0, -sign * 90 * D2R)
         supine = euler_pitch_roll_yaw(np.full(len(t), 90 * D2R))  # lying on the back: x up
         breathing = small_rotations(_axis_rotvec("y", 0.5 * D2R * np.sin(2 * np.pi * 0.3 * t)))
-        R, origin = _poses(child, relative, supine @ breathing)
+        R, origin = _poses(child, relative, supine @ breathing, len(t))
         return t, R, origin, np.zeros(len(t))
     description, moving, axis, amplitude, duration, support = MOVEMENTS[test]
     n_reps = int(rng.integers(3, 5))
@@ -147,9 +162,9 @@ def _trial(rng, child, test, fs, offplane):
         )
         return small_rotations(sign * (main + off))
 
-    identity = np.tile(np.eye(3), (len(t), 1, 1))
-    relative = {seg: identity for seg in SEGMENTS}
-    arms_forward = euler_pitch_roll_yaw(np.full(len(t), 90 * D2R))
+    relative = dict.fromkeys(SEGMENTS)  # None: the identity (_poses)
+    if test == "TR" or moving == "forearms_twist":  # the movements with the arms forward
+        arms_forward = euler_pitch_roll_yaw(np.full(len(t), 90 * D2R))
     if moving == "thorax":
         relative["thorax"] = movement()
         if test == "TR":  # holding a bar in front: arms forward, following the thorax
@@ -167,8 +182,7 @@ def _trial(rng, child, test, fs, offplane):
                 _axis_rotvec("z", sign * 0.15 * amplitude * D2R * profile)
             )  # shoulder rotation coupling
             relative[f"forearm_{s}"] = movement()
-    base = np.tile(np.eye(3), (len(t), 1, 1))
-    R, origin = _poses(child, relative, base)
+    R, origin = _poses(child, relative, None, len(t))
     return t, R, origin, np.clip(profile, 0, 1)
 
 
