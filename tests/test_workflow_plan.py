@@ -95,3 +95,23 @@ def test_a_recording_changed_in_place_changes_the_digest_and_paths_out_of_the_fo
     assert plan.recording_files_digest("lab") != before
     plan.hashes.save()
     assert HashCache.load(plan.hashes.path).entries == plan.hashes.entries
+
+
+def test_a_simulated_dataset_is_named_after_its_key(tmp_path):
+    """The powered design simulates Kong's protocol as `kong_powered`: its dataset.yaml, and so
+    its SUMMARY.md and validation.txt, carry that name, not the simulator's default kong_sim."""
+    plan = _plan(
+        tmp_path,
+        {"kong_powered": {"simulate": {"protocol": "kong", "subjects": 93}, "analyses": ["kong"]}},
+    )
+    assert plan.simulate_options("kong_powered") == ["--name=kong_powered", "--subjects=93"]
+
+
+def test_simulate_writes_the_name_it_is_given(tmp_path):
+    from aceval.cli import main
+
+    out = tmp_path / "box"
+    assert (
+        main(["simulate", "box", "--out", str(out), "--name", "my_box", "--repetitions", "1"]) == 0
+    )
+    assert yaml.safe_load((out / "dataset.yaml").read_text())["name"] == "my_box"

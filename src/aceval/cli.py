@@ -52,6 +52,9 @@ def _add_simulate(commands) -> None:
     simulate.add_argument("protocol", choices=["kong", "ricci", "box"])
     simulate.add_argument("--out", required=True, help="output folder (created)")
     simulate.add_argument("--seed", type=int, default=0)
+    simulate.add_argument(
+        "--name", help="the dataset's name in dataset.yaml (default: kong_sim, ricci_sim, box_sim)"
+    )
     simulate.add_argument("--subjects", type=int, help="number of subjects (default: the paper's)")
     simulate.add_argument(
         "--repetitions", type=int, default=5, help="repetitions of each motion test (5; Kong, box)"

@@ -47,6 +47,8 @@ def simulate(args) -> int:
     kwargs = {"options": options}
     if args.subjects is not None:
         kwargs["n_subjects"] = args.subjects
+    if args.name:
+        kwargs["name"] = args.name
     return _staged(
         Path(args.out),
         args.force,

@@ -170,9 +170,12 @@ class Configuration:
         return options + (["--subject", spec["subject"]] if "subject" in spec else [])
 
     def simulate_options(self, dataset: str) -> list[str]:
-        """--subjects and --repetitions of `aceval simulate`, where the configuration sets them."""
+        """--name (the dataset's key: its SUMMARY.md and tables are titled by it), and --subjects
+        and --repetitions of `aceval simulate` where the configuration sets them.
+        """
         spec = self.datasets[dataset]["simulate"]
-        return [f"--{key}={spec[key]}" for key in ("subjects", "repetitions") if key in spec]
+        counts = [f"--{key}={spec[key]}" for key in ("subjects", "repetitions") if key in spec]
+        return [f"--name={dataset}", *counts]
 
     def dataset_files(self, dataset: str) -> str | list[str]:
         """The dataset as a job's input: the generated folder, or a lab dataset's sheets (its

@@ -76,12 +76,19 @@ TESTS = {
 
 
 def simulate_box(
-    out: Path, seed: int, n_subjects: int = 1, options: SimOptions = SimOptions()
+    out: Path,
+    seed: int,
+    n_subjects: int = 1,
+    options: SimOptions = SimOptions(),
+    name: str = "box_sim",
 ) -> Path:
-    """Write the SIMULATED rigid-box dataset (Kong Sec. 3) into ``out``; returns ``out``."""
+    """Write the SIMULATED rigid-box dataset (Kong Sec. 3) into ``out``; returns ``out``.
+
+    ``name``: the dataset's name in dataset.yaml (a workflow gives its own key).
+    """
     out = Path(out)
     meta = simulated_meta(
-        "box_sim",
+        name,
         "the rigid aluminium box of Kong et al. 2016 Sec. 3",
         "box",
         seed,

@@ -90,12 +90,19 @@ def _stance_offsets(rng, offplane: float) -> dict[str, np.ndarray]:
 
 
 def simulate_kong(
-    out: Path, seed: int, n_subjects: int = 5, options: SimOptions = SimOptions()
+    out: Path,
+    seed: int,
+    n_subjects: int = 5,
+    options: SimOptions = SimOptions(),
+    name: str = "kong_sim",
 ) -> Path:
-    """Write the SIMULATED Kong protocol dataset into ``out``; returns ``out``."""
+    """Write the SIMULATED Kong protocol dataset into ``out``; returns ``out``.
+
+    ``name``: the dataset's name in dataset.yaml (a workflow gives its own key).
+    """
     out = Path(out)
     meta = simulated_meta(
-        "kong_sim",
+        name,
         "Kong et al. 2016",
         "kong",
         seed,

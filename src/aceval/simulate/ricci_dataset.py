@@ -229,12 +229,19 @@ def functional_axes() -> list[list[str]]:
 
 
 def simulate_ricci(
-    out: Path, seed: int, n_subjects: int = 40, options: SimOptions = SimOptions()
+    out: Path,
+    seed: int,
+    n_subjects: int = 40,
+    options: SimOptions = SimOptions(),
+    name: str = "ricci_sim",
 ) -> Path:
-    """Write the SIMULATED Ricci et al. 2014 dataset (children) into ``out``; returns ``out``."""
+    """Write the SIMULATED Ricci et al. 2014 dataset (children) into ``out``; returns ``out``.
+
+    ``name``: the dataset's name in dataset.yaml (a workflow gives its own key).
+    """
     out = Path(out)
     meta = simulated_meta(
-        "ricci_sim",
+        name,
         "Ricci et al. 2014",
         "ricci",
         seed,
