@@ -82,10 +82,7 @@ def simulate_box(
     options: SimOptions = SimOptions(),
     name: str = "box_sim",
 ) -> Path:
-    """Write the SIMULATED rigid-box dataset (Kong Sec. 3) into ``out``; returns ``out``.
-
-    ``name``: the dataset's name in dataset.yaml (a workflow gives its own key).
-    """
+    """Write the SIMULATED rigid-box dataset (Kong Sec. 3) into ``out``, named ``name``; returns ``out``."""
     out = Path(out)
     meta = simulated_meta(
         name,

@@ -96,10 +96,7 @@ def simulate_kong(
     options: SimOptions = SimOptions(),
     name: str = "kong_sim",
 ) -> Path:
-    """Write the SIMULATED Kong protocol dataset into ``out``; returns ``out``.
-
-    ``name``: the dataset's name in dataset.yaml (a workflow gives its own key).
-    """
+    """Write the SIMULATED Kong protocol dataset into ``out``, named ``name``; returns ``out``."""
     out = Path(out)
     meta = simulated_meta(
         name,

@@ -235,10 +235,7 @@ def simulate_ricci(
     options: SimOptions = SimOptions(),
     name: str = "ricci_sim",
 ) -> Path:
-    """Write the SIMULATED Ricci et al. 2014 dataset (children) into ``out``; returns ``out``.
-
-    ``name``: the dataset's name in dataset.yaml (a workflow gives its own key).
-    """
+    """Write the SIMULATED Ricci et al. 2014 children into ``out``, named ``name``; returns ``out``."""
     out = Path(out)
     meta = simulated_meta(
         name,
