@@ -167,3 +167,133 @@ def test_labelled_cells_join_their_keys_and_keep_each_subjects_value():
         ["x", "S1", 1.0],
         ["x", "S2", 2.0],
     ]
+
+
+def test_the_tables_of_several_claims_are_numbered_afresh_and_empty_ones_keep_their_columns():
+    one, two = _rule().apply(None), _rule(combine="majority").apply(None)
+    assert claims.cells_table([one, two]).index.tolist() == list(range(20))
+    assert claims.estimates_table([one, two]).index.tolist() == list(range(4))
+    assert claims.cells_table([]).columns.tolist() == ["claim", "cell", "subject", "value"]
+    plain = claims.Rule("Obj 1", "c", "r", lambda e: (HOLDS, "0.97"), key="plain").apply(None)
+    row = claims.claims_table([plain]).iloc[0]
+    assert (row["combine"], row["requirement"]) == ("", "")
+    assert (two.claim, two.rule, two.judgement.combine) == (
+        "below 2.5 deg",
+        "every cell < 2.5",
+        "majority",
+    )
+
+
+def test_the_numbers_text_without_unit_or_note_and_with_its_own_digits():
+    def judge(evidence):
+        cells = _cells()
+        return claims.Cells(cells, claims.every_cell(cells, Requirement.of("<", 2.5)), digits=3)
+
+    claim = claims.Rule("Obj 3", "c", "r", judge).apply(None)
+    mean, low, high = _by_hand(VALUES["b"])
+    assert claim.numbers == (
+        f"cell closest to failing: b {mean:.3f} [{low:.3f}, {high:.3f}] (< 2.5); 97.5 % "
+        "intervals: simultaneous 95 % over 2 cells (Bonferroni); cells shown / beyond / "
+        "undecided: 1 / 0 / 1; n 5 subjects"
+    )
+
+
+def test_verdict_text_of_a_claim_no_affordable_n_decides():
+    table = verdicts.judge(_cells(), {"b": Requirement.of("<", 2.5)}).estimates
+    judgement = verdicts.Judgement(INCONCLUSIVE, table, "all", HOLDS, np.nan)
+    claim = claims.Claim("Obj 3", "c", "r", INCONCLUSIVE, "", judgement=judgement)
+    assert claims.verdict_text(claim) == (
+        "inconclusive (leans 'holds'; not decidable with 100,000 subjects at these effects)"
+    )
+
+
+def test_a_claim_without_cells_keeps_the_estimates_columns_and_its_combination():
+    judged = verdicts.judge(_cells(), claims.every_cell(_cells(), Requirement.of("<", 2.5)))
+    empty = verdicts.judge(pd.DataFrame(), {}, "majority")
+    assert empty.verdict == UNTESTABLE and empty.combine == "majority" and empty.m == 0
+    assert empty.estimates.columns.tolist() == judged.estimates.columns.tolist()
+    assert Requirement.of("<=", 1.0).text() == "<= 1" and Requirement.of(">", 1.0).text() == "> 1"
+
+
+def test_cells_without_subjects_have_no_estimate():
+    requirement = Requirement.of("<", 2.5)
+    table = verdicts.estimates(pd.DataFrame(), {"a": requirement, "b": requirement})
+    assert table["cell"].tolist() == ["a", "b"] and table["n"].tolist() == [0, 0]
+    assert table["n"].dtype.kind == "i" and table["mean"].isna().all()
+    assert table["state"].tolist() == ["undecided", "undecided"]
+    # a claim over three cells, two without subjects: undecided, and it leans neither way
+    judgement = verdicts.judge(
+        _cells({"a": VALUES["a"]}),
+        {"a": requirement, "b": requirement, "c": requirement},
+        "majority",
+    )
+    assert judgement.verdict == INCONCLUSIVE and judgement.leaning == ""
+    assert np.isnan(judgement.n_to_decide)
+    claim = claims.Claim("Obj 3", "c", "r", INCONCLUSIVE, "", judgement=judgement)
+    assert claims.verdict_text(claim) == "inconclusive (the estimates lean neither way)"
+
+
+def test_the_leaning_follows_the_claims_own_combination():
+    """'mostly' over three cells: one shown, one below on average but wide, one above on average
+    but wide: undecided; the point estimates hold for 'mostly' (two of three), not for 'all'."""
+    values = {
+        "a": [1.0, 1.1, 0.9, 1.0, 1.0],
+        "b": [0.5, 4.0, 0.2, 3.8, 0.4],
+        "c": [4.5, 1.0, 4.8, 1.2, 4.4],
+    }
+    requirement = Requirement.of("<", 2.5)
+    judgement = verdicts.judge(_cells(values), dict.fromkeys(values, requirement), "majority")
+    assert judgement.verdict == INCONCLUSIVE and judgement.leaning == HOLDS
+    decided = verdicts.judge(
+        _cells(VALUES | {"b": [1.5] * 4 + [1.6]}), dict.fromkeys(VALUES, requirement), "majority"
+    )
+    assert decided.verdict == HOLDS and decided.combine == "majority"
+
+
+def test_the_rule_vectorised_over_resamples_and_its_pieces():
+    shown = np.array([[True, True, False], [True, False, False]])
+    beyond = np.array([[False, False, False], [False, False, True]])
+    assert verdicts.combined(shown, beyond, "majority").tolist() == [0, 2]
+    assert verdicts.combined(shown, beyond, "all").tolist() == [2, 1]
+    assert verdicts.level(1) == verdicts.level(0) == pytest.approx(0.95)
+    assert verdicts.level(4) == pytest.approx(0.9875)
+    half = verdicts.half_width([1.0, 1.0, 1.0], [1, 2, 5], 1)
+    assert np.isnan(half[0])
+    assert half[1:] == pytest.approx([scipy_stats.t.ppf(0.975, n - 1) / np.sqrt(n) for n in (2, 5)])
+    low_unknown = verdicts.cell_states(
+        np.array([np.nan]), np.array([0.4]), verdicts.requirement_arrays([Requirement.of("<", 0.5)])
+    )
+    assert low_unknown[0].tolist() == [False]
+    req = verdicts.requirement_arrays([Requirement.of("<", 2.5)] * 3)
+    margins = verdicts.margins(np.array([2.0, 2.5, 3.5]), np.array([1.0, 0.0, 2.0]), req)
+    assert margins.tolist() == [0.5, -np.inf, -0.5]
+
+
+def test_the_probabilities_behind_n_to_decide_by_hand():
+    """Each cell's P(shown) and P(beyond) are the noncentral t's one-sided probabilities at its
+    distance to each bound; 'mostly' over three cells needs two shown (Poisson binomial)."""
+    req = verdicts.requirement_arrays(
+        [Requirement.of("<", 2.5), Requirement.of(">", 1.0), Requirement.within(0.0, 1.0)]
+    )
+    mean, sd, n = np.array([2.0, 1.6, 0.3]), np.array([0.5, 0.4, 0.5]), 12
+    shown, beyond = verdicts.cell_probabilities(mean, sd, req, n)
+    one = lambda d: float(verdicts._one_sided(np.array([d]), n, 3)[0])  # noqa: E731
+    assert shown[0] == pytest.approx(one(1.0)) and beyond[0] == pytest.approx(one(-1.0))
+    assert shown[1] == pytest.approx(one(1.5)) and beyond[1] == pytest.approx(one(-1.5))
+    assert shown[2] == pytest.approx(one(2.6) * one(1.4))
+    assert beyond[2] == pytest.approx(1 - (1 - one(-2.6)) * (1 - one(-1.4)))
+    p = shown
+    two_of_three = p[0] * p[1] + p[0] * p[2] + p[1] * p[2] - 2 * p[0] * p[1] * p[2]
+    assert verdicts.decide_probability(mean, sd, req, "majority", HOLDS, n) == pytest.approx(
+        two_of_three
+    )
+    assert verdicts.decide_probability(mean, sd, req, "all", HOLDS, n) == pytest.approx(p.prod())
+    b = beyond
+    at_least_two = b[0] * b[1] + b[0] * b[2] + b[1] * b[2] - 2 * b[0] * b[1] * b[2]
+    assert verdicts.decide_probability(mean, sd, req, "majority", FAILS, n) == pytest.approx(
+        at_least_two
+    )
+    two = {k: v[:2] for k, v in req.items()}
+    still = verdicts.cell_probabilities(np.array([2.0, 3.0]), np.array([0.0, 0.0]), two, n)
+    assert still[0].tolist() == [1.0, 1.0] and still[1].tolist() == [0.0, 0.0]
+    assert np.isnan(verdicts.n_to_decide(mean, np.array([0.5, np.nan, 0.5]), req, "all", HOLDS))

@@ -206,6 +206,7 @@ def estimates(cells: pd.DataFrame, requirements: dict) -> pd.DataFrame:
     grouped = cells.dropna(subset=["value"]).groupby("cell", sort=False)["value"]
     stats = grouped.agg(n="count", mean="mean", sd="std").reindex(names)
     stats["n"] = stats["n"].fillna(0).astype(int)
+    stats[["mean", "sd"]] = stats[["mean", "sd"]].astype(float)  # no subjects: NaN, not objects
     req = requirement_arrays(requirements.values())
     half = half_width(stats["sd"], stats["n"], len(names))
     low, high = stats["mean"].to_numpy() - half, stats["mean"].to_numpy() + half
