@@ -359,7 +359,7 @@ def apply_calibrations(
     warnings = check_source(dataset, applied, source) if source is not None else []
     columns = [*KEY, "test", "repetitions", "method", *CHOICE_COLUMNS, *R_COLUMNS]
     table = chosen.assign(method=method).reindex(columns=columns)
-    cells = table.astype(object).where(table.notna(), "")  # an empty column reads as float
+    cells = table.astype(object).fillna("")  # an empty column reads as float
     write_sheet(out / "applied_calibrations.tsv", columns, cells.to_numpy().tolist())
     said = [
         f"aceval apply: {' '.join(map(str, row[KEY]))}: "

@@ -44,12 +44,16 @@ def subset_label(subset) -> str:
     return "+".join(f"R{r}" for r in subset)
 
 
+def flag_text(flags: pd.Series) -> pd.Series:
+    """A ``flag`` column as strings, '' where empty (read back from a CSV, an empty flag is NaN and
+    a column without any flag is float).
+    """
+    return flags.astype(object).fillna("").astype(str)
+
+
 def has_flag(flags: pd.Series, name: str) -> pd.Series:
     """True for the rows whose ``flag`` (';'-joined, :func:`combine_flags`) includes ``name``."""
-    text = (
-        flags.astype(object).where(flags.notna(), "").astype(str)
-    )  # an empty column reads as float
-    return text.str.split(";").map(lambda names: name in names)
+    return flag_text(flags).str.split(";").map(lambda names: name in names)
 
 
 def parse_subset(label: str) -> tuple[int, ...]:

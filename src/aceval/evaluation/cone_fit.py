@@ -26,6 +26,7 @@ import itertools
 import numpy as np
 import pandas as pd
 
+from aceval.calibrate.table import flag_text
 from aceval.methods.uncertainty import ConeModel, model_cones, undetermined
 
 #: a 95 % cone covers within this range pooled (per method and dataset) ...
@@ -60,7 +61,7 @@ ROW_COLUMNS = [
 
 def usable(rows: pd.DataFrame) -> pd.DataFrame:
     """The rows the cone is fitted and judged on (module docstring)."""
-    flags = rows["flag"].fillna("").astype(str).str.split(";")
+    flags = flag_text(rows["flag"]).str.split(";")
     only = flags.map(lambda names: set(names) - {""} <= {"heading_undetermined"})
     finite = np.isfinite(rows["spread95_deg"].astype(float)) & np.isfinite(
         rows["error_deg"].astype(float)

@@ -29,6 +29,7 @@ import pandas as pd
 from aceval.calibrate.table import (
     CALIBRATION_KEY,
     combine_flags,
+    flag_text,
     full_set_rows,
     matrices,
     unflagged,
@@ -92,7 +93,7 @@ def flag_disagreements(calibrations: pd.DataFrame) -> pd.DataFrame:
         disagree[unit.index] = apart.sum(axis=1) > (len(unit) - 1) / 2
     flags = [
         combine_flags(f, "methods_disagree" if d else "")
-        for f, d in zip(calibrations["flag"].fillna("").astype(str), disagree)
+        for f, d in zip(flag_text(calibrations["flag"]), disagree)
     ]
     return calibrations.assign(methods_spread_deg=spread, flag=flags)
 
@@ -136,7 +137,7 @@ def decision_table(
         return pd.DataFrame(columns=DECISION_COLUMNS)
     evidence, basis = _evidence(calibrations, test_retest_k, retest_units)
     full = full_set_rows(calibrations)
-    applicable = full[~full["flag"].fillna("").astype(str).str.contains("not_applicable")]
+    applicable = full[~flag_text(full["flag"]).str.contains("not_applicable")]
     rows = [_decide(imu, evidence, basis) for _, imu in applicable.groupby(IMU_KEY, sort=True)]
     return pd.DataFrame(rows, columns=DECISION_COLUMNS)
 
@@ -147,10 +148,7 @@ def _flag_counts(rows: pd.DataFrame, cone: pd.Series | None = None) -> str:
     for an uncertainty beyond :data:`MAX_CONE_DEG` (``cone``).
     """
     names = [
-        n
-        for f in rows["flag"].fillna("").astype(str)
-        for n in f.split(";")
-        if n and n != "not_applicable"
+        n for f in flag_text(rows["flag"]) for n in f.split(";") if n and n != "not_applicable"
     ]
     if cone is not None:
         wide = unflagged(rows) & (cone > MAX_CONE_DEG)
@@ -193,7 +191,7 @@ def _decide(imu: pd.DataFrame, evidence: pd.DataFrame, basis: str) -> dict:
     if not np.isfinite(chosen["median"]):
         row["basis"] = f"{basis}: none for this method and test (chosen by its uncertainty)"
     same_test = imu[imu["test"] == chosen["test"]]
-    disagree = same_test[same_test["flag"].fillna("").astype(str).str.contains("methods_disagree")]
+    disagree = same_test[flag_text(same_test["flag"]).str.contains("methods_disagree")]
     row["verdict"] = "use"
     if not len(measured):
         row["verdict"] = (

@@ -26,7 +26,7 @@ import pandas as pd
 from scipy.spatial.transform import Rotation
 from scipy.stats import mannwhitneyu
 
-from aceval.calibrate.table import CALIBRATION_KEY, full_set_rows, matrices, unflagged
+from aceval.calibrate.table import CALIBRATION_KEY, flag_text, full_set_rows, matrices, unflagged
 from aceval.data.rotations import error_angle_deg
 
 COLUMNS = [
@@ -72,7 +72,7 @@ def consensus_distance_deg(calibrations: pd.DataFrame) -> np.ndarray:
 
 
 def _names(flags: pd.Series) -> pd.Series:
-    return flags.fillna("").astype(str).str.split(";").map(lambda f: [n for n in f if n])
+    return flag_text(flags).str.split(";").map(lambda f: [n for n in f if n])
 
 
 def flag_value_table(calibrations: pd.DataFrame) -> pd.DataFrame:

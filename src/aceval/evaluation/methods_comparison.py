@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from aceval.calibrate.table import full_set_rows, has_flag, unflagged
+from aceval.calibrate.table import flag_text, full_set_rows, has_flag, unflagged
 from aceval.data.contract import R_COLUMNS
 from aceval.data.rotations import error_angle_deg, vector_angle_deg, vertical_share
 from aceval.evaluation.conditioning import heading_status
@@ -90,7 +90,7 @@ def _with_price(table: pd.DataFrame, calibrations: pd.DataFrame, keys) -> pd.Dat
     whose every calibration is flagged keeps its row, with n = 0 and its flags.
     """
     full = full_set_rows(calibrations)
-    full = full[full["flag"].fillna("").astype(str) != "not_applicable"]
+    full = full[flag_text(full["flag"]) != "not_applicable"]
     if full.empty:
         return table
     flagged = full[~unflagged(full)]

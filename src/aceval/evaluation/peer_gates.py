@@ -25,7 +25,7 @@ import numpy as np
 import pandas as pd
 
 from aceval.calibrate.pipeline import UNSTABLE_DEG
-from aceval.calibrate.table import CALIBRATION_KEY, combine_flags, matrices, parse_subset
+from aceval.calibrate.table import CALIBRATION_KEY, combine_flags, flag_text, matrices, parse_subset
 from aceval.data.rotations import axis_vector, error_angle_deg, vector_angle_deg
 from aceval.methods.kong import KongLimits
 from aceval.methods.moments import PHASE_COLUMNS
@@ -63,7 +63,7 @@ def gate_peers(
 
 
 def _with_flags(rows: pd.DataFrame, hits: list[tuple[str, np.ndarray]]) -> list[str]:
-    own = rows["flag"].fillna("").astype(str)
+    own = flag_text(rows["flag"])
     return [
         combine_flags(flag, *(name for name, hit in hits if hit[k])) for k, flag in enumerate(own)
     ]
@@ -135,7 +135,7 @@ def sensor_gates(peers: pd.DataFrame, own: pd.DataFrame) -> pd.DataFrame:
     joined = keys.merge(found.astype(str), on=CALIBRATION_KEY, how="left")["sensor_flag"]
     flags = [
         combine_flags(own_flag, sensor if isinstance(sensor, str) else "")
-        for own_flag, sensor in zip(peers["flag"].fillna("").astype(str), joined)
+        for own_flag, sensor in zip(flag_text(peers["flag"]), joined)
     ]
     return peers.assign(flag=flags)
 
