@@ -33,6 +33,8 @@ range (one synchronised recording), or be trimmed to the samples they share (``-
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -49,18 +51,10 @@ from aceval.importers.lab_sheets import (
     find_trials,
     read_lab_sensors,
     read_trials,
-    subject_sensors,
 )
+from aceval.importers.lab_trials import check_declared_rate, read_lab_trial, segment
 from aceval.importers.shared import FormatError, ImportReport, mean_posture
-from aceval.importers.xsens import (
-    ACC_RANGE_G,
-    GYR_RANGE_DPS,
-    QUATERNION,
-    export_rate,
-    read_mt_export,
-    sensor_id_of,
-    unwrapped_counter,
-)
+from aceval.importers.xsens import ACC_RANGE_G, GYR_RANGE_DPS, not_an_export, xsens_samples
 from aceval.signals.segmentation import TrimParams, movement_mask
 
 
@@ -68,27 +62,76 @@ def import_xsens_lab(
     src: str | Path,
     out: Path,
     trials_path: str | Path,
-    sensors_path: str | Path,
+    sensors_path: str | Path | None,
     name: str = "xsens_lab",
     rate: float | None = None,
     trim_to_shared: bool = False,
 ) -> ImportReport:
-    """Write the dataset of every trial of ``trials_path`` (exports under ``src``) into ``out``."""
-    src, report = Path(src), ImportReport()
-    table, tests = read_trials(trials_path)
-    sensors = read_lab_sensors(sensors_path)
-    trials = find_trials(
-        src, table, report, {Path(trials_path).resolve(), Path(sensors_path).resolve()}
+    """Write the dataset of every trial of ``trials_path`` (MT Manager exports under ``src``)
+    into ``out``; without ``sensors_path``, the sensor sheet the exports' sensorspec files
+    propose is written beside ``trials_path`` and the import stops (:mod:`.sensorspec`).
+    """
+    if sensors_path is None:
+        from aceval.importers.sensorspec import propose_sensor_sheet
+
+        propose_sensor_sheet(Path(src), Path(trials_path))
+    return import_lab(
+        LabImport(
+            Path(src),
+            Path(trials_path),
+            Path(sensors_path),
+            name,
+            f"Xsens MT Manager exports ({Path(src).name}), imported by aceval import xsens --trials",
+            lambda path: xsens_samples(path, rate),
+            not_an_export,
+            trim_to_shared,
+        ),
+        out,
     )
-    fs_hz = None
+
+
+@dataclass(frozen=True)
+class LabImport:
+    """What a lab's import reads: its exports folder, its two sheets, the dataset's name and
+    description, ``read_file`` (a path -> its sensors'
+    :class:`aceval.importers.lab_trials.SensorSamples`), ``not_export`` (a path -> why it is not
+    an export, '' when it is) and whether to trim a trial's sensors to the samples they share.
+    """
+
+    src: Path
+    trials: Path
+    sensors: Path
+    name: str
+    description: str
+    read_file: Callable
+    not_export: Callable
+    trim_to_shared: bool = False
+
+
+def import_lab(lab: LabImport, out: Path) -> ImportReport:
+    """Write the dataset of every trial of ``lab.trials`` into ``out`` (the module docstring)."""
+    report = ImportReport()
+    table, tests = read_trials(lab.trials)
+    sensors = read_lab_sensors(lab.sensors)
+    sheets = {lab.trials.resolve(), lab.sensors.resolve()}
+    trials = find_trials(lab.src, table, report, sheets, lab.not_export)
+    fs_hz, read, declared = None, {}, []
     for trial in trials:
-        trial.sensors, trial_fs = _read_trial(trial, sensors, rate, trim_to_shared, report)
+        files = tuple(trial.files)
+        if files not in read:  # the segments of one recording read it once
+            read[files] = read_lab_trial(trial, sensors, lab.read_file, lab.trim_to_shared, report)
+        found, trial_fs, by_hand = read[files]
         if fs_hz is not None and abs(trial_fs / fs_hz - 1) > FS_TOLERANCE:
             raise FormatError(
                 f"{trial.where} is sampled at {trial_fs:g} Hz, the trials before it at {fs_hz:g} "
                 "Hz: a dataset has one rate; import the two rates as two datasets"
             )
         fs_hz = fs_hz or trial_fs
+        trial.sensors = segment(trial, found, fs_hz)
+        if by_hand:
+            declared.append(files)
+    if declared:
+        check_declared_rate([read[files][0] for files in declared], fs_hz, report)
     for trial in trials:
         trial.parts = _parts(trial, fs_hz, tests)
         if tests[trial.test]["first_phase"] == "gait":
@@ -96,105 +139,11 @@ def import_xsens_lab(
     _check_statics(trials, tests)
     imus = _imus(trials)
     _check_right_axes(imus, trials, tests, fs_hz)
-    writer = DatasetWriter(out, _meta(name, src, fs_hz, imus))
+    writer = DatasetWriter(out, _meta(lab, fs_hz, imus))
     repetitions = _write(writer, trials, report)
     writer.close()
     _sheets(out, tests, repetitions, imus, trials, report)
     return report
-
-
-def _read_trial(trial: Trial, sensors, rate, trim_to_shared: bool, report: ImportReport):
-    """``({sensor_id: {acc, gyr, quat, row, file}}, fs_hz)`` of one trial: its exports read, their
-    rates checked and their samples synchronised by PacketCounter.
-    """
-    rows = subject_sensors(sensors, trial.subject)
-    tables, rates, paths = {}, {}, {}
-    for path in trial.files:
-        header, table = read_mt_export(path)
-        sensor = sensor_id_of(path, header)
-        if sensor not in rows:
-            report.add(path.name, trial.subject, sensor, "skipped", "sensor not in sensors.tsv")
-            report.note(
-                f"{path}: sensor {sensor} is not in sensors.tsv for {trial.subject}: skipped"
-            )
-            continue
-        if sensor in tables:
-            raise FormatError(
-                f"{trial.where}: two exports of sensor {sensor}: {paths[sensor]}, {path}"
-            )
-        rates[sensor], tables[sensor], paths[sensor] = (
-            export_rate(header, table, path, rate),
-            table,
-            path,
-        )
-    if not tables:
-        raise FormatError(
-            f"{trial.where}: none of its {len(trial.files)} export(s) is of a sensor that "
-            f"sensors.tsv lists for subject {trial.subject}"
-        )
-    if max(rates.values()) / min(rates.values()) - 1 > FS_TOLERANCE:
-        listed = ", ".join(f"{s} {r:g} Hz" for s, r in rates.items())
-        raise FormatError(f"{trial.where}: its sensors were sampled at different rates ({listed})")
-    tables = _synchronised(trial, tables, paths, trim_to_shared, report)
-    for sensor in rows:
-        if sensor not in tables:
-            imu = rows[sensor]["imu"]
-            report.add(trial.where, trial.subject, imu, "missing", f"no export of sensor {sensor}")
-            report.note(
-                f"{trial.where}: no export of sensor {sensor} ({imu}): its IMU is missing there"
-            )
-    found = {
-        s: {
-            "acc": t[["Acc_X", "Acc_Y", "Acc_Z"]].to_numpy(float),
-            "gyr": t[["Gyr_X", "Gyr_Y", "Gyr_Z"]].to_numpy(float),
-            "quat": t[QUATERNION].to_numpy(float) if set(QUATERNION) <= set(t) else None,
-            "row": rows[s],
-            "file": paths[s].name,
-        }
-        for s, t in tables.items()
-    }
-    return found, next(iter(rates.values()))
-
-
-def _synchronised(trial: Trial, tables: dict, paths: dict, trim: bool, report) -> dict:
-    """The trial's tables on the samples they share by PacketCounter (all of them, or trimmed to
-    the common range with ``trim``); FormatError with each sensor's range otherwise.
-    """
-    counters = {s: unwrapped_counter(t, paths[s]) for s, t in tables.items()}
-    ranges = {s: (int(c[0]), int(c[-1])) for s, c in counters.items()}
-    if len(set(ranges.values())) == 1:
-        return tables
-    first, last = max(a for a, _ in ranges.values()), min(b for _, b in ranges.values())
-    common = max(set(ranges.values()), key=list(ranges.values()).count)
-    others = sum(r == common for r in ranges.values())
-    listed = "; ".join(
-        f"{s}: {b - a + 1} samples (PacketCounter {a}-{b})"
-        for s, (a, b) in ranges.items()
-        if (a, b) != common or others == 1
-    )
-    if others > 1:
-        listed += f"; the other {others}: {common[1] - common[0] + 1} ({common[0]}-{common[1]})"
-    if first > last:
-        raise FormatError(
-            f"{trial.where}: its sensors share no sample ({listed}): they were not recorded "
-            "together (a trial is one synchronised recording)"
-        )
-    if not trim:
-        raise FormatError(
-            f"{trial.where}: its sensors do not cover the same samples ({listed}). Pass "
-            f"--trim-to-shared to keep the {last - first + 1} samples all of them share, or "
-            "re-export the trial"
-        )
-    cut = {s: (first - a, b - last) for s, (a, b) in ranges.items() if (a, b) != (first, last)}
-    report.note(
-        f"{trial.where}: trimmed to the {last - first + 1} samples all sensors share ("
-        + ", ".join(f"{s}: {a} at the start, {b} at the end" for s, (a, b) in cut.items())
-        + ")"
-    )
-    return {
-        s: t[(counters[s] >= first) & (counters[s] <= last)].reset_index(drop=True)
-        for s, t in tables.items()
-    }
 
 
 def _parts(trial: Trial, fs_hz: float, tests: dict) -> dict:
@@ -385,12 +334,11 @@ def _check_right_axes(imus, trials, tests, fs_hz: float) -> None:
     )
 
 
-def _meta(name: str, src: Path, fs_hz: float, imus: pd.DataFrame) -> dict:
+def _meta(lab: LabImport, fs_hz: float, imus: pd.DataFrame) -> dict:
     """dataset.yaml of the import."""
     return {
-        "name": name,
-        "description": f"Xsens MT Manager exports ({src.name}), imported by aceval import xsens "
-        "--trials",
+        "name": lab.name,
+        "description": lab.description,
         "simulated": False,
         "sampling_rate_hz": fs_hz,
         "units": {"acc": "m/s^2", "gyr": "rad/s"},

@@ -1,0 +1,73 @@
+"""Exports of two vendors that are not Xsens, written from signals (SI) for `aceval import table`:
+
+* ``vendor_txt``: one tab-separated text file per sensor and trial (``<trial>_<sensor>.txt``):
+  a few header lines, one of them "Acquisition frequency: 100 Hz", then ``PacketCounter
+  Acc_X..Z Gyr_X..Z Mag_X..Z`` in m/s^2 and rad/s; beside each trial a JSON of its phases
+  (``<trial>.json``: standing, walk, turn boundaries in seconds), as a lab keeps them;
+* ``apdm_csv``: one comma-separated file per trial with every sensor in it (APDM's CSV export
+  as OpenSim's APDMDataReader reads it): "Test Name:", "Sample Rate:, 100.0, Hz", then
+  ``Time, <sensor>/Acceleration/X ... <sensor>/Angular Velocity/Z ...`` and a line of units.
+"""
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+#: the mapping a lab writes for each layout (docs/your_data.md holds the first)
+MAPPINGS = {
+    "vendor_txt": (
+        "sensor_from: file_name          # one file per sensor: its ID ends the file name\n"
+        "rate_line: 'Acquisition frequency: ([0-9.]+) ?Hz'\n"
+        "counter: PacketCounter\n"
+        "counter_wrap: 65536\n"
+        "acc: {columns: [Acc_X, Acc_Y, Acc_Z], unit: m/s^2}\n"
+        "gyr: {columns: [Gyr_X, Gyr_Y, Gyr_Z], unit: rad/s}\n"
+    ),
+    "apdm_csv": (
+        "sensor_from: columns\n"
+        "rate_line: 'Sample Rate:,\\s*([0-9.]+)'\n"
+        "time: {column: Time, unit: s}\n"
+        "units_line: true\n"
+        "acc: {columns: ['{sensor}/Acceleration/X', '{sensor}/Acceleration/Y',\n"
+        "                '{sensor}/Acceleration/Z'], unit: m/s^2}\n"
+        "gyr: {columns: ['{sensor}/Angular Velocity/X', '{sensor}/Angular Velocity/Y',\n"
+        "                '{sensor}/Angular Velocity/Z'], unit: rad/s}\n"
+    ),
+}
+
+
+def vendor_txt(folder: Path, trial: str, sensors: dict, phases: dict, fs=100.0, counter=0,
+               lose=None) -> None:  # fmt: skip
+    """One trial: ``sensors`` {ID: (acc, gyr)}, ``phases`` {name: [start, end] or [[..], ..]}
+    written as ``<trial>.json``; ``lose``: (ID, sample, count) packets left out of one file."""
+    folder.mkdir(parents=True, exist_ok=True)
+    for sensor, (acc, gyr) in sensors.items():
+        n = len(acc)
+        packets = (counter + np.arange(n)) % 65536
+        mag = np.tile([0.2, 0.0, 0.4], (n, 1))
+        table = np.column_stack([packets, acc, gyr, mag])
+        if lose and lose[0] == sensor:
+            table = np.delete(table, range(lose[1], lose[1] + lose[2]), axis=0)
+        lines = [f"Device: VN-{sensor}", f"Acquisition frequency: {fs:g} Hz", "Sensor fusion: off",
+                 "PacketCounter\tAcc_X\tAcc_Y\tAcc_Z\tGyr_X\tGyr_Y\tGyr_Z\tMag_X\tMag_Y\tMag_Z"]  # fmt: skip
+        lines += ["\t".join([str(int(r[0]))] + [f"{v:.6f}" for v in r[1:]]) for r in table]
+        (folder / f"{trial}_{sensor}.txt").write_text("\n".join(lines) + "\n")
+    (folder / f"{trial}.json").write_text(json.dumps(phases))
+
+
+def apdm_csv(folder: Path, trial: str, sensors: dict, fs=100.0) -> None:
+    """One trial with every sensor in one CSV (module docstring)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    n = min(len(acc) for acc, _ in sensors.values())
+    labels, units, columns = ["Time"], ["s"], [np.arange(n) / fs]
+    for sensor, (acc, gyr) in sensors.items():
+        labels += [f"{sensor}/Acceleration/{a}" for a in "XYZ"]
+        labels += [f"{sensor}/Angular Velocity/{a}" for a in "XYZ"]
+        units += ["m/s^2"] * 3 + ["rad/s"] * 3
+        columns += [*acc[:n].T, *gyr[:n].T]
+    values = np.column_stack(columns)
+    lines = [f"Test Name:,{trial}" + "," * (len(labels) - 2), f"Sample Rate:,{fs:g},Hz",
+             ",".join(labels), ",".join(units)]  # fmt: skip
+    lines += [",".join(f"{v:.6f}" for v in row) for row in values]
+    (folder / f"{trial}.csv").write_text("\n".join(lines) + "\n")
