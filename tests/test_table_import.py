@@ -138,9 +138,7 @@ def test_lost_packets_are_named_with_their_sizes(tmp_path, run):
 
 
 @pytest.mark.parametrize("declared", [50, 200, 60])
-def test_a_rate_given_by_hand_that_does_not_fit_the_recordings_is_refused(
-    tmp_path, run, declared
-):
+def test_a_rate_given_by_hand_that_does_not_fit_the_recordings_is_refused(tmp_path, run, declared):
     """The recordings are at 100 Hz; their files do not say so (no rate line)."""
     vendor_txt(tmp_path / "exports" / "P1", "t1", recorded(walking_s=20.0), {})
     mapping = MAPPINGS["vendor_txt"].replace(

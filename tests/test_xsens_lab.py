@@ -204,6 +204,17 @@ def test_a_broken_export_is_a_message_naming_it(tmp_path, run, damage):
     "trials, message",
     [
         ("subject\ttest\nP1\twalk\n", "missing column(s) trial or file"),
+        ("subject\ttrial\ttest\n", "trials.tsv: only its header line, no row below it"),
+        ("subject\ttrial\ttest\tstart_s\tend_s\nP1\tP1/walk_1\tquiet\t4\t3\n", "start before end"),
+        (
+            "subject\ttrial\ttest\tfirst_phase\tstart_s\tend_s\n"
+            "P1\tP1/walk_1\twalk\tgait\t0\t5\nP1\tP1/walk_1\twalk\tgait\t4\t8\n",
+            "their segments overlap (0-5 s and 4-8 s)",
+        ),
+        (
+            "subject\ttrial\ttest\tfirst_phase\tstart_s\tend_s\nP1\tP1/walk_1\twalk\tgait\t2\t30\n",
+            "end_s 30 is after the trial's last sample (9.00 s at 100 Hz)",
+        ),
         ("subject\ttrial\ttest\tstatic\nP1\tP1/walk_1\twalk\tlots\n", "static 'lots'"),
         ("subject\ttrial\ttest\tfirst_phase\nP1\tP1/walk_9\twalk\tgait\n", "matches no export"),
         ("subject\ttrial\ttest\nP1\tP1/walk_1\tbow\n", "say which segments it calibrates"),
@@ -239,3 +250,47 @@ def test_one_standing_only_trial_is_a_message_not_a_traceback(tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 1 and "Traceback" not in err
     assert "sensor(s) 00B4A201 do not move" in err and "--trials" in err
+
+
+def test_the_vendors_folder_imports_as_written_and_its_sensorspec_proposes_the_sheet(
+    tmp_path, run, capsys
+):
+    """A trial given as its export folder, as MT Manager writes it (MT_<station>_000-000_<id>.txt)
+    beside a lab's sensorspec.json.txt, a log and the binary recording; one export re-saved
+    with a byte-order mark. Without --sensors the sensorspec proposes the sheet."""
+    folder = tmp_path / "exports" / "P1" / "exported000"
+    folder.mkdir(parents=True)
+    for k, (sensor, (_, _, axis)) in enumerate(SENSORS.items()):
+        acc, gyr = signals(mount=MOUNTS[axis], seed=k)
+        export(folder / f"MT_0120036B_000-000_{sensor}.txt", sensor, 100, acc, gyr, "2019")
+    bom = folder / "MT_0120036B_000-000_00B4A202.txt"
+    bom.write_text("\ufeff" + bom.read_text())
+    (folder / "sensorspec.json.txt").write_text(
+        '{"rightshank": "00B4A201.txt", "rightfoot": "00B4A202.txt", "sample_frequency": 100}'
+    )
+    (folder / "MT_0120036B_000.mtb").write_bytes(b"\xfa\xff\x0d" * 10)
+    (folder / "export_log.txt").write_text("Export started 12:01\nExport done\n")
+    (tmp_path / "trials.tsv").write_text(
+        "subject\ttrial\ttest\tstatic\tfirst_phase\nP1\tP1/exported000\twalk\t2\tgait\n"
+    )
+    args = ["import", "xsens", tmp_path / "exports", "--trials", tmp_path / "trials.tsv"]
+    code = main([str(a) for a in [*args, "--out", tmp_path / "out"]])
+    err = capsys.readouterr().err
+    assert code == 1 and not (tmp_path / "out").exists() and "Traceback" not in err
+    assert "no --sensors: the 1 sensorspec file(s)" in err and "written to" in err
+    proposed = pd.read_csv(tmp_path / "sensors.tsv", sep="\t", dtype=str, keep_default_na=False)
+    assert proposed[["sensor_id", "segment", "side"]].values.tolist() == [
+        ["00B4A201", "shank", "right"], ["00B4A202", "foot", "right"]
+    ]  # fmt: skip
+    assert (proposed["right_axis"] == "").all()
+    proposed["right_axis"] = ["+y", "-z"]
+    proposed.to_csv(tmp_path / "sensors.tsv", sep="\t", index=False)
+    result = run(tmp_path)
+    assert result.code == 0, result.err
+    report = pd.read_csv(result.out / "import_report.tsv", sep="\t", dtype=str)
+    skipped = report[report["status"] == "skipped"].set_index("source")["cause"]
+    assert skipped.index.str.rsplit("/", n=1).str[-1].tolist() == [
+        "MT_0120036B_000.mtb", "export_log.txt", "sensorspec.json.txt"
+    ]  # fmt: skip
+    assert "JSON" in skipped.filter(like="sensorspec").item()
+    assert (report["status"] == "imported").sum() == 2
