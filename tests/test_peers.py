@@ -262,7 +262,8 @@ def test_opensense_says_the_static_pose_lacks_orientations_when_the_motion_has_t
     header = "t,acc_x,acc_y,acc_z,gyr_x,gyr_y,gyr_z"
     (tmp_path / "static.csv").write_text(header + "\n0,0,0,9.8,0,0,0\n0.01,0,0,9.8,0,0,0\n")
     (tmp_path / "walk.csv").write_text(
-        header + ",quat_w,quat_x,quat_y,quat_z\n0,0,0,9.8,0,0,0,1,0,0,0\n0.01,0,0,9.8,0,0,0,1,0,0,0\n"
+        header
+        + ",quat_w,quat_x,quat_y,quat_z\n0,0,0,9.8,0,0,0,1,0,0,0\n0.01,0,0,9.8,0,0,0,1,0,0,0\n"
     )
     imu = {"subject": "P1", "sensor_set": "main", "imu": "pelvis", "segment": "waist",
            "side": "center", "right_axis": [0, 1, 0]}  # fmt: skip

@@ -61,11 +61,11 @@ def read_trials(path: str | Path) -> tuple[list[dict], dict]:
             if not row[column]:
                 raise FormatError(f"{where}: {column} is empty")
         static = _static(row.get("static", ""), where)
+        span = _span(row, where)
         test = _test(row, static, where, tests)
         rep = row.get("rep", "")
         if rep and not (rep.isdigit() and int(rep) > 0):
             raise FormatError(f"{where}: rep {rep!r} is not a positive whole number")
-        span = _span(row, where)
         key = (row["subject"], row["test"])
         if not rep:
             numbered = counts.setdefault(key, {})
