@@ -181,3 +181,30 @@ def test_warnings_of_one_kind_are_one_line_on_screen_and_each_in_the_findings(
     single = ValidationReport("lab")
     single.warning("dataset.yaml", "unknown key 'x' is ignored")
     assert single.grouped(None, "lab") == single.format()  # nothing grouped, nothing added
+
+
+def test_verticals_name_a_motion_repetition_and_a_static_recording(mini):
+    """verticals.tsv (a vertical per motion repetition): a good row is read; each bad one is an
+    error naming its line and cause, never a traceback."""
+    (mini / "verticals.tsv").write_text(
+        "subject\ttest\trep\tstatic_test\tstatic_rep\n"
+        "S1\tT1\t1\tT0\t1\n"
+        "S1\tT0\t1\tT0\t1\n"  # a static test as the motion one
+        "S1\tT1\t2\tT1\t1\n"  # a motion test as the static one
+        "S1\tT1\tx\tT0\t1\n"
+        "S1\tT1\t2\tT0\t3\n"  # no such static recording
+        "S1\tT1\t1\tT0\t1\n"  # twice
+    )
+    _, report = validate(mini, check_files=False)
+    errors = [str(e) for e in report.errors]
+    assert errors == [
+        "ERROR   verticals.tsv line 3: test 'T0' is not a motion test of tests.tsv",
+        "ERROR   verticals.tsv line 4: static_test 'T1' is not a static test of tests.tsv",
+        "ERROR   verticals.tsv line 5: rep 'x' is not a whole number from 1",
+        "ERROR   verticals.tsv line 6: recordings.tsv has no T0 R3 of subject 'S1'",
+        "ERROR   verticals.tsv line 7: this motion repetition is listed twice",
+    ]
+    (mini / "verticals.tsv").write_text(
+        "subject\ttest\trep\tstatic_test\tstatic_rep\nS1\tT1\t2\tT0\t1\n"
+    )
+    assert load_dataset(mini).verticals.values.tolist() == [["S1", "T1", 2, "T0", 1]]

@@ -44,6 +44,7 @@ SHEETS = {
 OPTIONAL_SHEETS = {
     "ground_truth.tsv": ["subject", "sensor_set", "imu", *R_COLUMNS],
     "functional_axes.tsv": ["test", "segment", "axis"],
+    "verticals.tsv": ["subject", "test", "rep", "static_test", "static_rep"],
 }
 #: median |acc| (g) of a static recording: outside the wide band the declared units are wrong (an
 #: error: g and m/s^2 differ 9.81-fold); outside the narrow one the subject was not at rest (a

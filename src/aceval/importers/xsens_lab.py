@@ -42,6 +42,7 @@ import pandas as pd
 
 from aceval.data.contract import FS_TOLERANCE
 from aceval.data.errors import CalibrationError
+from aceval.data.verticals import COLUMNS as VERTICAL_COLUMNS
 from aceval.data.writer import DatasetWriter, write_sheet
 from aceval.importers.lab_sheets import (
     STANDING,
@@ -360,6 +361,7 @@ def _write(writer: DatasetWriter, trials, report: ImportReport) -> dict:
             rep = trial.rep if test == trial.test else generated.get((trial.subject, test), 0) + 1
             generated[(trial.subject, test)] = rep
             pieces.append((test, rep, span, test == WALKING_VERTICAL))
+            part["written"] = (test, rep)
         if part["motion"] is not None:
             pieces.append((trial.test, trial.rep, part["motion"], False))
         for test, rep, span, mean in pieces:
@@ -378,6 +380,25 @@ def _write(writer: DatasetWriter, trials, report: ImportReport) -> dict:
         for f in trial.sensors.values():
             report.add(f["file"], trial.subject, f["row"]["imu"], "imported", ", ".join(written))
     return repetitions
+
+
+def verticals(trials: list[Trial]) -> list[list]:
+    """verticals.tsv's rows (:mod:`aceval.data.verticals`): each motion repetition whose
+    recording holds quiet standing (its first seconds, or another segment of the recording that
+    is static) gets that standing's vertical, its own: the sensors may have been put on again
+    between recordings. The walking fallback is not quiet standing and stays averaged.
+    """
+    standing = {}  # the recording's files -> its quiet standing's (test, rep)
+    for trial in trials:
+        if trial.parts.get("written") and trial.static != "walking":
+            standing.setdefault(tuple(trial.files), trial.parts["written"])
+    return [
+        [trial.subject, trial.test, trial.rep, *standing[tuple(trial.files)]]
+        for trial in trials
+        if trial.parts["motion"] is not None
+        and trial.static != "walking"
+        and tuple(trial.files) in standing
+    ]
 
 
 def _sheets(out: Path, tests: dict, repetitions: dict, imus, trials, report) -> None:
@@ -415,21 +436,32 @@ def _sheets(out: Path, tests: dict, repetitions: dict, imus, trials, report) -> 
         for imu in dict.fromkeys(imus.loc[imus["segment"].isin(tests[t]["calibrates"]), "imu"])
     ]
     write_sheet(out / "calibrates.tsv", ["test", "imu"], calibrates)
-    sources = {}
+    own, sources = verticals(trials), {}
     for trial in trials:
         named = {None: "", "file": "standing trial", "walking": "walking (FALLBACK)"}
         source = named[trial.static] if trial.static in named else f"first {trial.static:g} s"
         if source:
             sources.setdefault(trial.subject, []).append(source)
+    each = {row[0] for row in own}  # each repetition its own recording's standing
     write_sheet(
         out / "subjects.tsv",
         ["subject", "z0_source"],
         [
-            [s, ", ".join(dict.fromkeys(sources.get(s, [])))]
+            [
+                s,
+                ", ".join(dict.fromkeys(sources.get(s, [])))
+                + (" (per repetition: its own recording's)" if s in each else ""),
+            ]
             for s in dict.fromkeys(t.subject for t in trials)
         ],
     )
     write_sheet(out / "imus.tsv", IMU_COLUMNS, imus.to_numpy().tolist())
+    if own:
+        write_sheet(out / "verticals.tsv", VERTICAL_COLUMNS, own)
+        report.note(
+            f"{len(own)} motion repetition(s) take the vertical of their own recording's quiet "
+            "standing (verticals.tsv), not the average of all of their subject's"
+        )
     calibrated = {imu for _, imu in calibrates}
     motion = {t: ", ".join(v["calibrates"]) for t, v in tests.items() if v["kind"] == "motion"}
     for row in imus[~imus["imu"].isin(calibrated)].itertuples():
