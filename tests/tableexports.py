@@ -71,3 +71,74 @@ def apdm_csv(folder: Path, trial: str, sensors: dict, fs=100.0) -> None:
              ",".join(labels), ",".join(units)]  # fmt: skip
     lines += [",".join(f"{v:.6f}" for v in row) for row in values]
     (folder / f"{trial}.csv").write_text("\n".join(lines) + "\n")
+
+
+#: the other lab's sensors: its own IDs for the simulated frontal set's lower back, shanks, feet
+OTHER_SENSORS = {"LB01": "IMU3", "SR02": "IMU5", "FR03": "IMU6", "SL04": "IMU8", "FL05": "IMU9"}
+#: each trial: 5 s standing, a walk, a 2 s turn on the spot, a walk (s)
+STANDING_S, WALK_S, TURN_S = 5.0, 6.0, 2.0
+
+
+def write_other_lab(exports: Path, simulated: Path) -> None:
+    """The other lab's folder (docs/your_data.md, second walk-through): per subject two trials,
+    each its standing, two straight walks of the simulated T6 repetitions and a turn between
+    them (the standing's specific force, the body turning 180 deg about the vertical), one
+    ``vendor_txt`` file per sensor and the trial's phases in ``<trial>.json``."""
+    from aceval.data.dataset import load_dataset
+
+    from .labexports import SUBJECTS
+
+    dataset = load_dataset(simulated)
+    rec = dataset.recordings[dataset.recordings["sensor_set"] == "frontal"]
+    fs = dataset.fs_hz
+
+    def read(subject, test, rep, imu):
+        path = rec.query("subject == @subject and test == @test and rep == @rep and imu == @imu")
+        data = dataset.read_recording(path["path"].item())
+        return data.acc, data.gyr
+
+    for k, (lab, sim) in enumerate(SUBJECTS.items()):
+        for trial in (1, 2):
+            sensors = {}
+            for sensor, imu in OTHER_SENSORS.items():
+                stand_acc, stand_gyr = read(sim, "T0", 1, imu)
+                up = stand_acc.mean(axis=0) / np.linalg.norm(stand_acc.mean(axis=0))
+                n_turn = int(TURN_S * fs)
+                turn_gyr = np.outer(np.full(n_turn, np.pi / TURN_S), up)  # 180 deg about up
+                parts = [(stand_acc[: int(STANDING_S * fs)], stand_gyr[: int(STANDING_S * fs)])]
+                for walk in (2 * trial - 1, 2 * trial):
+                    acc, gyr = read(sim, "T6", walk, imu)
+                    parts.append((acc[: int(WALK_S * fs)], gyr[: int(WALK_S * fs)]))
+                    if walk == 2 * trial - 1:
+                        parts.append((stand_acc[:n_turn], turn_gyr + stand_gyr[:n_turn]))
+                sensors[sensor] = (
+                    np.vstack([a for a, _ in parts]),
+                    np.vstack([g for _, g in parts]),
+                )
+            first_walk = STANDING_S + WALK_S
+            phases = {
+                "standing": [0.0, STANDING_S],
+                "walk": [
+                    [STANDING_S, first_walk],
+                    [first_walk + TURN_S, first_walk + TURN_S + WALK_S],
+                ],
+                "turn": [[first_walk, first_walk + TURN_S]],
+            }
+            vendor_txt(exports / lab, f"trial_{trial:02d}", sensors, phases, fs, 1000 * k)
+
+
+def other_truth(simulated: Path):
+    """The simulation's true sensor-to-body rotations under the other lab's subjects and IMU names
+    (the sensors.tsv of docs/your_data.md's second walk-through names them by place)."""
+    import pandas as pd
+
+    from .labexports import SUBJECTS
+
+    names = {"IMU3": "lower_back", "IMU5": "shank_r", "IMU6": "foot_r", "IMU8": "shank_l",
+             "IMU9": "foot_l"}  # fmt: skip
+    table = pd.read_csv(simulated / "ground_truth.tsv", sep="\t", dtype={"subject": str})
+    table = table[(table["sensor_set"] == "frontal") & table["imu"].isin(names)]
+    subjects = {sim: lab for lab, sim in SUBJECTS.items()}
+    return table.assign(imu=table["imu"].map(names), subject=table["subject"].map(subjects)).drop(
+        columns="sensor_set"
+    )
