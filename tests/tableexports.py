@@ -124,7 +124,7 @@ def write_other_lab(exports: Path, simulated: Path) -> None:
                 ],
                 "turn": [[first_walk, first_walk + TURN_S]],
             }
-            vendor_txt(exports / lab, f"trial_{trial:02d}", sensors, phases, fs, 1000 * k)
+            vendor_txt(exports / lab, f"trial_{trial:02d}", sensors, phases, fs, 1000 * (k + 1))
 
 
 def other_truth(simulated: Path):

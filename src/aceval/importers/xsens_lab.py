@@ -1,18 +1,25 @@
-"""A lab's Xsens MT Manager exports -> the dataset contract: many subjects and trials in one call,
-from two sheets (config/README.md, "A lab's Xsens exports"; docs/your_data.md walks through it).
+"""A lab's exports -> the dataset contract: many subjects and trials in one call, from two
+sheets (config/README.md, "A lab's exports"; docs/your_data.md walks through it). The exports
+are Xsens MT Manager's (:func:`import_xsens_lab`) or any vendor's delimited text read through a
+mapping (:mod:`aceval.importers.table`): :func:`import_lab` takes a file reader and is the same
+for both.
 
-``trials.tsv`` (tab-separated; one row per trial, or per file of a trial):
+``trials.tsv`` (tab-separated; one row per trial, per file of a trial, or per segment):
 
 * ``subject``; ``trial`` (or ``file``): a path under the exports folder, a folder or the start
   of file names (``P01/walk_01`` matches ``P01/walk_01-000_00B4A1B2.txt``: it must be followed
-  by ``-``, ``_``, ``.`` or ``/``);
+  by ``-``, ``_``, ``.`` or ``/``); files there that are not exports are skipped and named;
 * ``test``: the lab's name of the condition. The trials of one subject and test are its
   repetitions, in sheet order, or as column ``rep`` numbers them;
+* ``start_s``, ``end_s`` (optional): the trial is that segment of its files (seconds from their
+  first sample); several rows may cut one recording into repetitions and static windows;
 * ``static`` (optional): where the subject's vertical (z0, Kong Eq. 2) comes from. ``file``: the
   whole trial is quiet standing (a static test named by ``test``); a number N: the trial's first
   N seconds are quiet standing (static test ``standing``), the rest is ``test``; ``walking``: no
   quiet standing, the vertical of the mean walking posture (static test ``walking_vertical``, the
-  trial's movement low-passed at 0.5 Hz: a fallback, see :mod:`aceval.importers.shared`);
+  trial's movement low-passed at 0.5 Hz: a fallback, see :mod:`aceval.importers.shared`). The
+  motion of a recording that holds quiet standing takes that standing's vertical
+  (``verticals.tsv``, :func:`verticals`);
 * ``first_phase`` (optional, as tests.tsv: ``gait`` for walking) and ``calibrates`` (optional:
   the segments the test calibrates, comma-separated; for ``gait`` by default thigh, shank, foot
   and waist: Kong Table 2's walking segments and the pelvis, as the NeuRA and qmt imports).
@@ -23,12 +30,16 @@ optionally ``imu`` (the lab's name; default segment and side, ``shank_r``), ``se
 ``right_axis`` (empty: the import proposes one from the recordings and stops) and ``subject``
 (a row without one applies to every subject). ``segment`` is Kong's vocabulary (head chest
 waist thigh shank foot): a segment no test calibrates is named on screen, not dropped silently.
+Without it, an Xsens import writes the sheet the exports' sensorspec files propose
+(:mod:`aceval.importers.sensorspec`).
 
-Exports: MT Manager text files (``//`` header lines, comma- or tab-separated; Acc m/s^2, Gyr
-rad/s; :func:`aceval.importers.xsens.read_mt_export`), the sensor ID from the file name
-(``_<8 hex>.txt``) or the header's ``DeviceId``, the rate from ``// Update Rate``, SampleTimeFine
-or ``--rate`` (checked against each other). The files of a trial must share their PacketCounter
-range (one synchronised recording), or be trimmed to the samples they share (``--trim-to-shared``).
+Exports (:mod:`aceval.importers.lab_trials` reads a trial): MT Manager text files (``//`` header
+lines, comma- or tab-separated; Acc m/s^2, Gyr rad/s; :func:`aceval.importers.xsens.read_mt_export`),
+the sensor ID from the file name (``_<8 hex>.txt``) or the header's ``DeviceId``, the rate from
+``// Update Rate``, SampleTimeFine or ``--rate`` (checked against each other; a rate given only
+by hand against the recordings, :mod:`aceval.signals.rate_check`). The files of a trial must
+share their PacketCounter range (one synchronised recording, no sample lost), or be trimmed to
+the samples they share (``--trim-to-shared``).
 """
 
 from __future__ import annotations
