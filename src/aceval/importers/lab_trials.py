@@ -206,7 +206,7 @@ def segment(trial: Trial, found: dict, fs_hz: float) -> dict:
         )
     cut = slice(start, stop)
     return {
-        s: {**f, **{k: f[k][cut] for k in ("acc", "gyr")}}
+        s: {**f, "acc": f["acc"][cut], "gyr": f["gyr"][cut]}
         | {"quat": None if f["quat"] is None else f["quat"][cut]}
         for s, f in found.items()
     }

@@ -20,6 +20,8 @@ from pathlib import Path
 
 from aceval.importers.shared import FormatError
 
+#: a sensorspec is a few hundred bytes; a larger file (an export) is not read as one
+MAX_BYTES = 65536
 _ID = re.compile(r"(?<![0-9A-Fa-f])([0-9A-Fa-f]{8})(?![0-9A-Fa-f])")
 #: words of a place -> Kong's segment (the first that a place's name contains)
 SEGMENT_WORDS = [
@@ -35,7 +37,9 @@ SEGMENT_WORDS = [
 def read_sensorspec(path: Path) -> dict[str, str]:
     """``{place: sensor ID}`` of one sensorspec file ({} when it is not JSON or names no sensor)."""
     try:
-        content = json.loads(path.read_text(encoding="utf-8-sig", errors="replace"))
+        with open(path, encoding="utf-8-sig", errors="replace") as handle:
+            text = handle.read(MAX_BYTES + 1)
+        content = json.loads(text) if len(text) <= MAX_BYTES else None
     except (OSError, ValueError):
         return {}
     places: dict[str, str] = {}

@@ -34,6 +34,7 @@ import pandas as pd
 
 from aceval.data.errors import CalibrationError
 from aceval.data.writer import DatasetWriter, write_sheet
+from aceval.importers.lab_trials import SensorSamples, agreed_rate
 from aceval.importers.shared import (
     FormatError,
     ImportReport,
@@ -188,29 +189,29 @@ def export_rate(header: dict, values: pd.DataFrame, path, rate: float | None = N
     whichever of the three are there must agree within the contract's 2 %. FormatError saying
     what was found and what to do.
     """
-    from aceval.importers.lab_trials import agreed_rate
+    return agreed_rate(_rates(header, values, path, rate), path)
 
-    found = export_rates(header, values)
-    if not found and rate is None:
+
+def _rates(header: dict, values: pd.DataFrame, path, rate: float | None) -> dict:
+    """``--rate`` and where the export says its rate (:func:`export_rates`); FormatError asking
+    for ``--rate`` when none is there.
+    """
+    found = ({"--rate": float(rate)} if rate is not None else {}) | export_rates(header, values)
+    if not found:
         raise FormatError(
             f"{path}: no '// Update Rate: <n>Hz' header line and no SampleTimeFine values, so "
             "its sampling rate is unknown: give it with --rate (e.g. --rate 100)"
         )
-    return agreed_rate(({"--rate": float(rate)} if rate is not None else {}) | found, path)
+    return found
 
 
-def xsens_samples(path: Path, rate: float | None = None) -> list:
+def xsens_samples(path: Path, rate: float | None = None) -> list[SensorSamples]:
     """One MT Manager export as :class:`aceval.importers.lab_trials.SensorSamples` (its sensor
     from the file name or DeviceId, its PacketCounter unwrapped as the sample index, where it
     says its rate; ``rate``: ``--rate``).
     """
-    from aceval.importers.lab_trials import SensorSamples
-
     header, values = read_mt_export(path)
-    export_rate(header, values, path, rate)  # a rate is there, and they agree
-    rates = export_rates(header, values)
-    if rate is not None:
-        rates = {"--rate": float(rate), **rates}
+    rates = _rates(header, values, path, rate)
     counter = values["PacketCounter"].to_numpy(np.int64)
     return [
         SensorSamples(
@@ -221,7 +222,7 @@ def xsens_samples(path: Path, rate: float | None = None) -> list:
             quat=values[QUATERNION].to_numpy(float) if set(QUATERNION) <= set(values) else None,
             index=counter[0] + np.concatenate([[0], np.cumsum(np.diff(counter) % COUNTER_WRAP)]),
             rates=rates,
-            declared=rate is not None and len(rates) == 1,
+            declared=list(rates) == ["--rate"],
             clock="PacketCounter",
         )
     ]
