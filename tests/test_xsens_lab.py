@@ -299,6 +299,16 @@ def test_the_vendors_folder_imports_as_written_and_its_sensorspec_proposes_the_s
     ]  # fmt: skip
     assert "JSON" in skipped.filter(like="sensorspec").item()
     assert (report["status"] == "imported").sum() == 2
+    assert "says sensor" not in result.err  # the sheet agrees with the sensorspec
+    proposed["side"] = ["right", "left"]  # a slip in the sheet: the sensorspec says rightfoot
+    proposed.to_csv(tmp_path / "sensors.tsv", sep="\t", index=False)
+    code = main([str(a) for a in [*args, "--sensors", tmp_path / "sensors.tsv", "--out",
+                                  tmp_path / "out2"]])  # fmt: skip
+    assert code == 0
+    assert (
+        "sensors.tsv line 3 says sensor 00B4A202 is foot left; P1/exported000/sensorspec.json.txt "
+        "says 'rightfoot' (foot right): check which is right" in capsys.readouterr().err
+    )
 
 
 def test_each_walk_takes_its_own_standing_when_the_sensors_were_put_on_again(tmp_path, run):

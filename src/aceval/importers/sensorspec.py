@@ -72,20 +72,43 @@ def place_of(name: str) -> tuple[str, str]:
     return name, side
 
 
+def sensorspecs(src: Path) -> dict[Path, dict[str, str]]:
+    """``{file: {place: sensor ID}}`` of the sensorspec files under ``src`` (the files that are
+    not named as exports and read as JSON naming a sensor).
+    """
+    specs = {}
+    for path in sorted(src.rglob("*")):
+        named = _ID.search(path.name)
+        if path.is_file() and path.suffix.lower() in (".txt", ".json") and not named:
+            if places := read_sensorspec(path):
+                specs[path] = places
+    return specs
+
+
+def disagreements(src: Path, sheet) -> list[str]:
+    """Where the sensor sheet (its rows: ``sensor_id segment side source``) and the sensorspec
+    files under ``src`` name another segment or side for one sensor: one line each.
+    """
+    lines = []
+    for path, places in sensorspecs(src).items():
+        for place, sensor in places.items():
+            segment, side = place_of(place)
+            for row in sheet[sheet["sensor_id"] == sensor].itertuples():
+                if (row.segment, row.side) != (segment, side) and segment != place:
+                    lines.append(
+                        f"{row.source} says sensor {sensor} is {row.segment} {row.side}; "
+                        f"{path.relative_to(src)} says {place!r} ({segment} {side}): check which "
+                        "is right"
+                    )
+    return list(dict.fromkeys(lines))
+
+
 def propose_sensor_sheet(src: Path, trials_path: Path) -> None:
     """Write the sensor sheet the sensorspec files under ``src`` propose beside ``trials_path``
     (``sensors.tsv``, unless one is there) and stop with FormatError saying so; FormatError
     asking for ``--sensors`` when there is no sensorspec.
     """
-    specs = {}
-    for path in sorted(src.rglob("*")):
-        if (
-            path.is_file()
-            and path.suffix.lower() in (".txt", ".json")
-            and not _ID.search(path.name)
-        ):
-            if places := read_sensorspec(path):
-                specs[path] = places
+    specs = sensorspecs(src)
     if not specs:
         raise FormatError(
             "--trials needs --sensors, the sheet of sensor IDs and segments (docs/your_data.md); "

@@ -83,11 +83,11 @@ def import_xsens_lab(
     into ``out``; without ``sensors_path``, the sensor sheet the exports' sensorspec files
     propose is written beside ``trials_path`` and the import stops (:mod:`.sensorspec`).
     """
-    if sensors_path is None:
-        from aceval.importers.sensorspec import propose_sensor_sheet
+    from aceval.importers.sensorspec import disagreements, propose_sensor_sheet
 
+    if sensors_path is None:
         propose_sensor_sheet(Path(src), Path(trials_path))
-    return import_lab(
+    report = import_lab(
         LabImport(
             Path(src),
             Path(trials_path),
@@ -100,6 +100,9 @@ def import_xsens_lab(
         ),
         out,
     )
+    for line in disagreements(Path(src), read_lab_sensors(sensors_path)):
+        report.note(line)
+    return report
 
 
 @dataclass(frozen=True)
