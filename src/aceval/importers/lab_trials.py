@@ -240,8 +240,8 @@ def check_declared_rate(recordings: list[dict], fs_hz: float, report: ImportRepo
     found = (
         f"the gyroscopes and accelerometers of {len(judged)} of {len(recordings)} recording(s) "
         f"agree at {implied:.3g} Hz (median over {sum(e.n_sensors for e in judged)} sensors; "
-        f"the walking's stride frequency is {strides:.2f} Hz at {fs_hz:g} Hz, "
-        f"{strides * implied / fs_hz:.2f} Hz at {implied:.3g} Hz)"
+        f"their movement repeats (a stride, or a step) {strides:.2f} times a second at "
+        f"{fs_hz:g} Hz, {strides * implied / fs_hz:.2f} at {implied:.3g} Hz)"
     )
     if max(implied / fs_hz, fs_hz / implied) > RATE_MISMATCH:
         raise FormatError(

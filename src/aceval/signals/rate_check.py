@@ -13,9 +13,10 @@ removed), and averaged over the window; the magnitude of that mean equals the se
 magnitude at rest only at the right step. Too small a step leaves the segment's swing in the
 mean (the centripetal and impact accelerations add up in the sensor's frame), too large a step
 smears gravity: the magnitude falls with ``s``, and its root is the rate the data imply
-(``rate / s``). Windows are three stride periods long (the period from the autocorrelation of the
-angular speed, so the windows hold whole strides whatever rate is declared); a sensor whose
-magnitude hardly changes with the step (a trunk sensor, quiet standing) gives no evidence.
+(``rate / s``). Windows are four periods of the movement long (the period from the
+autocorrelation of the angular velocities, in samples, so the windows hold whole strides whatever
+rate is declared); a sensor whose magnitude hardly changes with the step (a trunk sensor in
+walking, quiet standing) gives no evidence, nor does a trial without a periodic movement.
 
 Measured on recordings whose rate is known and on wrong declared rates: config/README.md, the
 table of checks (``benchmarks/rate_check.py``).
@@ -31,7 +32,7 @@ from aceval.data.contract import GRAVITY
 
 #: periods per window: the window starts and ends at one phase of the gait, at one speed (an even
 #: number: where the period found is a step, the window still holds whole strides)
-STRIDES_PER_WINDOW = 4
+PERIODS_PER_WINDOW = 4
 #: steps tried: from a 64th to 64 times the declared one (a gyroscope in deg/s read as rad/s is
 #: a factor 57), by factors of 2, then halved around the root
 COARSE_STEPS = 2.0 ** np.arange(-6, 7)
@@ -41,7 +42,7 @@ MIN_WINDOW_SPEED = 0.5
 #: a sensor gives evidence where its window mean falls by at least this much (m/s^2) per
 #: e-fold of the step at the root (a trunk sensor in walking: far less; a shank: about 1)
 MIN_SLOPE = 0.3
-#: the period search: the autocorrelation's highest peak at lags from this (samples) ...
+#: the period search: the autocorrelation's peaks at lags from this (samples) ...
 MIN_PERIOD_SAMPLES = 8
 #: ... that correlates at least this much
 MIN_PERIODICITY = 0.3
@@ -51,8 +52,9 @@ MIN_PERIODICITY = 0.3
 class RateEvidence:
     """What one trial's sensors say about its rate: ``implied_hz`` the rate at which the
     gyroscope and the accelerometer agree (NaN: no sensor gives evidence), ``n_sensors`` how many
-    sensors gave evidence, ``stride_hz`` the stride frequency at the declared rate (NaN without a
-    periodic movement) and ``weight`` the evidence's weight (the slopes' sum).
+    sensors gave evidence, ``stride_hz`` the frequency of the movement's period (a stride, or a
+    step) at the declared rate (NaN without a periodic movement) and ``weight`` the evidence's
+    weight (the slopes' sum).
     """
 
     implied_hz: float
@@ -121,9 +123,9 @@ def _turned_means(acc: np.ndarray, gyr: np.ndarray, step: float) -> np.ndarray:
     return np.linalg.norm(turned.mean(axis=1), axis=-1)
 
 
-def _windows(acc, gyr, period: int, fs_hz: float):
-    """(acc, gyr) as (W, L, 3) windows of :data:`STRIDES_PER_WINDOW` periods that move."""
-    length = STRIDES_PER_WINDOW * period
+def _windows(acc, gyr, period: int):
+    """(acc, gyr) as (W, L, 3) windows of :data:`PERIODS_PER_WINDOW` periods that move."""
+    length = PERIODS_PER_WINDOW * period
     count = len(acc) // length
     acc_w = acc[: count * length].reshape(count, length, 3)
     gyr_w = gyr[: count * length].reshape(count, length, 3)
@@ -151,7 +153,7 @@ def sensor_step(acc, gyr, fs_hz: float, period: int) -> tuple[float, float]:
     the slope at it is below :data:`MIN_SLOPE`) and that slope (m/s^2 per e-fold of ``s``).
     """
     offset, rest = _at_rest(acc, gyr, fs_hz)
-    acc_w, gyr_w = _windows(acc, gyr - offset, period, fs_hz)
+    acc_w, gyr_w = _windows(acc, gyr - offset, period)
     if len(acc_w) == 0:
         return np.nan, 0.0
 
