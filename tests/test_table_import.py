@@ -154,3 +154,25 @@ def test_a_rate_given_by_hand_that_does_not_fit_the_recordings_is_refused(tmp_pa
     assert accepted.code == 0 and "the rate given by hand, 100 Hz, fits the recordings" in (
         accepted.err
     )
+
+
+def test_an_accelerometer_that_reads_gravity_is_turned_into_specific_force(tmp_path, run):
+    """acc_at_rest: down (a phone API's gravity): the dataset holds the specific force, the same
+    as the same recording exported the usual way."""
+    signals = recorded()
+    apdm_csv(tmp_path / "a" / "exports" / "P1", "walk_1", signals)
+    apdm_csv(
+        tmp_path / "b" / "exports" / "P1", "walk_1", {s: (-a, g) for s, (a, g) in signals.items()}
+    )
+    trials = "subject\ttrial\ttest\tstatic\tfirst_phase\nP1\tP1/walk_1\twalk\t2\tgait\n"
+    sheets(tmp_path / "a", trials, MAPPINGS["apdm_csv"])
+    sheets(tmp_path / "b", trials, MAPPINGS["apdm_csv"] + "acc_at_rest: down\n")
+    read = []
+    for lab in ("a", "b"):
+        result = run(tmp_path / lab)
+        assert result.code == 0, result.err
+        dataset = load_dataset(result.out)
+        path = dataset.recordings.query("test == 'standing' and imu == 'shank_r'")["path"].item()
+        read.append(dataset.read_recording(path).acc)
+    np.testing.assert_allclose(read[0], read[1])
+    assert np.median(read[0], axis=0) @ [0, 0, -1.0] > 9  # up: -z of the body frame, z down

@@ -97,6 +97,7 @@ def table_samples(path: Path, mapping: Mapping, rate: float | None = None) -> li
             f"{path}: line {header + 1}: no column is {mapping.columns('<sensor>')['acc'][0]!r} "
             "for any sensor (the mapping's acc columns)"
         )
+    up = -1.0 if mapping.get("acc_at_rest") == "down" else 1.0  # the contract's: specific force
     out = []
     for sensor in sensors:
         columns = mapping.columns(sensor)
@@ -104,7 +105,7 @@ def table_samples(path: Path, mapping: Mapping, rate: float | None = None) -> li
             SensorSamples(
                 sensor=sensor,
                 path=path,
-                acc=_vector(path, table, columns["acc"], header) * mapping.factor("acc"),
+                acc=_vector(path, table, columns["acc"], header) * mapping.factor("acc") * up,
                 gyr=_vector(path, table, columns["gyr"], header) * mapping.factor("gyr"),
                 quat=_vector(path, table, columns["quat"], header) if "quat" in columns else None,
                 index=index,

@@ -65,6 +65,7 @@ from aceval.importers.lab_sheets import (
     read_trials,
 )
 from aceval.importers.lab_trials import check_declared_rate, read_lab_trial, segment
+from aceval.importers.sensorspec import disagreements, propose_sensor_sheet
 from aceval.importers.shared import FormatError, ImportReport, mean_posture
 from aceval.importers.xsens import ACC_RANGE_G, GYR_RANGE_DPS, not_an_export, xsens_samples
 from aceval.signals.segmentation import TrimParams, movement_mask
@@ -83,8 +84,6 @@ def import_xsens_lab(
     into ``out``; without ``sensors_path``, the sensor sheet the exports' sensorspec files
     propose is written beside ``trials_path`` and the import stops (:mod:`.sensorspec`).
     """
-    from aceval.importers.sensorspec import disagreements, propose_sensor_sheet
-
     if sensors_path is None:
         propose_sensor_sheet(Path(src), Path(trials_path))
     report = import_lab(
@@ -143,7 +142,7 @@ def import_lab(lab: LabImport, out: Path) -> ImportReport:
             )
         fs_hz = fs_hz or trial_fs
         trial.sensors = segment(trial, found, fs_hz)
-        if by_hand:
+        if by_hand and files not in declared:
             declared.append(files)
     if declared:
         check_declared_rate([read[files][0] for files in declared], fs_hz, report)
