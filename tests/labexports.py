@@ -36,12 +36,12 @@ STANDING_S = 5.0
 COLUMNS = ["PacketCounter", "SampleTimeFine", "Acc_X", "Acc_Y", "Acc_Z", "Gyr_X", "Gyr_Y", "Gyr_Z"]
 
 
-def simulate(root: Path) -> Path:
+def simulate(root: Path, repetitions: int = REPETITIONS) -> Path:
     """The simulated Kong dataset the exports are cut from (3 subjects, 3 repetitions)."""
     out = root / "simulated"
     subprocess.run(
         [sys.executable, "-m", "aceval", "simulate", "kong", "--out", str(out), "--seed", "7",
-         "--subjects", "3", "--repetitions", str(REPETITIONS)],
+         "--subjects", "3", "--repetitions", str(repetitions)],
         check=True, capture_output=True,
     )  # fmt: skip
     return out

@@ -151,3 +151,60 @@ def test_a_parquet_recording_without_a_column_or_with_text_is_an_error_naming_it
     assert any(missing in e and "missing column(s) gyr_x, gyr_y, gyr_z" in e for e in errors)
     assert any(text in e and "non-numeric values (first at row 1)" in e for e in errors), errors
     assert any("s1_t0.parquet" in e and "cannot be read as Parquet" in e for e in errors), errors
+
+
+def test_warnings_of_one_kind_are_one_line_on_screen_and_each_in_the_findings(
+    mini, tmp_path, capsys
+):
+    """48 recordings 'not at rest' flood no screen: one line per kind of warning, with the count,
+    the range of its numbers and three places; every one of them in the findings file."""
+    from aceval.data.contract import ValidationReport
+
+    report = ValidationReport("lab")
+    for k, g in enumerate([1.25, 1.31, 1.29, 1.27]):
+        report.warning(
+            f"data/walk_R{k}.csv", f"static recording with median |acc| {g} g: not at rest"
+        )
+    report.warning("dataset.yaml", "unknown key 'x' is ignored")
+    report.error("imus.tsv line 3", "right_axis 'up'")
+    screen = report.grouped(None, "lab").splitlines()
+    assert screen == [
+        "dataset lab: 1 error(s), 5 warning(s)",
+        "ERROR   imus.tsv line 3: right_axis 'up'",
+        "WARNING 4 x: static recording with median |acc| 1.25-1.31 g: not at rest (at "
+        "data/walk_R0.csv; data/walk_R1.csv; data/walk_R2.csv; and 1 more)",
+        "WARNING dataset.yaml: unknown key 'x' is ignored",
+        "(every warning: aceval validate lab --findings-out FILE)",
+    ]
+    assert len(report.format().splitlines()) == 7  # the file keeps every finding
+    assert report.grouped(None, "lab") != report.format()
+    single = ValidationReport("lab")
+    single.warning("dataset.yaml", "unknown key 'x' is ignored")
+    assert single.grouped(None, "lab") == single.format()  # nothing grouped, nothing added
+
+
+def test_verticals_name_a_motion_repetition_and_a_static_recording(mini):
+    """verticals.tsv (a vertical per motion repetition): a good row is read; each bad one is an
+    error naming its line and cause, never a traceback."""
+    (mini / "verticals.tsv").write_text(
+        "subject\ttest\trep\tstatic_test\tstatic_rep\n"
+        "S1\tT1\t1\tT0\t1\n"
+        "S1\tT0\t1\tT0\t1\n"  # a static test as the motion one
+        "S1\tT1\t2\tT1\t1\n"  # a motion test as the static one
+        "S1\tT1\tx\tT0\t1\n"
+        "S1\tT1\t2\tT0\t3\n"  # no such static recording
+        "S1\tT1\t1\tT0\t1\n"  # twice
+    )
+    _, report = validate(mini, check_files=False)
+    errors = [str(e) for e in report.errors]
+    assert errors == [
+        "ERROR   verticals.tsv line 3: test 'T0' is not a motion test of tests.tsv",
+        "ERROR   verticals.tsv line 4: static_test 'T1' is not a static test of tests.tsv",
+        "ERROR   verticals.tsv line 5: rep 'x' is not a whole number from 1",
+        "ERROR   verticals.tsv line 6: recordings.tsv has no T0 R3 of subject 'S1'",
+        "ERROR   verticals.tsv line 7: this motion repetition is listed twice",
+    ]
+    (mini / "verticals.tsv").write_text(
+        "subject\ttest\trep\tstatic_test\tstatic_rep\nS1\tT1\t2\tT0\t1\n"
+    )
+    assert load_dataset(mini).verticals.values.tolist() == [["S1", "T1", 2, "T0", 1]]

@@ -164,12 +164,15 @@ def _ground_truth(root: Path) -> None:
     rows |= {f"r{i}{j}": float(i == j) for i in (1, 2, 3) for j in (1, 2, 3)}
     pd.DataFrame([rows]).to_csv(root / "ground_truth.tsv", sep="\t", index=False)
     (root / "functional_axes.tsv").write_text("test\tsegment\taxis\nT1\tthigh\t+y\n")
+    (root / "verticals.tsv").write_text(
+        "subject\ttest\trep\tstatic_test\tstatic_rep\nS1\tT1\t1\tT0\t1\n"
+    )
 
 
 @pytest.fixture(scope="module")
 def sheets_only(tmp_path_factory) -> Path:
-    """The mini dataset's yaml and sheets, with a ground truth and a functional design (the
-    recordings are not read when only the sheets are checked)."""
+    """The mini dataset's yaml and sheets, with a ground truth, a functional design and a
+    vertical per repetition (the recordings are not read when only the sheets are checked)."""
     root = make_dataset(tmp_path_factory.mktemp("mini") / "mini")
     _ground_truth(root)
     return root

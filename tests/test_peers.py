@@ -245,3 +245,45 @@ def test_a_peer_row_meets_the_sensor_flags_direction_vote_rho_and_stability_of_i
         peers.iloc[[0]].assign(test="T1"), lambda s, i: "+y", own, recordings, {"T1": "-y"}.get, 3
     )
     assert unturned["flag"].iloc[0] == "" and unturned["first_phase_agreement"].iloc[0] == 1.0
+
+
+def test_opensense_says_the_static_pose_lacks_orientations_when_the_motion_has_them(
+    tmp_path, request
+):
+    """Walking with the vendor's orientations but no quiet standing (the static test is the
+    mean walking posture): OpenSense is not applicable because the static pose has none, not
+    because the recordings have none; without any orientation it says that instead."""
+    import json
+    import subprocess
+
+    from .test_peer_equivariance import peer_python
+
+    python = peer_python("opensim", request)
+    header = "t,acc_x,acc_y,acc_z,gyr_x,gyr_y,gyr_z"
+    (tmp_path / "static.csv").write_text(header + "\n0,0,0,9.8,0,0,0\n0.01,0,0,9.8,0,0,0\n")
+    (tmp_path / "walk.csv").write_text(
+        header
+        + ",quat_w,quat_x,quat_y,quat_z\n0,0,0,9.8,0,0,0,1,0,0,0\n0.01,0,0,9.8,0,0,0,1,0,0,0\n"
+    )
+    imu = {"subject": "P1", "sensor_set": "main", "imu": "pelvis", "segment": "waist",
+           "side": "center", "right_axis": [0, 1, 0]}  # fmt: skip
+    plan = {"dataset": str(tmp_path), "fs_hz": 100.0, "acc_scale": 1.0, "gyr_scale": 1.0,
+            "static": [{**imu, "test": "walking_vertical", "paths": ["static.csv"]}],
+            "calibrations": [{**imu, "test": "walk", "static": ["static.csv"],
+                              "reps": {"1": "walk.csv"}, "kept": {}, "subsets": [[1]]}]}  # fmt: skip
+    notes = []
+    for motion in ("walk.csv", "static.csv"):
+        plan["calibrations"][0]["reps"]["1"] = motion
+        (tmp_path / "plan.json").write_text(json.dumps(plan))
+        code = (
+            f"import json, sys; sys.path.insert(0, {str(REPO / 'workflow' / 'peers')!r}); "
+            "import opensense_imuplacer as o; "
+            f"print(json.dumps(o.calibrate(json.load(open({str(tmp_path / 'plan.json')!r})))))"
+        )
+        rows = json.loads(subprocess.run([str(python), "-c", code], check=True,
+                                         capture_output=True, text=True).stdout)  # fmt: skip
+        assert [r["flag"] for r in rows] == ["not_applicable"]
+        notes.append(rows[0]["note"])
+    assert "in this subject's motion recordings but not in its static recordings" in notes[0]
+    assert "walking_vertical" in notes[0]
+    assert "this dataset's recordings have none" in notes[1]

@@ -4,6 +4,7 @@ export has it, sensors trimmed to their shared samples, each static source, segm
 calibrates named, empty right axes refused with a proposal, and every refusal a message (file,
 sensor, what was found, what to do), never a traceback."""
 
+import shutil
 from types import SimpleNamespace
 
 import numpy as np
@@ -39,13 +40,16 @@ def signals(standing_s=3.0, walking_s=6.0, mount=None, seed=0):
 MOUNTS = {"+y": np.eye(3), "-z": Rotation.from_euler("x", 90, degrees=True).as_matrix()}
 
 
-def lab(tmp_path, trials: str, sensors=SENSORS, style="2019", standing_s=3.0, short=None):
-    """Exports of every trial named in ``trials`` (a trials.tsv text), the sheets beside them."""
+def lab(tmp_path, trials: str, sensors=SENSORS, style="2019", standing_s=3.0, short=None,
+        placed=None):  # fmt: skip
+    """Exports of every trial named in ``trials`` (a trials.tsv text), the sheets beside them;
+    ``placed``: {trial: rotation} the sensors put on again, turned by it, for that trial."""
     exports = tmp_path / "exports"
     sheet = pd.read_csv(pd.io.common.StringIO(trials), sep="\t", dtype=str, keep_default_na=False)
     for k, trial in enumerate(dict.fromkeys(sheet["trial"])):
+        turned = (placed or {}).get(trial, np.eye(3))
         for j, (sensor_id, (_, _, axis)) in enumerate(sensors.items()):
-            acc, gyr = signals(standing_s, mount=MOUNTS[axis], seed=10 * k + j)
+            acc, gyr = signals(standing_s, mount=MOUNTS[axis] @ turned, seed=10 * k + j)
             if short == (trial, sensor_id):
                 acc, gyr = acc[:-1], gyr[:-1]
             path = exports / f"{trial}-000_{sensor_id}.txt"
@@ -151,7 +155,8 @@ def test_each_static_source_and_a_subject_without_one(tmp_path, run):
     assert result.code == 0, result.err
     subjects = pd.read_csv(result.out / "subjects.tsv", sep="\t").set_index("subject")
     assert subjects["z0_source"].to_dict() == {
-        "P1": "standing trial", "P2": "walking (FALLBACK)", "P3": "first 2.5 s"
+        "P1": "standing trial", "P2": "walking (FALLBACK)",
+        "P3": "first 2.5 s (per repetition: its own recording's)",
     }  # fmt: skip
     tests = pd.read_csv(result.out / "tests.tsv", sep="\t").set_index("test")
     assert tests.loc["walking_vertical", "description"].startswith("FALLBACK")
@@ -204,6 +209,17 @@ def test_a_broken_export_is_a_message_naming_it(tmp_path, run, damage):
     "trials, message",
     [
         ("subject\ttest\nP1\twalk\n", "missing column(s) trial or file"),
+        ("subject\ttrial\ttest\n", "trials.tsv: only its header line, no row below it"),
+        ("subject\ttrial\ttest\tstart_s\tend_s\nP1\tP1/walk_1\tquiet\t4\t3\n", "start before end"),
+        (
+            "subject\ttrial\ttest\tfirst_phase\tstart_s\tend_s\n"
+            "P1\tP1/walk_1\twalk\tgait\t0\t5\nP1\tP1/walk_1\twalk\tgait\t4\t8\n",
+            "their segments overlap (0-5 s and 4-8 s)",
+        ),
+        (
+            "subject\ttrial\ttest\tfirst_phase\tstart_s\tend_s\nP1\tP1/walk_1\twalk\tgait\t2\t30\n",
+            "end_s 30 is after the trial's last sample (9.00 s at 100 Hz)",
+        ),
         ("subject\ttrial\ttest\tstatic\nP1\tP1/walk_1\twalk\tlots\n", "static 'lots'"),
         ("subject\ttrial\ttest\tfirst_phase\nP1\tP1/walk_9\twalk\tgait\n", "matches no export"),
         ("subject\ttrial\ttest\nP1\tP1/walk_1\tbow\n", "say which segments it calibrates"),
@@ -239,3 +255,96 @@ def test_one_standing_only_trial_is_a_message_not_a_traceback(tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 1 and "Traceback" not in err
     assert "sensor(s) 00B4A201 do not move" in err and "--trials" in err
+
+
+def test_the_vendors_folder_imports_as_written_and_its_sensorspec_proposes_the_sheet(
+    tmp_path, run, capsys
+):
+    """A trial given as its export folder, as MT Manager writes it (MT_<station>_000-000_<id>.txt)
+    beside a lab's sensorspec.json.txt, a log and the binary recording; one export re-saved
+    with a byte-order mark. Without --sensors the sensorspec proposes the sheet."""
+    folder = tmp_path / "exports" / "P1" / "exported000"
+    folder.mkdir(parents=True)
+    for k, (sensor, (_, _, axis)) in enumerate(SENSORS.items()):
+        acc, gyr = signals(mount=MOUNTS[axis], seed=k)
+        export(folder / f"MT_0120036B_000-000_{sensor}.txt", sensor, 100, acc, gyr, "2019")
+    bom = folder / "MT_0120036B_000-000_00B4A202.txt"
+    bom.write_text("\ufeff" + bom.read_text())
+    (folder / "sensorspec.json.txt").write_text(
+        '{"rightshank": "00B4A201.txt", "rightfoot": "00B4A202.txt", "sample_frequency": 100}'
+    )
+    (folder / "MT_0120036B_000.mtb").write_bytes(b"\xfa\xff\x0d" * 10)
+    (folder / "export_log.txt").write_text("Export started 12:01\nExport done\n")
+    (tmp_path / "trials.tsv").write_text(
+        "subject\ttrial\ttest\tstatic\tfirst_phase\nP1\tP1/exported000\twalk\t2\tgait\n"
+    )
+    args = ["import", "xsens", tmp_path / "exports", "--trials", tmp_path / "trials.tsv"]
+    code = main([str(a) for a in [*args, "--out", tmp_path / "out"]])
+    err = capsys.readouterr().err
+    assert code == 1 and not (tmp_path / "out").exists() and "Traceback" not in err
+    assert "no --sensors: the 1 sensorspec file(s)" in err and "written to" in err
+    proposed = pd.read_csv(tmp_path / "sensors.tsv", sep="\t", dtype=str, keep_default_na=False)
+    assert proposed[["sensor_id", "segment", "side"]].values.tolist() == [
+        ["00B4A201", "shank", "right"], ["00B4A202", "foot", "right"]
+    ]  # fmt: skip
+    assert (proposed["right_axis"] == "").all()
+    proposed["right_axis"] = ["+y", "-z"]
+    proposed.to_csv(tmp_path / "sensors.tsv", sep="\t", index=False)
+    result = run(tmp_path)
+    assert result.code == 0, result.err
+    report = pd.read_csv(result.out / "import_report.tsv", sep="\t", dtype=str)
+    skipped = report[report["status"] == "skipped"].set_index("source")["cause"]
+    assert skipped.index.str.rsplit("/", n=1).str[-1].tolist() == [
+        "MT_0120036B_000.mtb", "export_log.txt", "sensorspec.json.txt"
+    ]  # fmt: skip
+    assert "JSON" in skipped.filter(like="sensorspec").item()
+    assert (report["status"] == "imported").sum() == 2
+    assert "says sensor" not in result.err  # the sheet agrees with the sensorspec
+    proposed["side"] = ["right", "left"]  # a slip in the sheet: the sensorspec says rightfoot
+    proposed.to_csv(tmp_path / "sensors.tsv", sep="\t", index=False)
+    code = main([str(a) for a in [*args, "--sensors", tmp_path / "sensors.tsv", "--out",
+                                  tmp_path / "out2"]])  # fmt: skip
+    assert code == 0
+    assert (
+        "sensors.tsv line 3 says sensor 00B4A202 is foot left; P1/exported000/sensorspec.json.txt "
+        "says 'rightfoot' (foot right): check which is right" in capsys.readouterr().err
+    )
+
+
+def test_each_walk_takes_its_own_standing_when_the_sensors_were_put_on_again(tmp_path, run):
+    """Two walks, each with its own quiet standing; between them the sensors were put on again,
+    turned 25 deg about their x axis. Averaged, the two standings disagree (static_disagree)
+    and each walk's calibration is off; each walk with its own vertical (verticals.tsv, which
+    the import writes) gives each its own mounting, and the calibrations say so."""
+    from aceval.data.rotations import error_angle_deg
+
+    turn = Rotation.from_euler("x", 25, degrees=True).as_matrix()
+    folder = lab(tmp_path, WALKS, placed={"P1/walk_2": turn})
+    result = run(folder)
+    assert result.code == 0, result.err
+    assert "2 motion repetition(s) take the vertical of their own recording's" in result.err
+    sheet = pd.read_csv(result.out / "verticals.tsv", sep="\t", dtype=str)
+    assert sheet.values.tolist() == [["P1", "walk", "1", "standing", "1"],
+                                     ["P1", "walk", "2", "standing", "2"]]  # fmt: skip
+    truths = {"R1": np.eye(3), "R2": turn}
+
+    def calibrated(dataset):
+        out = tmp_path / f"{dataset.name}.csv"
+        assert main(["calibrate", str(dataset), "--out", str(out)]) == 0
+        table = pd.read_csv(out, keep_default_na=False)
+        kong = table[(table["method"] == "kong") & (table["imu"] == "shank_r")]
+        kong = kong.set_index("repetitions").loc[["R1", "R2"]]
+        R = kong[[f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]].to_numpy(float)
+        truth = np.array([truths[r] for r in kong.index])  # sensor -> body (mount +y: identity)
+        return error_angle_deg(R.reshape(-1, 3, 3), truth), kong
+
+    own, kong = calibrated(result.out)
+    assert (own < 3).all(), own
+    assert not kong["flag"].str.contains("static_disagree").any()
+    assert (kong["z0_tests"] == "standing (per repetition)").all()
+    pooled = tmp_path / "pooled"
+    shutil.copytree(result.out, pooled)
+    (pooled / "verticals.tsv").unlink()
+    averaged, kong = calibrated(pooled)
+    assert (averaged > 10).all(), averaged  # the mean of two verticals 25 deg apart
+    assert kong["flag"].str.contains("static_disagree").all()

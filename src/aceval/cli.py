@@ -91,32 +91,42 @@ def _add_importer(commands) -> None:
         help="convert recordings in a foreign format into a dataset folder "
         "(with import_report.tsv: what was imported, flagged or left out, and why)",
     )
-    importer.add_argument("format", choices=["hugadb", "xsens", "qmt", "gaitmap"])
+    importer.add_argument("format", choices=["hugadb", "xsens", "table", "qmt", "gaitmap"])
     importer.add_argument(
-        "src", help="hugadb: the folder of HuGaDB_*.txt; xsens: the folder of MT Manager exports"
+        "src",
+        help="hugadb: the folder of HuGaDB_*.txt; xsens: the folder of MT Manager exports; table: "
+        "the folder of any vendor's delimited-text exports",
+    )
+    importer.add_argument(
+        "--mapping",
+        help="table: the mapping file (YAML) that says how the exports are laid out: columns, "
+        "units, rate, header lines, sensor from file name or columns (docs/your_data.md)",
     )
     importer.add_argument("--out", required=True, help="output dataset folder (created)")
     importer.add_argument(
         "--sensors",
-        help="xsens: sensor sheet (sensor_id segment side, and imu sensor_set region right_axis: "
-        "all required for one trial without --trials)",
+        help="xsens, table: sensor sheet (sensor_id segment side, and imu sensor_set region "
+        "right_axis: all required for one trial without --trials); xsens --trials without it: "
+        "the sheet the exports' sensorspec files propose is written and the import stops",
     )
     importer.add_argument(
         "--trials",
-        help="xsens: a lab's sheet of trials (subject, trial, test, [rep, static, first_phase, "
-        "calibrates]): every subject and trial in one import (docs/your_data.md)",
+        help="xsens, table: a lab's sheet of trials (subject, trial, test, [rep, static, "
+        "first_phase, calibrates, start_s, end_s]): every subject and trial in one import "
+        "(docs/your_data.md)",
     )
     importer.add_argument(
         "--rate",
         type=float,
-        help="xsens: samples per second, for exports without a '// Update Rate' line (checked "
-        "against the line and SampleTimeFine where they are)",
+        help="xsens, table: samples per second, for exports that do not say it (checked against "
+        "what they say, and a rate given only by hand against the recordings' gyroscopes and "
+        "accelerometers)",
     )
     importer.add_argument(
         "--trim-to-shared",
         action="store_true",
-        help="xsens --trials: cut the sensors of a trial to the samples they all share "
-        "(PacketCounter); without it a trial whose sensors differ is refused",
+        help="xsens, table: cut the sensors of a trial to the samples they all share "
+        "(PacketCounter, time); without it a trial whose sensors differ is refused",
     )
     importer.add_argument("--subject", default="S01", help="xsens, one trial: subject name (S01)")
     importer.add_argument(

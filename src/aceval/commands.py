@@ -63,12 +63,8 @@ def import_dataset(args) -> int:
     from aceval.importers import FormatError
     from aceval.importers.run import run_import
 
-    lab = {"trials": args.trials, "rate": args.rate, "trim_to_shared": args.trim_to_shared}
-
     def write(folder):
-        report = run_import(
-            folder, args.format, args.src, args.sensors, args.subject, args.vicon, args.name, lab
-        )
+        report = run_import(folder, vars(args))
         for note in report.notes:
             print(f"aceval import {args.format}: {note}", file=sys.stderr)
         print(report.summary(), file=sys.stderr)
@@ -85,7 +81,8 @@ def validate(args) -> int:
     from aceval.data.dataset import validate
 
     _, report = validate(args.dataset, check_files="headers" if args.sheets_only else "all")
-    print(report.format(), file=sys.stdout if report.ok else sys.stderr)
+    saved = (args.out or args.findings_out) if report.ok else None
+    print(report.grouped(saved, args.dataset), file=sys.stdout if report.ok else sys.stderr)
     if report.ok and (args.out or args.findings_out):
         with FileSet([args.out, args.findings_out]) as files:
             if args.out:

@@ -41,12 +41,29 @@ NO_ORIENTATION = (
     "needs each IMU's orientation in one gravity-aligned world (a magnetometer-aided fusion: "
     "quat_w..quat_z columns) during a static pose; this dataset's recordings have none"
 )
+NO_STATIC_POSE = (
+    "needs each IMU's orientation in one gravity-aligned world during a static pose: the vendor's "
+    "orientations (quat_w..quat_z) are in this subject's motion recordings but not in its static "
+    "recordings ({tests}; walking_vertical, the mean walking posture, has none: it is no pose), "
+    "so record quiet standing"
+)
 NO_BASE = "needs a base IMU on the pelvis (segment waist) with a static recording"
 
 
 def quaternions(plan: dict, relative: str) -> np.ndarray | None:
     """The (N, 4) quat_w..quat_z of a recording, or None when it has none."""
     return read_columns(plan, relative, QUAT)
+
+
+def orientation_gap(plan: dict, static: list[dict], motion: list[dict]) -> str:
+    """Why a subject's IMUs have no orientations for the static pose ('' when they have them):
+    none in any recording, or only in the motion recordings (the static pose is what is missing).
+    """
+    if static and all(quaternions(plan, e["paths"][0]) is not None for e in static):
+        return ""
+    if any(quaternions(plan, next(iter(e["reps"].values()))) is not None for e in motion):
+        return NO_STATIC_POSE.format(tests=", ".join(sorted({e["test"] for e in static})))
+    return NO_ORIENTATION
 
 
 def heading_axis(entry: dict, plan: dict) -> str:
@@ -119,8 +136,7 @@ def calibrate(plan: dict) -> list[dict]:
         wanted = [e for e in plan["calibrations"] if e["subject"] == subject]
         imus = [e for e in plan["static"] if e["subject"] == subject]
         bases = [e for e in imus if e["segment"] == "waist"]
-        has_orientations = imus and all(quaternions(plan, e["paths"][0]) is not None for e in imus)
-        reason = NO_ORIENTATION if not has_orientations else NO_BASE if not bases else ""
+        reason = orientation_gap(plan, imus, wanted) or (NO_BASE if not bases else "")
         placed, seconds = {}, float("nan")
         if not reason:
             with tempfile.TemporaryDirectory() as folder, Timer() as timer:

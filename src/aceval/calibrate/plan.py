@@ -57,6 +57,8 @@ SENSOR_COLUMNS += [
     "vendor_up_angle_deg",
     "acc_sign_agreement",
 ]
+#: the end of ``z0_tests`` of a unit whose repetitions each have their own vertical (verticals.tsv)
+PER_REPETITION = "(per repetition)"
 
 
 @dataclass(frozen=True)
@@ -126,7 +128,8 @@ def imu_checks(dataset: Dataset, summaries: pd.DataFrame, pairs=None) -> dict[tu
     z0, _ = static_axes(summaries)
     places = summaries[summaries["kind"].isin(["motion", "extra"])]
     signatures = signature_verdicts(places) if SIGNATURE_COLUMNS[0] in places else {}
-    statics = dict(list(summaries[summaries["kind"] == "static"].groupby(KEY)))
+    static = summaries[summaries["kind"] == "static"]
+    statics = dict(list(static[~_linked(dataset, static)].groupby(KEY)))  # not re-placements
     signs = acc_sign_agreement(pairs)
     out = {}
     for key, group in motion.groupby(KEY, sort=False):
@@ -183,7 +186,7 @@ def build_plan(
     motion = summaries[(summaries["kind"] == "motion") & (summaries["flag"] == "")]
     motion = motion[pd.MultiIndex.from_frame(motion[KEY]).isin(z0.index)]
     motion = motion.sort_values([*KEY, "test", "rep"], kind="stable")
-    units, identity = _units(dataset, motion, z0, statics, sensors)
+    units, identity = _units(dataset, motion, z0, statics, sensors, summaries)
     n_present = units.present.sum(axis=1)
     every = [
         all_subsets(list(range(n))) if subsets == "all" else [tuple(range(n))] for n in n_present
@@ -205,10 +208,10 @@ def build_plan(
     )
 
 
-def _units(dataset, motion, z0, statics, sensors) -> tuple[Units, pd.DataFrame]:
+def _units(dataset, motion, z0, statics, sensors, summaries) -> tuple[Units, pd.DataFrame]:
     """The :class:`Units` of the usable motion recordings (sorted by unit and repetition), with
-    every statistic the registry's methods and the direction checks declare, and their identity
-    table.
+    every statistic the registry's methods and the direction checks declare, each repetition's
+    own vertical where verticals.tsv gives one, and their identity table.
     """
     unit_key = [*KEY, "test"]
     code = motion.groupby(unit_key, sort=False).ngroup().to_numpy()
@@ -236,7 +239,11 @@ def _units(dataset, motion, z0, statics, sensors) -> tuple[Units, pd.DataFrame]:
     rep[code, position] = motion["rep"].to_numpy(int)
     keys = list(first[KEY].itertuples(index=False, name=None))
     tests = first["test"].tolist()
+    z0_rep = repetition_verticals(dataset, summaries, keys, tests, rep, z0)
     identity = _identity(dataset, keys, tests, statics, sensors)
+    if z0_rep is not None:
+        own = np.isfinite(z0_rep).all(axis=(1, 2))
+        identity.loc[own, "z0_tests"] = identity.loc[own, "z0_tests"] + f" {PER_REPETITION}"
     units = Units(
         z0=z0.loc[keys].to_numpy(float) if keys else np.zeros((0, 3)),
         right=np.array([axis_vector(dataset.right_axis(s, i)) for _, s, i in keys]).reshape(-1, 3),
@@ -248,8 +255,42 @@ def _units(dataset, motion, z0, statics, sensors) -> tuple[Units, pd.DataFrame]:
         n_samples=padded(["n_samples"]),
         statistics=statistics,
         values=values,
+        z0_rep=z0_rep,
     )
     return units, identity
+
+
+def _linked(dataset, static: pd.DataFrame) -> np.ndarray:
+    """(N,) which static recordings verticals.tsv gives to a motion repetition as its own."""
+    if dataset.verticals is None:
+        return np.zeros(len(static), dtype=bool)
+    linked = set(zip(*(dataset.verticals[c] for c in ("subject", "static_test", "static_rep"))))
+    return np.array([k in linked for k in zip(static["subject"], static["test"], static["rep"])])
+
+
+def repetition_verticals(dataset, summaries, keys, tests, rep, z0) -> np.ndarray | None:
+    """(U, R, 3) each motion repetition's own vertical (Kong Eq. 2 of the static recording that
+    verticals.tsv gives it; its unit's ``z0`` for a repetition without one) for the units with
+    any, NaN for the others; None when no unit has one.
+    """
+    if dataset.verticals is None or not keys:
+        return None
+    static = summaries[(summaries["kind"] == "static") & (summaries["flag"] == "")]
+    own = static.set_index([*KEY, "test", "rep"])[["z0_x", "z0_y", "z0_z"]]
+    link = dataset.verticals.set_index(["subject", "test", "rep"])
+    out = np.full((*rep.shape, 3), np.nan)
+    for u, ((subject, sensor_set, imu), test) in enumerate(zip(keys, tests)):
+        for r, number in enumerate(rep[u]):
+            if (subject, test, number) in link.index:
+                source = link.loc[(subject, test, number)]
+                key = (subject, sensor_set, imu, source["static_test"], source["static_rep"])
+                if key in own.index:
+                    vertical = own.loc[key].to_numpy(float)
+                    out[u, r] = vertical / np.linalg.norm(vertical)
+        if np.isfinite(out[u]).any():
+            missing = ~np.isfinite(out[u]).all(axis=1)
+            out[u, missing] = z0.loc[keys[u]].to_numpy(float)
+    return out if np.isfinite(out).any() else None
 
 
 def _identity(dataset, keys, tests, statics, sensors) -> pd.DataFrame:

@@ -4,6 +4,7 @@ validation report, and one recording file read into SI units.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -43,6 +44,7 @@ SHEETS = {
 OPTIONAL_SHEETS = {
     "ground_truth.tsv": ["subject", "sensor_set", "imu", *R_COLUMNS],
     "functional_axes.tsv": ["test", "segment", "axis"],
+    "verticals.tsv": ["subject", "test", "rep", "static_test", "static_rep"],
 }
 #: median |acc| (g) of a static recording: outside the wide band the declared units are wrong (an
 #: error: g and m/s^2 differ 9.81-fold); outside the narrow one the subject was not at rest (a
@@ -120,6 +122,40 @@ class ValidationReport:
             f"dataset {self.dataset}: {len(self.errors)} error(s), {len(self.warnings)} warning(s)"
         )
         return "\n".join([head, *map(str, self.errors), *map(str, self.warnings)])
+
+    def grouped(self, saved: str | None = None, folder: str = "", examples: int = 3) -> str:
+        """The report for a screen: a count line, every error, then one line per kind of warning
+        (its cause, the numbers in it left out: 48 recordings 'not at rest' are one kind) with
+        how many there are, the range of each number and the places of the first ``examples``;
+        a warning of its own kind keeps its line (:meth:`format` lists every finding). Where
+        some were grouped, it says where each one is: in the file ``saved``, or how to write one
+        (``folder``: the dataset's, for ``aceval validate``).
+        """
+        kinds: dict[str, list[Finding]] = {}
+        for finding in self.warnings:
+            kinds.setdefault(_NUMBER.sub("\0", finding.cause), []).append(finding)
+        lines = [self.format().split("\n")[0], *map(str, self.errors)]
+        for cause, found in kinds.items():
+            if len(found) == 1:
+                lines.append(str(found[0]))
+                continue
+            columns = zip(*([float(n) for n in _NUMBER.findall(f.cause)] for f in found))
+            spans = iter(
+                [f"{min(c):g}-{max(c):g}" if min(c) < max(c) else f"{c[0]:g}" for c in columns]
+            )
+            text = re.sub("\0", lambda _, spans=spans: next(spans), cause)
+            places = "; ".join(f.where for f in found[:examples])
+            more = f"; and {len(found) - examples} more" if len(found) > examples else ""
+            lines.append(f"WARNING {len(found)} x: {text} (at {places}{more})")
+        if folder and len(lines) < len(self.findings) + 1:
+            lines.append(
+                f"(every warning: {saved or f'aceval validate {folder} --findings-out FILE'})"
+            )
+        return "\n".join(lines)
+
+
+#: a number in a finding's cause (what varies between findings of one kind)
+_NUMBER = re.compile(r"(?<![\w.])-?\d+(?:\.\d+)?(?![\w.])")
 
 
 @dataclass

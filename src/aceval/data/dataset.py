@@ -46,6 +46,7 @@ from aceval.data.recording_checks import (
 )
 from aceval.data.rotations import AXIS_VECTORS
 from aceval.data.safety import path_problem
+from aceval.data.verticals import check_verticals
 
 
 @dataclass
@@ -63,6 +64,7 @@ class Dataset:
     functional_axes: pd.DataFrame | None = (
         None  # optional sheet: Ricci-style functional calibration
     )
+    verticals: pd.DataFrame | None = None  # optional sheet: a vertical per motion repetition
 
     @property
     def name(self) -> str:
@@ -327,7 +329,8 @@ def read_sheets(
     tests = tests.drop_duplicates("test").set_index("test")
     subjects = unique_subjects(subjects, report)
     spelling = dict(zip(subjects["subject"].map(subject_key), subjects["subject"]))
-    for sheet in (sheets["recordings.tsv"], ground_truth):
+    verticals = optional["verticals.tsv"]
+    for sheet in (sheets["recordings.tsv"], ground_truth, verticals):
         if sheet is not None:  # '01' in recordings.tsv is subject '1' of subjects.tsv
             sheet["subject"] = [spelling.get(subject_key(s), s) for s in sheet["subject"]]
     imu_names = set(imus.index.get_level_values("imu"))
@@ -341,8 +344,11 @@ def read_sheets(
         ground_truth = _check_ground_truth(ground_truth, report)
     if functional_axes is not None:
         _check_functional_axes(functional_axes, tests, imus, report)
+    if verticals is not None:
+        verticals = check_verticals(verticals, tests, recordings, report)
     dataset = Dataset(
-        root, meta, imus, tests, calibrates, subjects, recordings, ground_truth, functional_axes
+        *(root, meta, imus, tests, calibrates, subjects, recordings, ground_truth, functional_axes),
+        verticals=verticals,
     )
     return dataset, report
 

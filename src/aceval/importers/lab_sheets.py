@@ -32,6 +32,8 @@ class Trial:
     lines: list[int]
     prefixes: list[str]
     files: list[Path] = field(default_factory=list)
+    #: the seconds of its files it is (trials.tsv ``start_s``, ``end_s``), None: all of them
+    span: tuple[float, float] | None = None
     #: once read: ``{sensor_id: {acc, gyr, quat, row, file}}`` (SI), and what of it is static and
     #: what motion (``{"static": (test, slice)``, optional, ``"motion": slice or None}``)
     sensors: dict = field(default_factory=dict)
@@ -41,7 +43,8 @@ class Trial:
     def where(self) -> str:
         """The trial in the user's words."""
         lines = ", ".join(map(str, self.lines))
-        return f"trial {' + '.join(self.prefixes)} (trials.tsv line {lines})"
+        cut = f" {self.span[0]:g}-{self.span[1]:g} s" if self.span else ""
+        return f"trial {' + '.join(self.prefixes)}{cut} (trials.tsv line {lines})"
 
 
 def read_trials(path: str | Path) -> tuple[list[dict], dict]:
@@ -58,6 +61,7 @@ def read_trials(path: str | Path) -> tuple[list[dict], dict]:
             if not row[column]:
                 raise FormatError(f"{where}: {column} is empty")
         static = _static(row.get("static", ""), where)
+        span = _span(row, where)
         test = _test(row, static, where, tests)
         rep = row.get("rep", "")
         if rep and not (rep.isdigit() and int(rep) > 0):
@@ -65,8 +69,10 @@ def read_trials(path: str | Path) -> tuple[list[dict], dict]:
         key = (row["subject"], row["test"])
         if not rep:
             numbered = counts.setdefault(key, {})
-            rep = numbered.setdefault(row["trial"], len(numbered) + 1)
-        rows.append({**row.to_dict(), "line": line, "rep": int(rep), "static": static})
+            rep = numbered.setdefault((row["trial"], span), len(numbered) + 1)
+        rows.append(
+            {**row.to_dict(), "line": line, "rep": int(rep), "static": static, "span": span}
+        )
         test.setdefault("lines", []).append(line)
     return rows, tests
 
@@ -89,7 +95,31 @@ def _sheet(path, required: list[str], one_of: tuple = ()) -> pd.DataFrame:
             f"{path}: missing column(s) {', '.join(missing)} (found {', '.join(sheet.columns)}; "
             "the sheet is tab-separated with a header line)"
         )
+    if sheet.empty:
+        raise FormatError(
+            f"{path}: only its header line, no row below it ({', '.join(sheet.columns)}): write "
+            "one row per item under the header (docs/your_data.md)"
+        )
     return sheet
+
+
+def _span(row, where: str) -> tuple[float, float] | None:
+    """A row's segment (``start_s``, ``end_s``: seconds from the first sample of its files), or
+    None (the whole trial); FormatError unless both are numbers with ``0 <= start < end``.
+    """
+    cells = [row.get("start_s", ""), row.get("end_s", "")]
+    if not any(cells):
+        return None
+    try:
+        start, end = (float(c) for c in cells)
+    except ValueError:
+        start = end = np.nan
+    if not 0 <= start < end < np.inf:
+        raise FormatError(
+            f"{where}: start_s {cells[0]!r} and end_s {cells[1]!r}: give both, in seconds from "
+            "the trial's first sample, start before end (or neither: the whole trial)"
+        )
+    return start, end
 
 
 def _static(value: str, where: str) -> str | float | None:
@@ -178,52 +208,96 @@ def read_lab_sensors(path: str | Path) -> pd.DataFrame:
     return sheet
 
 
-def find_trials(src: Path, rows: list[dict], report: ImportReport, sheets: set) -> list[Trial]:
-    """The trials of the sheet's rows with their export files; the other files are reported."""
+def find_trials(
+    src: Path, rows: list[dict], report: ImportReport, sheets: set, not_export=None
+) -> list[Trial]:
+    """The trials of the sheet's rows with their export files. ``not_export(path)``: why a file
+    is not an export ('' when it is); such files that a trial's path matches are skipped and
+    named, as are the exports in no trial. FormatError when a row matches nothing, when two
+    trials share a file (unless both are segments, ``start_s``-``end_s``, that do not overlap)
+    or one trial is given two static sources or segments.
+    """
     if not src.is_dir():
-        raise FormatError(f"{src}: not a folder of MT Manager exports")
-    files = [
-        p
-        for p in sorted(src.rglob("*"))
-        if p.is_file() and p.suffix.lower() in SUFFIXES and p.resolve() not in sheets
-    ]
+        raise FormatError(f"{src}: not a folder of exports")
+    files = [p for p in sorted(src.rglob("*")) if p.is_file() and p.resolve() not in sheets]
     relative = {p: p.relative_to(src).as_posix() for p in files}
+    problems = {p: not_export(p) if not_export else "" for p in files}
     trials: dict[tuple, Trial] = {}
-    owner: dict[Path, int] = {}
+    owner: dict[Path, list] = {}
     for row in rows:
         key = (row["subject"], row["test"], row["rep"])
-        trial = trials.setdefault(key, Trial(*key, row["static"], [], []))
-        if row["static"] != trial.static:
-            raise FormatError(
-                f"trials.tsv lines {trial.lines[0]} and {row['line']}: one trial ({row['subject']}, "
-                f"{row['test']} R{row['rep']}) with two static sources ({trial.static!r}, "
-                f"{row['static']!r}): give it once, the same on every row of the trial"
-            )
+        trial = trials.setdefault(key, Trial(*key, row["static"], [], [], span=row["span"]))
+        for what, called in (("static", "static sources"), ("span", "segments")):
+            if row[what] != getattr(trial, what):
+                raise FormatError(
+                    f"trials.tsv lines {trial.lines[0]} and {row['line']}: one trial "
+                    f"({row['subject']}, {row['test']} R{row['rep']}) with two {called} "
+                    f"({getattr(trial, what)!r}, {row[what]!r}): give it once, the same on every "
+                    "row of the trial"
+                )
         trial.lines.append(row["line"])
         trial.prefixes.append(row["trial"])
         prefix = row["trial"].rstrip("/")
         matched = [p for p, rel in relative.items() if _starts(rel, prefix)]
-        if not matched:
+        exports = [p for p in matched if not problems[p]]
+        if not exports:
             raise FormatError(
                 f"trials.tsv line {row['line']}: trial {row['trial']!r} matches no export under "
                 f"{src} (a file whose path starts with it, followed by - _ . or /; "
-                f"{len(files)} export(s) there)"
-            )
-        for path in matched:
-            if path in owner and owner[path] != row["line"]:
-                raise FormatError(
-                    f"{path}: belongs to two trials (trials.tsv lines {owner[path]} and "
-                    f"{row['line']}): make the names tell them apart"
+                f"{sum(not v for v in problems.values())} export(s) there"
+                + (
+                    f"; {len(matched)} other file(s) it matches are not exports)"
+                    if matched
+                    else ")"
                 )
-            owner[path] = row["line"]
-        trial.files += [p for p in matched if p not in trial.files]
-    for path in files:
-        if path not in owner:
-            report.add(relative[path], "", "", "skipped", "in no trial of trials.tsv")
-    skipped = len(files) - len(owner)
-    if skipped:
-        report.note(f"{skipped} export(s) under {src} are in no trial of trials.tsv (skipped)")
+            )
+        for path in exports:
+            _claim(owner.setdefault(path, []), path, key, row)
+        trial.files += [p for p in exports if p not in trial.files]
+    _name_skipped(files, relative, problems, owner, rows, report, src)
     return list(trials.values())
+
+
+def _claim(claims: list, path: Path, key: tuple, row: dict) -> None:
+    """Record that trial ``key`` (its sheet ``row``) reads ``path``; FormatError when another
+    trial reads it too, unless both are segments that do not overlap.
+    """
+    for other_key, other in claims:
+        if other_key == key:
+            continue
+        spans = (row["span"], other["span"])
+        if None in spans or (spans[0][0] < spans[1][1] and spans[1][0] < spans[0][1]):
+            raise FormatError(
+                f"{path}: belongs to two trials (trials.tsv lines {other['line']} and "
+                f"{row['line']})"
+                + (
+                    ": make the names tell them apart, or give each its segment (start_s, end_s)"
+                    if None in spans
+                    else f": their segments overlap ({spans[1][0]:g}-{spans[1][1]:g} s and "
+                    f"{spans[0][0]:g}-{spans[0][1]:g} s)"
+                )
+            )
+    claims.append((key, row))
+
+
+def _name_skipped(files, relative, problems, owner, rows, report, src) -> None:
+    """Report the files a trial matches that are not exports, and the exports in no trial."""
+    prefixes = [row["trial"].rstrip("/") for row in rows]
+    others = [p for p in files if problems[p] and any(_starts(relative[p], t) for t in prefixes)]
+    for path in others:
+        report.add(relative[path], "", "", "skipped", problems[path])
+    if others:
+        report.note(
+            f"{len(others)} file(s) beside the exports are not exports (skipped, each in "
+            "import_report.tsv): "
+            + "; ".join(f"{relative[p]}: {problems[p]}" for p in others[:3])
+            + (f"; and {len(others) - 3} more" if len(others) > 3 else "")
+        )
+    idle = [p for p in files if not problems[p] and p not in owner and p.suffix.lower() in SUFFIXES]
+    for path in idle:
+        report.add(relative[path], "", "", "skipped", "in no trial of trials.tsv")
+    if idle:
+        report.note(f"{len(idle)} export(s) under {src} are in no trial of trials.tsv (skipped)")
 
 
 def _starts(relative: str, prefix: str) -> bool:

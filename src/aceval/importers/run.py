@@ -10,44 +10,69 @@ from aceval.data.writer import write_sheet
 from aceval.importers.shared import FormatError, ImportReport
 
 
-def run_import(
-    out: Path,
-    format: str,
-    src: str,
-    sensors: str | None = None,
-    subject: str = "S01",
-    vicon: str | None = None,
-    name: str | None = None,
-    lab: dict | None = None,
-) -> ImportReport:
-    """Write the dataset of ``src`` (in ``format``) into the empty folder ``out``, with its
-    ``import_report.tsv``; returns the report. ``lab``: xsens's ``trials`` (a lab's sheet of
-    trials: :mod:`aceval.importers.xsens_lab`), ``rate`` and ``trim_to_shared``.
+def run_import(out: Path, options: dict) -> ImportReport:
+    """Write the dataset that ``options`` (``aceval import``'s arguments: ``format``, ``src``,
+    ``sensors``, ``subject``, ``vicon``, ``name``; a lab's ``trials`` (:mod:`.xsens_lab`),
+    ``mapping`` (:mod:`.table`), ``rate``, ``trim_to_shared``) describe into the empty folder
+    ``out``, with its ``import_report.tsv``; returns the report.
     """
-    lab = lab or {}
-    if lab.get("trials"):
-        if format != "xsens":
-            raise FormatError("--trials is for xsens exports")
-        if not sensors:
-            raise FormatError("--trials needs --sensors, the sheet of sensor IDs and segments")
-        if vicon:
-            raise FormatError("--vicon is for one trial (without --trials)")
-        from aceval.importers.xsens_lab import import_xsens_lab
-
-        report = import_xsens_lab(
-            src,
+    get = options.get
+    if get("format") == "table" or get("trials"):
+        report = _lab(out, options)
+    else:
+        report = _convert(
             out,
-            lab["trials"],
-            sensors,
-            name or "xsens",
-            lab.get("rate"),
-            lab.get("trim_to_shared", False),
+            get("format"),
+            get("src"),
+            get("sensors"),
+            get("subject") or "S01",
+            get("vicon"),
+            get("name"),
+            get("rate"),
         )
-        report.write(out / "import_report.tsv")
-        return report
-    report = _convert(out, format, src, sensors, subject, vicon, name, lab.get("rate"))
     report.write(out / "import_report.tsv")
     return report
+
+
+def _lab(out: Path, options: dict) -> ImportReport:
+    """A lab's import: every trial of its trials.tsv (xsens, or table with a mapping)."""
+    get = options.get
+    if get("vicon"):
+        raise FormatError("--vicon is for one trial (without --trials)")
+    if not get("trials"):
+        raise FormatError(
+            f"{get('format')} needs --trials, the sheet of trials (docs/your_data.md)"
+        )
+    if get("format") == "table":
+        from aceval.importers.table import import_table
+
+        if not (get("mapping") and get("sensors")):
+            raise FormatError(
+                "table needs --mapping (how the files are laid out) and --sensors (docs/your_data.md)"
+            )
+        return import_table(
+            get("src"),
+            out,
+            get("mapping"),
+            get("trials"),
+            get("sensors"),
+            get("name") or "lab",
+            get("rate"),
+            get("trim_to_shared", False),
+        )
+    if get("format") != "xsens":
+        raise FormatError("--trials is for xsens exports and the table import")
+    from aceval.importers.xsens_lab import import_xsens_lab
+
+    return import_xsens_lab(
+        get("src"),
+        out,
+        get("trials"),
+        get("sensors"),
+        get("name") or "xsens",
+        get("rate"),
+        get("trim_to_shared", False),
+    )
 
 
 def _convert(

@@ -61,6 +61,17 @@ class ImportReport:
         )
 
 
+def text_encoding(path: Path) -> str:
+    """The encoding to read a text export with: UTF-16 where it starts with that byte-order mark,
+    else UTF-8 with or without one (an export re-saved by Notepad or Excel starts with one).
+    """
+    import codecs
+
+    with open(path, "rb") as handle:
+        start = handle.read(2)
+    return "utf-16" if start in (codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE) else "utf-8-sig"
+
+
 def mean_posture(signal: np.ndarray, fs_hz: float) -> np.ndarray:
     """``signal`` (N, 3) low-passed at :data:`MEAN_POSTURE_CUTOFF_HZ` (zero-phase): what stays
     of a walking bout below the stride frequency, the fallback vertical of recordings without

@@ -32,15 +32,16 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from aceval.data.contract import FS_TOLERANCE
 from aceval.data.errors import CalibrationError
 from aceval.data.writer import DatasetWriter, write_sheet
+from aceval.importers.lab_trials import SensorSamples, agreed_rate
 from aceval.importers.shared import (
     FormatError,
     ImportReport,
     straight_strides,
     stride_peaks,
     stride_spans,
+    text_encoding,
     walking_bouts,
 )
 from aceval.signals.segmentation import TrimParams, movement_mask
@@ -67,7 +68,7 @@ def read_mt_export(path: str | Path) -> tuple[dict, pd.DataFrame]:
     """
     path = Path(path)
     header, lines = {}, []
-    with open(path, encoding="utf-8", errors="replace") as handle:
+    with open(path, encoding=text_encoding(path), errors="replace") as handle:
         for number, line in enumerate(handle, start=1):
             if line.startswith("//"):
                 key, _, value = line[2:].partition(":")
@@ -123,6 +124,31 @@ def read_mt_export(path: str | Path) -> tuple[dict, pd.DataFrame]:
     return header, values
 
 
+def not_an_export(path: Path) -> str:
+    """Why a file beside MT Manager exports is not one of them ('' when it is, or is named as
+    one: then reading it says what is wrong with it): a file of another kind (``.mtb``, a log),
+    a JSON file (a sensorspec: which sensor is on which segment) or text of another shape.
+    """
+    if _ID.search(path.name):
+        return ""
+    suffix = path.suffix.lower()
+    if suffix == ".mtb":
+        return "MT Manager's binary recording (.mtb): the text exports beside it are read"
+    if suffix not in (".txt", ".csv"):
+        return f"not a text export ({suffix or 'no'} file extension)"
+    with open(path, encoding=text_encoding(path), errors="replace") as handle:
+        head = handle.read(4096)
+    first = next((line.strip() for line in head.splitlines() if line.strip()), "")
+    if first.startswith("//") or "PacketCounter" in first:
+        return ""
+    if first.startswith(("{", "[")):
+        return "a JSON file (a sensorspec: which sensor is on which segment?), not an export"
+    return (
+        f"not an MT Manager export (its first line is {first[:40]!r}; an export starts with "
+        "'//' header lines or its column header)"
+    )
+
+
 #: the separators an MT Manager export may use, as the messages name them
 SEPARATORS = {",": "comma-separated", "\t": "tab-separated"}
 
@@ -140,15 +166,12 @@ def _separator(path: Path, number: int, line: str) -> str:
         ) from None
 
 
-def export_rate(header: dict, values: pd.DataFrame, path, rate: float | None = None) -> float:
-    """Samples per second of one export: ``rate`` (``--rate``) or the ``// Update Rate: <n>Hz``
-    header line, else derived from SampleTimeFine (10 kHz ticks) over the PacketCounter's samples;
-    whichever of the three are there must agree within the contract's 2 %. FormatError saying
-    what was found and what to do.
+def export_rates(header: dict, values: pd.DataFrame) -> dict:
+    """Where one export says its rate (Hz): ``{"its '// Update Rate' line": ..., "its
+    SampleTimeFine": ...}`` (the second derived from the 10 kHz ticks over the PacketCounter's
+    samples), each where present.
     """
     found = {}
-    if rate is not None:
-        found["--rate"] = float(rate)
     match = re.match(r"([\d.]+)\s*Hz", header.get("Update Rate", ""))
     if match:
         found["its '// Update Rate' line"] = float(match.group(1))
@@ -156,22 +179,53 @@ def export_rate(header: dict, values: pd.DataFrame, path, rate: float | None = N
         ticks = np.diff(values[SAMPLE_TIME].to_numpy(np.int64)) % TICKS_WRAP
         samples = np.diff(values["PacketCounter"].to_numpy(np.int64)) % COUNTER_WRAP
         if ticks.sum() > 0:
-            found["its SampleTimeFine"] = TICKS_PER_S * samples.sum() / ticks.sum()
+            found["its SampleTimeFine"] = float(round(TICKS_PER_S * samples.sum() / ticks.sum(), 2))
+    return found
+
+
+def export_rate(header: dict, values: pd.DataFrame, path, rate: float | None = None) -> float:
+    """Samples per second of one export: ``rate`` (``--rate``) or the ``// Update Rate: <n>Hz``
+    header line, else derived from SampleTimeFine (10 kHz ticks) over the PacketCounter's samples;
+    whichever of the three are there must agree within the contract's 2 %. FormatError saying
+    what was found and what to do.
+    """
+    return agreed_rate(_rates(header, values, path, rate), path)
+
+
+def _rates(header: dict, values: pd.DataFrame, path, rate: float | None) -> dict:
+    """``--rate`` and where the export says its rate (:func:`export_rates`); FormatError asking
+    for ``--rate`` when none is there.
+    """
+    found = ({"--rate": float(rate)} if rate is not None else {}) | export_rates(header, values)
     if not found:
         raise FormatError(
             f"{path}: no '// Update Rate: <n>Hz' header line and no SampleTimeFine values, so "
             "its sampling rate is unknown: give it with --rate (e.g. --rate 100)"
         )
-    rates = list(found.values())
-    if max(rates) / min(rates) - 1 > FS_TOLERANCE:
-        raise FormatError(
-            f"{path}: the sampling rate disagrees: "
-            + ", ".join(f"{where} {hz:.4g} Hz" for where, hz in found.items())
-            + " (more than 2 % apart): check --rate, or the export"
+    return found
+
+
+def xsens_samples(path: Path, rate: float | None = None) -> list[SensorSamples]:
+    """One MT Manager export as :class:`aceval.importers.lab_trials.SensorSamples` (its sensor
+    from the file name or DeviceId, its PacketCounter unwrapped as the sample index, where it
+    says its rate; ``rate``: ``--rate``).
+    """
+    header, values = read_mt_export(path)
+    rates = _rates(header, values, path, rate)
+    counter = values["PacketCounter"].to_numpy(np.int64)
+    return [
+        SensorSamples(
+            sensor=sensor_id_of(path, header),
+            path=Path(path),
+            acc=values[["Acc_X", "Acc_Y", "Acc_Z"]].to_numpy(float),
+            gyr=values[["Gyr_X", "Gyr_Y", "Gyr_Z"]].to_numpy(float),
+            quat=values[QUATERNION].to_numpy(float) if set(QUATERNION) <= set(values) else None,
+            index=counter[0] + np.concatenate([[0], np.cumsum(np.diff(counter) % COUNTER_WRAP)]),
+            rates=rates,
+            declared=list(rates) == ["--rate"],
+            clock="PacketCounter",
         )
-    if rate is not None:
-        return float(rate)
-    return float(match.group(1)) if match else float(round(found["its SampleTimeFine"], 2))
+    ]
 
 
 def sensor_id_of(path: Path, header: dict) -> str:
@@ -190,22 +244,6 @@ def sensor_id_of(path: Path, header: dict) -> str:
             "or keep its '// DeviceId' header line"
         )
     return named.group(1).upper() if named else device
-
-
-def unwrapped_counter(values: pd.DataFrame, path) -> np.ndarray:
-    """The PacketCounter as increasing integers (MT Manager's wraps at 65536); FormatError where
-    it does not step by one (lost samples, or two recordings in one file).
-    """
-    counter = values["PacketCounter"].to_numpy(np.int64)
-    steps = np.diff(counter) % COUNTER_WRAP
-    if (steps != 1).any():
-        k = int(np.flatnonzero(steps != 1)[0])
-        raise FormatError(
-            f"{path}: PacketCounter steps from {counter[k]} to {counter[k + 1]} after sample "
-            f"{k + 1} ({int(steps[k]) - 1 if steps[k] else 'a repeated'} sample(s) lost, or two "
-            "recordings in one file): re-export the trial with lost samples filled, or cut it there"
-        )
-    return counter[0] + np.concatenate([[0], np.cumsum(steps)])
 
 
 def read_sensor_sheet(path: str | Path) -> pd.DataFrame:

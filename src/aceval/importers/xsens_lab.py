@@ -1,18 +1,25 @@
-"""A lab's Xsens MT Manager exports -> the dataset contract: many subjects and trials in one call,
-from two sheets (config/README.md, "A lab's Xsens exports"; docs/your_data.md walks through it).
+"""A lab's exports -> the dataset contract: many subjects and trials in one call, from two
+sheets (config/README.md, "A lab's exports"; docs/your_data.md walks through it). The exports
+are Xsens MT Manager's (:func:`import_xsens_lab`) or any vendor's delimited text read through a
+mapping (:mod:`aceval.importers.table`): :func:`import_lab` takes a file reader and is the same
+for both.
 
-``trials.tsv`` (tab-separated; one row per trial, or per file of a trial):
+``trials.tsv`` (tab-separated; one row per trial, per file of a trial, or per segment):
 
 * ``subject``; ``trial`` (or ``file``): a path under the exports folder, a folder or the start
   of file names (``P01/walk_01`` matches ``P01/walk_01-000_00B4A1B2.txt``: it must be followed
-  by ``-``, ``_``, ``.`` or ``/``);
+  by ``-``, ``_``, ``.`` or ``/``); files there that are not exports are skipped and named;
 * ``test``: the lab's name of the condition. The trials of one subject and test are its
   repetitions, in sheet order, or as column ``rep`` numbers them;
+* ``start_s``, ``end_s`` (optional): the trial is that segment of its files (seconds from their
+  first sample); several rows may cut one recording into repetitions and static windows;
 * ``static`` (optional): where the subject's vertical (z0, Kong Eq. 2) comes from. ``file``: the
   whole trial is quiet standing (a static test named by ``test``); a number N: the trial's first
   N seconds are quiet standing (static test ``standing``), the rest is ``test``; ``walking``: no
   quiet standing, the vertical of the mean walking posture (static test ``walking_vertical``, the
-  trial's movement low-passed at 0.5 Hz: a fallback, see :mod:`aceval.importers.shared`);
+  trial's movement low-passed at 0.5 Hz: a fallback, see :mod:`aceval.importers.shared`). The
+  motion of a recording that holds quiet standing takes that standing's vertical
+  (``verticals.tsv``, :func:`verticals`);
 * ``first_phase`` (optional, as tests.tsv: ``gait`` for walking) and ``calibrates`` (optional:
   the segments the test calibrates, comma-separated; for ``gait`` by default thigh, shank, foot
   and waist: Kong Table 2's walking segments and the pelvis, as the NeuRA and qmt imports).
@@ -23,16 +30,22 @@ optionally ``imu`` (the lab's name; default segment and side, ``shank_r``), ``se
 ``right_axis`` (empty: the import proposes one from the recordings and stops) and ``subject``
 (a row without one applies to every subject). ``segment`` is Kong's vocabulary (head chest
 waist thigh shank foot): a segment no test calibrates is named on screen, not dropped silently.
+Without it, an Xsens import writes the sheet the exports' sensorspec files propose
+(:mod:`aceval.importers.sensorspec`).
 
-Exports: MT Manager text files (``//`` header lines, comma- or tab-separated; Acc m/s^2, Gyr
-rad/s; :func:`aceval.importers.xsens.read_mt_export`), the sensor ID from the file name
-(``_<8 hex>.txt``) or the header's ``DeviceId``, the rate from ``// Update Rate``, SampleTimeFine
-or ``--rate`` (checked against each other). The files of a trial must share their PacketCounter
-range (one synchronised recording), or be trimmed to the samples they share (``--trim-to-shared``).
+Exports (:mod:`aceval.importers.lab_trials` reads a trial): MT Manager text files (``//`` header
+lines, comma- or tab-separated; Acc m/s^2, Gyr rad/s; :func:`aceval.importers.xsens.read_mt_export`),
+the sensor ID from the file name (``_<8 hex>.txt``) or the header's ``DeviceId``, the rate from
+``// Update Rate``, SampleTimeFine or ``--rate`` (checked against each other; a rate given only
+by hand against the recordings, :mod:`aceval.signals.rate_check`). The files of a trial must
+share their PacketCounter range (one synchronised recording, no sample lost), or be trimmed to
+the samples they share (``--trim-to-shared``).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -40,6 +53,7 @@ import pandas as pd
 
 from aceval.data.contract import FS_TOLERANCE
 from aceval.data.errors import CalibrationError
+from aceval.data.verticals import COLUMNS as VERTICAL_COLUMNS
 from aceval.data.writer import DatasetWriter, write_sheet
 from aceval.importers.lab_sheets import (
     STANDING,
@@ -49,18 +63,11 @@ from aceval.importers.lab_sheets import (
     find_trials,
     read_lab_sensors,
     read_trials,
-    subject_sensors,
 )
+from aceval.importers.lab_trials import check_declared_rate, read_lab_trial, segment
+from aceval.importers.sensorspec import disagreements, propose_sensor_sheet
 from aceval.importers.shared import FormatError, ImportReport, mean_posture
-from aceval.importers.xsens import (
-    ACC_RANGE_G,
-    GYR_RANGE_DPS,
-    QUATERNION,
-    export_rate,
-    read_mt_export,
-    sensor_id_of,
-    unwrapped_counter,
-)
+from aceval.importers.xsens import ACC_RANGE_G, GYR_RANGE_DPS, not_an_export, xsens_samples
 from aceval.signals.segmentation import TrimParams, movement_mask
 
 
@@ -68,27 +75,77 @@ def import_xsens_lab(
     src: str | Path,
     out: Path,
     trials_path: str | Path,
-    sensors_path: str | Path,
+    sensors_path: str | Path | None,
     name: str = "xsens_lab",
     rate: float | None = None,
     trim_to_shared: bool = False,
 ) -> ImportReport:
-    """Write the dataset of every trial of ``trials_path`` (exports under ``src``) into ``out``."""
-    src, report = Path(src), ImportReport()
-    table, tests = read_trials(trials_path)
-    sensors = read_lab_sensors(sensors_path)
-    trials = find_trials(
-        src, table, report, {Path(trials_path).resolve(), Path(sensors_path).resolve()}
+    """Write the dataset of every trial of ``trials_path`` (MT Manager exports under ``src``)
+    into ``out``; without ``sensors_path``, the sensor sheet the exports' sensorspec files
+    propose is written beside ``trials_path`` and the import stops (:mod:`.sensorspec`).
+    """
+    if sensors_path is None:
+        propose_sensor_sheet(Path(src), Path(trials_path))
+    report = import_lab(
+        LabImport(
+            Path(src),
+            Path(trials_path),
+            Path(sensors_path),
+            name,
+            f"Xsens MT Manager exports ({Path(src).name}), imported by aceval import xsens --trials",
+            lambda path: xsens_samples(path, rate),
+            not_an_export,
+            trim_to_shared,
+        ),
+        out,
     )
-    fs_hz = None
+    for line in disagreements(Path(src), read_lab_sensors(sensors_path)):
+        report.note(line)
+    return report
+
+
+@dataclass(frozen=True)
+class LabImport:
+    """What a lab's import reads: its exports folder, its two sheets, the dataset's name and
+    description, ``read_file`` (a path -> its sensors'
+    :class:`aceval.importers.lab_trials.SensorSamples`), ``not_export`` (a path -> why it is not
+    an export, '' when it is) and whether to trim a trial's sensors to the samples they share.
+    """
+
+    src: Path
+    trials: Path
+    sensors: Path
+    name: str
+    description: str
+    read_file: Callable
+    not_export: Callable
+    trim_to_shared: bool = False
+
+
+def import_lab(lab: LabImport, out: Path) -> ImportReport:
+    """Write the dataset of every trial of ``lab.trials`` into ``out`` (the module docstring)."""
+    report = ImportReport()
+    table, tests = read_trials(lab.trials)
+    sensors = read_lab_sensors(lab.sensors)
+    sheets = {lab.trials.resolve(), lab.sensors.resolve()}
+    trials = find_trials(lab.src, table, report, sheets, lab.not_export)
+    fs_hz, read, declared = None, {}, []
     for trial in trials:
-        trial.sensors, trial_fs = _read_trial(trial, sensors, rate, trim_to_shared, report)
+        files = tuple(trial.files)
+        if files not in read:  # the segments of one recording read it once
+            read[files] = read_lab_trial(trial, sensors, lab.read_file, lab.trim_to_shared, report)
+        found, trial_fs, by_hand = read[files]
         if fs_hz is not None and abs(trial_fs / fs_hz - 1) > FS_TOLERANCE:
             raise FormatError(
                 f"{trial.where} is sampled at {trial_fs:g} Hz, the trials before it at {fs_hz:g} "
                 "Hz: a dataset has one rate; import the two rates as two datasets"
             )
         fs_hz = fs_hz or trial_fs
+        trial.sensors = segment(trial, found, fs_hz)
+        if by_hand and files not in declared:
+            declared.append(files)
+    if declared:
+        check_declared_rate([read[files][0] for files in declared], fs_hz, report)
     for trial in trials:
         trial.parts = _parts(trial, fs_hz, tests)
         if tests[trial.test]["first_phase"] == "gait":
@@ -96,105 +153,11 @@ def import_xsens_lab(
     _check_statics(trials, tests)
     imus = _imus(trials)
     _check_right_axes(imus, trials, tests, fs_hz)
-    writer = DatasetWriter(out, _meta(name, src, fs_hz, imus))
+    writer = DatasetWriter(out, _meta(lab, fs_hz, imus))
     repetitions = _write(writer, trials, report)
     writer.close()
     _sheets(out, tests, repetitions, imus, trials, report)
     return report
-
-
-def _read_trial(trial: Trial, sensors, rate, trim_to_shared: bool, report: ImportReport):
-    """``({sensor_id: {acc, gyr, quat, row, file}}, fs_hz)`` of one trial: its exports read, their
-    rates checked and their samples synchronised by PacketCounter.
-    """
-    rows = subject_sensors(sensors, trial.subject)
-    tables, rates, paths = {}, {}, {}
-    for path in trial.files:
-        header, table = read_mt_export(path)
-        sensor = sensor_id_of(path, header)
-        if sensor not in rows:
-            report.add(path.name, trial.subject, sensor, "skipped", "sensor not in sensors.tsv")
-            report.note(
-                f"{path}: sensor {sensor} is not in sensors.tsv for {trial.subject}: skipped"
-            )
-            continue
-        if sensor in tables:
-            raise FormatError(
-                f"{trial.where}: two exports of sensor {sensor}: {paths[sensor]}, {path}"
-            )
-        rates[sensor], tables[sensor], paths[sensor] = (
-            export_rate(header, table, path, rate),
-            table,
-            path,
-        )
-    if not tables:
-        raise FormatError(
-            f"{trial.where}: none of its {len(trial.files)} export(s) is of a sensor that "
-            f"sensors.tsv lists for subject {trial.subject}"
-        )
-    if max(rates.values()) / min(rates.values()) - 1 > FS_TOLERANCE:
-        listed = ", ".join(f"{s} {r:g} Hz" for s, r in rates.items())
-        raise FormatError(f"{trial.where}: its sensors were sampled at different rates ({listed})")
-    tables = _synchronised(trial, tables, paths, trim_to_shared, report)
-    for sensor in rows:
-        if sensor not in tables:
-            imu = rows[sensor]["imu"]
-            report.add(trial.where, trial.subject, imu, "missing", f"no export of sensor {sensor}")
-            report.note(
-                f"{trial.where}: no export of sensor {sensor} ({imu}): its IMU is missing there"
-            )
-    found = {
-        s: {
-            "acc": t[["Acc_X", "Acc_Y", "Acc_Z"]].to_numpy(float),
-            "gyr": t[["Gyr_X", "Gyr_Y", "Gyr_Z"]].to_numpy(float),
-            "quat": t[QUATERNION].to_numpy(float) if set(QUATERNION) <= set(t) else None,
-            "row": rows[s],
-            "file": paths[s].name,
-        }
-        for s, t in tables.items()
-    }
-    return found, next(iter(rates.values()))
-
-
-def _synchronised(trial: Trial, tables: dict, paths: dict, trim: bool, report) -> dict:
-    """The trial's tables on the samples they share by PacketCounter (all of them, or trimmed to
-    the common range with ``trim``); FormatError with each sensor's range otherwise.
-    """
-    counters = {s: unwrapped_counter(t, paths[s]) for s, t in tables.items()}
-    ranges = {s: (int(c[0]), int(c[-1])) for s, c in counters.items()}
-    if len(set(ranges.values())) == 1:
-        return tables
-    first, last = max(a for a, _ in ranges.values()), min(b for _, b in ranges.values())
-    common = max(set(ranges.values()), key=list(ranges.values()).count)
-    others = sum(r == common for r in ranges.values())
-    listed = "; ".join(
-        f"{s}: {b - a + 1} samples (PacketCounter {a}-{b})"
-        for s, (a, b) in ranges.items()
-        if (a, b) != common or others == 1
-    )
-    if others > 1:
-        listed += f"; the other {others}: {common[1] - common[0] + 1} ({common[0]}-{common[1]})"
-    if first > last:
-        raise FormatError(
-            f"{trial.where}: its sensors share no sample ({listed}): they were not recorded "
-            "together (a trial is one synchronised recording)"
-        )
-    if not trim:
-        raise FormatError(
-            f"{trial.where}: its sensors do not cover the same samples ({listed}). Pass "
-            f"--trim-to-shared to keep the {last - first + 1} samples all of them share, or "
-            "re-export the trial"
-        )
-    cut = {s: (first - a, b - last) for s, (a, b) in ranges.items() if (a, b) != (first, last)}
-    report.note(
-        f"{trial.where}: trimmed to the {last - first + 1} samples all sensors share ("
-        + ", ".join(f"{s}: {a} at the start, {b} at the end" for s, (a, b) in cut.items())
-        + ")"
-    )
-    return {
-        s: t[(counters[s] >= first) & (counters[s] <= last)].reset_index(drop=True)
-        for s, t in tables.items()
-    }
 
 
 def _parts(trial: Trial, fs_hz: float, tests: dict) -> dict:
@@ -385,12 +348,11 @@ def _check_right_axes(imus, trials, tests, fs_hz: float) -> None:
     )
 
 
-def _meta(name: str, src: Path, fs_hz: float, imus: pd.DataFrame) -> dict:
+def _meta(lab: LabImport, fs_hz: float, imus: pd.DataFrame) -> dict:
     """dataset.yaml of the import."""
     return {
-        "name": name,
-        "description": f"Xsens MT Manager exports ({src.name}), imported by aceval import xsens "
-        "--trials",
+        "name": lab.name,
+        "description": lab.description,
         "simulated": False,
         "sampling_rate_hz": fs_hz,
         "units": {"acc": "m/s^2", "gyr": "rad/s"},
@@ -412,6 +374,7 @@ def _write(writer: DatasetWriter, trials, report: ImportReport) -> dict:
             rep = trial.rep if test == trial.test else generated.get((trial.subject, test), 0) + 1
             generated[(trial.subject, test)] = rep
             pieces.append((test, rep, span, test == WALKING_VERTICAL))
+            part["written"] = (test, rep)
         if part["motion"] is not None:
             pieces.append((trial.test, trial.rep, part["motion"], False))
         for test, rep, span, mean in pieces:
@@ -430,6 +393,25 @@ def _write(writer: DatasetWriter, trials, report: ImportReport) -> dict:
         for f in trial.sensors.values():
             report.add(f["file"], trial.subject, f["row"]["imu"], "imported", ", ".join(written))
     return repetitions
+
+
+def verticals(trials: list[Trial]) -> list[list]:
+    """verticals.tsv's rows (:mod:`aceval.data.verticals`): each motion repetition whose
+    recording holds quiet standing (its first seconds, or another segment of the recording that
+    is static) gets that standing's vertical, its own: the sensors may have been put on again
+    between recordings. The walking fallback is not quiet standing and stays averaged.
+    """
+    standing = {}  # the recording's files -> its quiet standing's (test, rep)
+    for trial in trials:
+        if trial.parts.get("written") and trial.static != "walking":
+            standing.setdefault(tuple(trial.files), trial.parts["written"])
+    return [
+        [trial.subject, trial.test, trial.rep, *standing[tuple(trial.files)]]
+        for trial in trials
+        if trial.parts["motion"] is not None
+        and trial.static != "walking"
+        and tuple(trial.files) in standing
+    ]
 
 
 def _sheets(out: Path, tests: dict, repetitions: dict, imus, trials, report) -> None:
@@ -467,21 +449,32 @@ def _sheets(out: Path, tests: dict, repetitions: dict, imus, trials, report) -> 
         for imu in dict.fromkeys(imus.loc[imus["segment"].isin(tests[t]["calibrates"]), "imu"])
     ]
     write_sheet(out / "calibrates.tsv", ["test", "imu"], calibrates)
-    sources = {}
+    own, sources = verticals(trials), {}
     for trial in trials:
         named = {None: "", "file": "standing trial", "walking": "walking (FALLBACK)"}
         source = named[trial.static] if trial.static in named else f"first {trial.static:g} s"
         if source:
             sources.setdefault(trial.subject, []).append(source)
+    each = {row[0] for row in own}  # each repetition its own recording's standing
     write_sheet(
         out / "subjects.tsv",
         ["subject", "z0_source"],
         [
-            [s, ", ".join(dict.fromkeys(sources.get(s, [])))]
+            [
+                s,
+                ", ".join(dict.fromkeys(sources.get(s, [])))
+                + (" (per repetition: its own recording's)" if s in each else ""),
+            ]
             for s in dict.fromkeys(t.subject for t in trials)
         ],
     )
     write_sheet(out / "imus.tsv", IMU_COLUMNS, imus.to_numpy().tolist())
+    if own:
+        write_sheet(out / "verticals.tsv", VERTICAL_COLUMNS, own)
+        report.note(
+            f"{len(own)} motion repetition(s) take the vertical of their own recording's quiet "
+            "standing (verticals.tsv), not the average of all of their subject's"
+        )
     calibrated = {imu for _, imu in calibrates}
     motion = {t: ", ".join(v["calibrates"]) for t, v in tests.items() if v["kind"] == "motion"}
     for row in imus[~imus["imu"].isin(calibrated)].itertuples():

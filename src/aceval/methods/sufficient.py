@@ -87,6 +87,9 @@ class Units:
     ``first_phase`` and ``segment`` (U,) str. Per repetition (padded): ``rep`` (U, R) its number
     (0 where absent), ``present`` (U, R), ``n_samples`` (U, R) the samples the trimmer kept, and
     ``values``: each declared statistic's parts (name -> (U, R, ...)), of the ``statistics`` given.
+    ``z0_rep`` (U, R, 3), optional: each repetition's own vertical (verticals.tsv), NaN for the
+    units whose repetitions share ``z0``; a calibration from several repetitions takes the
+    normalised mean of theirs.
     """
 
     z0: np.ndarray
@@ -99,9 +102,23 @@ class Units:
     n_samples: np.ndarray
     statistics: tuple[Statistic, ...]
     values: dict[str, np.ndarray] = field(default_factory=dict)
+    z0_rep: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.z0)
+
+    def pooled_z0(self, unit: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        """(B, 3) the vertical of each row's weighted repetitions: the unit's ``z0``, or where
+        its repetitions have their own (``z0_rep``), their weighted mean, normalised.
+        """
+        z0 = self.z0[unit]
+        if self.z0_rep is None:
+            return z0
+        own = self.z0_rep[unit]
+        mean = np.einsum("br,brk->bk", weights, np.nan_to_num(own))
+        norm = np.linalg.norm(mean, axis=1, keepdims=True)
+        per_rep = np.isfinite(own).all(axis=(1, 2)) & (norm[:, 0] > 0)
+        return np.where(per_rep[:, None], mean / np.where(norm > 0, norm, 1.0), z0)
 
     def get(self, name: str) -> np.ndarray | None:
         """A part's values (U, R, ...), None where the summaries had none."""
@@ -260,7 +277,7 @@ def pool(units: Units, unit: np.ndarray, weights: np.ndarray, subsets: bool = Tr
     return Pooled(
         unit=unit,
         weights=weights,
-        z0=units.z0[unit],
+        z0=units.pooled_z0(unit, weights),
         right=units.right[unit],
         rho_static=units.rho_static[unit],
         first_phase=units.first_phase[unit],

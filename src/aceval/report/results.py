@@ -309,6 +309,18 @@ def summary_text(
     truth = data.get("ground_truth")
     if calibrations is not None and (warning := truth_warning(calibrations, truth)):
         notes.append(f"- {warning}")
+    if calibrations is not None and "z0_tests" in calibrations:
+        from aceval.calibrate.plan import PER_REPETITION
+
+        own = calibrations.loc[calibrations["z0_tests"].astype(str).str.endswith(PER_REPETITION)]
+        if len(own):
+            notes.append(
+                f"- Each repetition has its own vertical (z0): the quiet standing of its own "
+                f"recording (verticals.tsv; {own['subject'].nunique()} subject(s), tests "
+                f"{', '.join(sorted(own['test'].unique()))}), so repeated trials with the sensors "
+                "put on again stay repetitions of one subject; a calibration from several "
+                "repetitions uses the mean of their verticals."
+            )
     return summary.to_markdown(
         found,
         meta.get("name", ""),
