@@ -133,3 +133,17 @@ def test_the_committed_operating_characteristics_cover_every_claim_at_both_n():
     np.testing.assert_allclose(shares, 1.0, atol=1e-9)
     claims = pd.read_csv(REPO / "results" / "kong_powered" / "tables" / "claims.csv")
     assert set(claims.loc[claims["cells"] > 0, "claim"]) == set(kong["claim"])
+
+
+def test_a_superiority_claim_is_true_or_false_by_a_relevant_amount():
+    """'> 0' with a smallest effect of interest of 1: true by 0.5 SD puts the cell 0.5 SD past
+    +1, false by 0.5 SD 0.5 SD past -1, on the bound at 0 (where 'no relevant difference' is the
+    right answer)."""
+    wide = _population([0.2], sd=0.3)
+    req = requirement_arrays([Requirement.of(">", 0.0, 1.0)])
+    sd = wide.std().iloc[0]
+    true, on, false = (operating.shifted(wide, req, "all", t).mean().iloc[0] for t in (0.5, 0, -0.5))
+    assert (true, on, false) == pytest.approx((1.0 + 0.5 * sd, 0.0, -1.0 - 0.5 * sd))
+    rng = np.random.default_rng(4)
+    at_zero = operating.sampled(operating.shifted(wide, req, "all", 0.0), req, "all", 60, rng)
+    assert at_zero["p_negligible"] > 0.95

@@ -135,7 +135,9 @@ def test_one_subject_gives_no_interval_and_the_claim_is_not_testable():
     judged = v.judge(_cells({"a": [0.1]}), {"a": Requirement.of("<", 1.0)})
     assert judged.verdict == UNTESTABLE and np.isnan(judged.estimates["low"].iloc[0])
     assert judged.estimates["n"].tolist() == [1]
-    two = v.judge(_cells({"a": [0.1], "b": [0.2, 0.3]}), dict.fromkeys("ab", Requirement.of("<", 1.0)))
+    two = v.judge(
+        _cells({"a": [0.1], "b": [0.2, 0.3]}), dict.fromkeys("ab", Requirement.of("<", 1.0))
+    )
     assert two.verdict == INCONCLUSIVE  # one cell has an interval: testable, not decided
 
 

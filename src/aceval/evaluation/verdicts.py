@@ -89,7 +89,7 @@ class Requirement:
         """Equivalence: strictly within ``target`` +- ``margin`` (two one-sided tests)."""
         return cls(above=target - margin, below=target + margin)
 
-    def text(self, digits: int = 3) -> str:
+    def text(self, digits: int = 4) -> str:
         """'< 2.5', '>= 0.14', '> -0.004 and < 0.004', '> 0; no relevant difference within +-1'."""
         parts = []
         if np.isfinite(self.above):

@@ -203,8 +203,9 @@ def _subjects_text(table: pd.DataFrame, row: pd.Series, subjects: str) -> str:
     interval.
     """
     low, high = int(table["n"].min()), int(table["n"].max())
+    one = {"subjects": "subject", "children": "child"}.get(subjects, subjects)
     text = (
-        f"n {high} {subjects}"
+        f"n {high} {one if high == 1 else subjects}"
         if low == high
         else f"n {low}-{high} {subjects} per cell (this cell {int(row['n'])})"
     )

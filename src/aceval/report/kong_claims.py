@@ -513,7 +513,8 @@ def blind_spots(found: list, tables: dict) -> list[str]:
     keys = {c.key: c for c in found}
     if not any(key.startswith(("obj", "truth")) for key in keys):
         return []
-    truth = [c for c in found if c.section == GROUND_TRUTH and c.verdict != UNTESTABLE]
+    truth = [c for c in found if c.section == GROUND_TRUTH]
+    testable = [c for c in truth if c.verdict != UNTESTABLE]
     lines = [
         "What each family of Kong's claims can see:",
         "",
@@ -530,6 +531,9 @@ def blind_spots(found: list, tables: dict) -> list[str]:
             "the recommended test against the best other test is relative (an error every "
             "test shares cancels in it); Kong's error per segment against "
             f"{ACCEPTABLE_ERROR_DEG:g} deg is absolute (section 'Against the ground truth')."
+            if testable
+            else "this dataset's ground-truth claims cannot be tested here (their lines say why), "
+            "so no claim here sees a calibration that is wrong by a constant amount."
             if truth
             else "this dataset has none, so no claim here sees a calibration that is wrong by a "
             "constant amount."

@@ -69,13 +69,26 @@ SEED = 42
 # --- operating characteristics ------------------------------------------------------------------
 
 
+def placed_against(req: dict, target: float) -> dict:
+    """The requirement a scenario is placed against: a superiority cell's bound moved to the edge
+    of its negligible band (its smallest effect of interest), on the claim's side when the claim
+    is true (``target`` > 0: true by a relevant amount), on the other side when it is false (a
+    relevant difference the other way); the bound itself when on it.
+    """
+    shift = np.sign(target) * np.nan_to_num(req["smallest_effect"], nan=0.0)
+    return {**req, "above": req["above"] + shift, "below": req["below"] - shift}
+
+
 def shifted(wide: pd.DataFrame, req: dict, combine: str, target: float | None) -> pd.DataFrame:
     """The population with every cell moved so that the deciding cell lies ``target`` of its SDs
-    on the claim's side of its nearest bound (negative: beyond it), each other cell by the same
-    number of its own SDs (a range's cell no farther in than its middle); None: as it is.
+    on the claim's side of its nearest bound (negative: beyond it; a superiority cell's bound
+    taken at the edge of its smallest effect of interest, :func:`placed_against`), each other
+    cell by the same number of its own SDs (a range's cell no farther in than its middle); None:
+    as it is.
     """
     if target is None:
         return wide
+    req = placed_against(req, target)
     mean, sd = wide.mean().to_numpy(), wide.std().to_numpy()
     z = margins(mean, sd, req)
     finite = np.isfinite(z)
@@ -269,7 +282,10 @@ def _markdown(analysis: dict, table: pd.DataFrame, verdicts: pd.DataFrame) -> st
             "",
             f"Population: the subjects of the committed powered design (Ricci: its children), each "
             f"claim's cells shifted so that the deciding cell lies {SHIFT_SD:g} SD on the claim's side "
-            f"of its bound (true), on it, or {SHIFT_SD:g} SD beyond it (false), or as simulated; "
+            f"of its bound (true), on it, or {SHIFT_SD:g} SD beyond it (false), or as simulated (a "
+            "superiority claim's bound taken at the edge of its smallest effect of interest when "
+            "true or false: true or false by a relevant amount; on the bound, 'no relevant "
+            "difference' is the right answer where the subjects' SD is small against it); "
             f"{DRAWS} samples of n subjects with replacement per row. p_negligible: 'no relevant "
             "difference'. coverage: the cells' 95 % intervals (median and smallest over the cells) "
             "and the simultaneous ones (every cell at once) around the population means.",
