@@ -222,3 +222,35 @@ def test_summary_states_each_familys_rule_and_what_it_cannot_see():
         c.judgement is not None and c.judgement.combine == "majority" for c in found
     )
     assert INCONCLUSIVE  # the vocabulary is the claims module's
+
+
+@pytest.mark.slow
+def test_the_regenerated_kong_sim_turned_by_10_or_25_deg_turns_the_absolute_claim(regenerated):
+    """The committed configuration regenerated (conftest's ``regenerated``): Kong's own
+    calibrations of kong_sim turned by 10 and 25 deg about z0 in every test (median error to the
+    truth about 10 and 25 deg per segment). Measured when written: the absolute claim leans
+    'holds' (shank T6 4.14 deg, 16 subjects would decide it) and turns to 'does not hold' (thigh
+    T6 10.72 and 25.61 deg); the relative claim and the angle claims do not move."""
+    import re
+
+    from aceval.data.dataset import load_dataset
+    from aceval.evaluation.objectives import all_angles
+
+    folder = regenerated.workdir / "results" / "kong_sim" / "calibrations"
+    batches = [
+        p for p in sorted(folder.glob("_batch*.csv")) if re.fullmatch(r"_batch\d+\.csv", p.name)
+    ]
+    calibrations = pd.concat([pd.read_csv(p, low_memory=False) for p in batches], ignore_index=True)
+    calibrations = calibrations[calibrations["method"] == "kong"].assign(error_deg=np.nan)
+    truth = load_dataset(regenerated.workdir / "resources" / "kong_sim").ground_truth
+    found = {}
+    for degrees in (0.0, 10.0, 25.0):
+        turned = with_truth(_turned(calibrations, degrees) if degrees else calibrations, truth)
+        evidence = kong_claims.Evidence({}, None, all_angles(turned, 3), turned)
+        found[degrees] = {key: rule.apply(evidence).verdict for key, rule in RULES.items()
+                          if key.startswith(("truth", "obj3", "obj4", "obj5"))}  # fmt: skip
+    assert found[0.0]["truth_kong_error_below_5"] in (HOLDS, INCONCLUSIVE)
+    for degrees in (10.0, 25.0):
+        assert found[degrees]["truth_kong_error_below_5"] == FAILS
+        unchanged = {k: v for k, v in found[degrees].items() if k != "truth_kong_error_below_5"}
+        assert unchanged == {k: v for k, v in found[0.0].items() if k in unchanged}

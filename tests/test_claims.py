@@ -97,7 +97,8 @@ def test_set_preference_reads_the_subjects_differences_and_says_when_the_paper_p
     claim = apply(_set_units(8, {"head": -1.5, "thigh": 1.5}))
     assert claim.verdict == HOLDS
     assert "exact sign-flip test cannot go below p 0.0625" in claim.numbers
-    assert "p < 0.001 only with |t| > 8.61" in claim.numbers
+    assert "p < 0.001 only with t beyond +-8.61" in claim.numbers
+    assert "|" not in claim.numbers  # SUMMARY.md's tables are pipe-separated
     assert apply(_set_units(8, {"head": 1.5, "thigh": 1.5})).verdict == FAILS
     assert apply(_set_units(8, {"head": 0.05, "thigh": -0.05})).verdict == claims.NEGLIGIBLE
     assert "sign-flip" not in apply(_set_units(8, {"head": -1.5}, subjects=12)).numbers

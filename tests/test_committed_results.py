@@ -140,6 +140,8 @@ def test_the_operating_characteristics_regenerate_from_the_committed_cells(tmp_p
     assert operating.main([str(results)]) == 0
     for name in (
         "power.csv",
+        "family_power.csv",
+        "power_check.csv",
         "operating_characteristics.csv",
         "operating_characteristics.md",
         "verdicts_by_design.csv",

@@ -150,3 +150,17 @@ def test_the_claims_without_subjects_are_recomputed_from_the_committed_tables():
     verdict, _ = ricci_claims._random_starts(ricci_claims.Evidence({"ricci_lm": lm}, None))
     committed = _read(RESULTS / "ricci_sim", "claims").set_index("claim")
     assert committed.loc["ricci_random_starts", "verdict"] == verdict
+
+
+@pytest.mark.parametrize("folder", FOLDERS, ids=lambda p: p.name)
+def test_every_summary_table_row_has_its_headers_cells(folder):
+    """A '|' inside a claim's numbers (a '|t|') split its row and shifted every verdict after it;
+    each row of SUMMARY.md's tables has as many cells as its table's header."""
+    width = None
+    for line in (folder / "SUMMARY.md").read_text().splitlines():
+        if not line.startswith("|"):
+            width = None
+            continue
+        if width is None:
+            width = line.count("|")
+        assert line.count("|") == width, line[:120]

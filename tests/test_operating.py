@@ -142,7 +142,9 @@ def test_a_superiority_claim_is_true_or_false_by_a_relevant_amount():
     wide = _population([0.2], sd=0.3)
     req = requirement_arrays([Requirement.of(">", 0.0, 1.0)])
     sd = wide.std().iloc[0]
-    true, on, false = (operating.shifted(wide, req, "all", t).mean().iloc[0] for t in (0.5, 0, -0.5))
+    true, on, false = (
+        operating.shifted(wide, req, "all", t).mean().iloc[0] for t in (0.5, 0, -0.5)
+    )
     assert (true, on, false) == pytest.approx((1.0 + 0.5 * sd, 0.0, -1.0 - 0.5 * sd))
     rng = np.random.default_rng(4)
     at_zero = operating.sampled(operating.shifted(wide, req, "all", 0.0), req, "all", 60, rng)

@@ -248,7 +248,7 @@ def described(judgement: Judgement, found: Cells) -> str:
     which = {
         HOLDS: "closest to its bound",
         FAILS: "farthest beyond its bound",
-        NEGLIGIBLE: "closest to a relevant difference",
+        NEGLIGIBLE: "with the smallest margin",
     }.get(judgement.verdict, "closest to failing")
     which = "at the majority" if found.combine == "majority" else which
     names = ["shown", "beyond", "undecided"]

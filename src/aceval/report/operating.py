@@ -218,8 +218,9 @@ def verdicts_by_design(results: Path) -> pd.DataFrame:
     )
 
 
-#: the sizes at which the family's joint probability of being decided is tabulated
-FAMILY_SIZES = (5, 20, 40, 60, 80, 93, 100)
+#: the sizes at which the family's joint probability of being decided is tabulated: the paper's,
+#: the powered design's, the one before it (93) and the budget
+FAMILY_SIZES = tuple(sorted({5, 20, 40, 60, 80, POWERED_N, 93, AFFORDABLE_N}))
 
 
 def _percent(table: pd.DataFrame, columns) -> pd.DataFrame:

@@ -110,6 +110,11 @@ def assurance(wide: pd.DataFrame, req: dict, combine: str, n: int, rng) -> float
     return float(np.mean([decided_probability(m, s, req, combine, n) for m, s in zip(mu, sigma)]))
 
 
+def _scaled(factor: float) -> str:
+    """The column of the n at the SDs scaled by ``factor``: 'n_sd_x1_5'."""
+    return f"n_sd_x{factor:g}".replace(".", "_")
+
+
 def _claim_power(wide, req, combine, leaning: str, design_n: int, rng) -> dict:
     """One claim's n to decide (observed SDs, their upper limit, scaled) and its probabilities of
     deciding at ``design_n``.
@@ -117,12 +122,12 @@ def _claim_power(wide, req, combine, leaning: str, design_n: int, rng) -> dict:
     mean, sd = wide.mean().to_numpy(), wide.std().to_numpy()
     ucl = sd * sd_ucl_factor(int(wide.count().min()))
     row = {"n_to_decide": np.nan, "n_at_sd_ucl": np.nan}
-    row |= {f"n_sd_x{f:g}": np.nan for f in SD_FACTORS}
+    row |= {_scaled(f): np.nan for f in SD_FACTORS}
     if leaning:
         row["n_to_decide"] = n_to_decide(mean, sd, req, combine, leaning)
         row["n_at_sd_ucl"] = n_to_decide(mean, ucl, req, combine, leaning)
         for f in SD_FACTORS:
-            row[f"n_sd_x{f:g}"] = n_to_decide(mean, sd * f, req, combine, leaning)
+            row[_scaled(f)] = n_to_decide(mean, sd * f, req, combine, leaning)
     finite = np.isfinite(sd).all()
     row["p_decide"] = decided_probability(mean, sd, req, combine, design_n) if finite else np.nan
     row["p_decide_sd_ucl"] = (
