@@ -9,18 +9,22 @@ import pytest
 from aceval.evaluation import verdicts
 from aceval.evaluation.verdicts import Requirement, requirement_arrays
 from aceval.report import claims
-from aceval.report.claims import FAILS, HOLDS, INCONCLUSIVE, UNTESTABLE
+from aceval.report.claims import FAILS, HOLDS, INCONCLUSIVE, NEGLIGIBLE, UNTESTABLE
 
 NAN, INF = float("nan"), float("inf")
 
 
-def state(low, high, requirement: Requirement) -> str:
-    """One cell's interval against its requirement: 'shown', 'beyond' or 'undecided'."""
-    shown, beyond = verdicts.cell_states(
-        np.array([low]), np.array([high]), requirement_arrays([requirement])
+def state(low, high, requirement: Requirement, low_each=None, high_each=None) -> str:
+    """One cell's interval against its requirement: 'shown', 'beyond', 'negligible' or
+    'undecided' (``low_each``, ``high_each``: its own interval, default the same one)."""
+    each = [None if v is None else np.array([v]) for v in (low_each, high_each)]
+    shown, beyond, negligible = verdicts.cell_states(
+        np.array([low]), np.array([high]), requirement_arrays([requirement]), *each
     )
-    assert not (shown[0] and beyond[0]), "a cell cannot be on both sides"
-    return "shown" if shown[0] else "beyond" if beyond[0] else "undecided"
+    assert shown[0] + beyond[0] + negligible[0] <= 1, "a cell has one state"
+    if shown[0] or beyond[0]:
+        return "shown" if shown[0] else "beyond"
+    return "negligible" if negligible[0] else "undecided"
 
 
 # (low, high, limit, side, state): an interval wholly on one side, wholly on the other,
@@ -111,11 +115,50 @@ def test_requirements_print_their_bounds():
     assert Requirement.of("<", 2.5).text() == "< 2.5"
     assert Requirement.of(">=", 0.14).text() == ">= 0.14"
     assert Requirement.within(0.0, 0.004).text() == "> -0.004 and < 0.004"
+    assert Requirement.of(">", 0.0, 1.0).text() == "> 0; no relevant difference within +-1"
+
+
+# (low, high, state) of a superiority cell "> 0" with a smallest effect of interest of 1: within
+# +-1 of the bound it is negligible, whichever side and however significant
+SUPERIORITY = [
+    (0.2, 1.5, "shown"),  # above 0, not within the band: a difference shown, relevance open
+    (1.2, 1.5, "shown"),
+    (0.2, 0.9, "negligible"),  # above 0 but within +-1: too small to matter
+    (-0.5, 0.5, "negligible"),
+    (-0.9, -0.1, "negligible"),  # below 0, within the band: not beyond
+    (-1.5, -0.1, "beyond"),
+    (-0.5, 1.5, "undecided"),
+    (-1.0, 0.5, "undecided"),  # touching the band's edge is not inside it
+]
+
+
+@pytest.mark.parametrize("low, high, expected", SUPERIORITY)
+def test_a_superiority_cell_with_a_smallest_effect_of_interest(low, high, expected):
+    assert state(low, high, Requirement.of(">", 0.0, 1.0)) == expected
+    mirrored = {"shown": "shown", "beyond": "beyond"}.get(expected, expected)
+    assert state(-high, -low, Requirement.of("<", 0.0, 1.0)) == mirrored
+
+
+def test_shown_reads_the_cells_own_interval_and_beyond_the_simultaneous_one():
+    """An all-cells claim is shown on each cell's own 95 % interval (intersection-union) and
+    fails on the simultaneous one: a cell whose own interval is above 0 but whose simultaneous
+    interval straddles it is shown; one whose own interval is below 0 but whose simultaneous
+    interval straddles it is not beyond."""
+    requirement = Requirement.of(">", 0.0)
+    assert state(-0.2, 1.0, requirement, 0.1, 0.8) == "shown"
+    assert state(-1.0, 0.2, requirement, -0.8, -0.1) == "undecided"
+    assert state(-1.0, -0.1, requirement, -0.8, -0.3) == "beyond"
 
 
 # (cell states, combine, verdict): 'all' needs every cell shown and fails on one beyond;
 # 'majority' ("mostly") holds on more than half shown and fails on at least half beyond
 COMBINED = [
+    (["negligible"], "all", NEGLIGIBLE),
+    (["shown", "negligible"], "all", NEGLIGIBLE),
+    (["negligible", "undecided"], "all", INCONCLUSIVE),
+    (["negligible", "beyond"], "all", FAILS),
+    (["negligible", "shown", "shown"], "majority", HOLDS),
+    (["negligible", "undecided"], "majority", INCONCLUSIVE),
     (["shown"], "all", HOLDS),
     (["shown"] * 3, "all", HOLDS),
     (["beyond"], "all", FAILS),
@@ -134,13 +177,15 @@ COMBINED = [
 @pytest.mark.parametrize("states, combine, verdict", COMBINED)
 def test_cells_combine_into_a_verdict(states, combine, verdict):
     states = np.array(states)
-    code = verdicts.combined(states == "shown", states == "beyond", combine)
+    code = verdicts.combined(
+        states == "shown", states == "beyond", states == "negligible", combine=combine
+    )
     assert verdicts.CODES[int(code)] == verdict
 
 
 def test_an_unknown_combination_is_refused():
     with pytest.raises(ValueError, match="not one of"):
-        verdicts.combined(np.array([True]), np.array([False]), "any")
+        verdicts.combined(np.array([True]), np.array([False]), combine="any")
 
 
 def test_a_claim_without_cells_is_not_testable():
@@ -180,4 +225,4 @@ def test_a_rule_applies_its_judge_and_keeps_its_words():
     assert claim.section == claims.PAPER
     code = claims.Rule("Obj 3-5", "c", "r", lambda e: (UNTESTABLE, "why"), claims.CODE)
     assert code.apply(None).section == claims.CODE and code.apply(None).numbers == "why"
-    assert claims.VERDICTS == (HOLDS, FAILS, INCONCLUSIVE, UNTESTABLE)
+    assert claims.VERDICTS == (HOLDS, FAILS, INCONCLUSIVE, NEGLIGIBLE, UNTESTABLE)

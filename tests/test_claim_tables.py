@@ -33,22 +33,24 @@ def _rule(values=VALUES, combine="all") -> claims.Rule:
     return claims.Rule("Obj 3", "below 2.5 deg", "every cell < 2.5", judge, key="below_2.5")
 
 
-def _by_hand(values) -> tuple[float, float, float]:
-    """Mean and the interval simultaneous over two cells (97.5 % each)."""
+def _by_hand(values, level=0.975) -> tuple[float, float, float]:
+    """Mean and the interval simultaneous over two cells (97.5 % each), or at ``level``."""
     x = np.asarray(values)
-    low, high = scipy_stats.t.interval(0.975, len(x) - 1, loc=x.mean(), scale=scipy_stats.sem(x))
+    low, high = scipy_stats.t.interval(level, len(x) - 1, loc=x.mean(), scale=scipy_stats.sem(x))
     return float(x.mean()), float(low), float(high)
 
 
 def test_an_undecided_claim_prints_its_deciding_cell_adjustment_states_and_note():
     claim = _rule().apply(None)
     mean, low, high = _by_hand(VALUES["b"])
-    assert high > 2.5 > mean  # undecided by construction
+    _, own_low, own_high = _by_hand(VALUES["b"], 0.95)
+    assert own_high > 2.5 > mean  # undecided by construction, even on its own 95 % interval
     assert claim.verdict == INCONCLUSIVE and claim.key == "below_2.5"
     assert claim.numbers == (
-        f"cell closest to failing: b {mean:.2f} [{low:.2f}, {high:.2f}] deg (< 2.5 deg); "
-        "97.5 % intervals: simultaneous 95 % over 2 cells (Bonferroni); cells shown / beyond / "
-        "undecided: 1 / 0 / 1; n 5 subjects; the paper: < 2.5"
+        f"cell closest to failing: b {mean:.2f} [{own_low:.2f}, {own_high:.2f}] deg, "
+        f"simultaneous [{low:.2f}, {high:.2f}] (< 2.5 deg); own 95 % intervals for 'holds', "
+        "97.5 % simultaneous over 2 cells (Bonferroni) for 'does not hold'; cells shown / beyond "
+        "/ undecided: 1 / 0 / 1; n 5 subjects; the paper: < 2.5"
     )
     assert claim.cells["cell"].tolist() == ["a"] * 5 + ["b"] * 5
 
@@ -138,7 +140,11 @@ def test_a_claim_without_cells_and_the_adjustment_text():
     assert claim.verdict == UNTESTABLE and claim.numbers == "no cell"
     assert claims.adjustment(1) == "95 % interval, one cell"
     assert claims.adjustment(13) == (
-        "99.6 % intervals: simultaneous 95 % over 13 cells (Bonferroni)"
+        "own 95 % intervals for 'holds', 99.6 % simultaneous over 13 cells (Bonferroni) for "
+        "'does not hold'"
+    )
+    assert claims.adjustment(13, "majority") == (
+        "99.6 % intervals: simultaneous 95 % over 13 cells (Bonferroni), both verdicts"
     )
 
 
@@ -191,10 +197,12 @@ def test_the_numbers_text_without_unit_or_note_and_with_its_own_digits():
 
     claim = claims.Rule("Obj 3", "c", "r", judge).apply(None)
     mean, low, high = _by_hand(VALUES["b"])
+    _, own_low, own_high = _by_hand(VALUES["b"], 0.95)
     assert claim.numbers == (
-        f"cell closest to failing: b {mean:.3f} [{low:.3f}, {high:.3f}] (< 2.5); 97.5 % "
-        "intervals: simultaneous 95 % over 2 cells (Bonferroni); cells shown / beyond / "
-        "undecided: 1 / 0 / 1; n 5 subjects"
+        f"cell closest to failing: b {mean:.3f} [{own_low:.3f}, {own_high:.3f}], simultaneous "
+        f"[{low:.3f}, {high:.3f}] (< 2.5); own 95 % intervals for 'holds', 97.5 % simultaneous "
+        "over 2 cells (Bonferroni) for 'does not hold'; cells shown / beyond / undecided: 1 / 0 "
+        "/ 1; n 5 subjects"
     )
 
 
@@ -253,11 +261,12 @@ def test_the_leaning_follows_the_claims_own_combination():
 def test_the_rule_vectorised_over_resamples_and_its_pieces():
     shown = np.array([[True, True, False], [True, False, False]])
     beyond = np.array([[False, False, False], [False, False, True]])
-    assert verdicts.combined(shown, beyond, "majority").tolist() == [0, 2]
-    assert verdicts.combined(shown, beyond, "all").tolist() == [2, 1]
+    assert verdicts.combined(shown, beyond, combine="majority").tolist() == [0, 2]
+    assert verdicts.combined(shown, beyond, combine="all").tolist() == [2, 1]
     assert verdicts.level(1) == verdicts.level(0) == pytest.approx(0.95)
     assert verdicts.level(4) == pytest.approx(0.9875)
-    half = verdicts.half_width([1.0, 1.0, 1.0], [1, 2, 5], 1)
+    assert verdicts.shown_level(4) == 0.95 and verdicts.shown_level(4, "majority") == 0.9875
+    half = verdicts.half_width([1.0, 1.0, 1.0], [1, 2, 5], 0.95)
     assert np.isnan(half[0])
     assert half[1:] == pytest.approx([scipy_stats.t.ppf(0.975, n - 1) / np.sqrt(n) for n in (2, 5)])
     low_unknown = verdicts.cell_states(
@@ -276,24 +285,30 @@ def test_the_probabilities_behind_n_to_decide_by_hand():
         [Requirement.of("<", 2.5), Requirement.of(">", 1.0), Requirement.within(0.0, 1.0)]
     )
     mean, sd, n = np.array([2.0, 1.6, 0.3]), np.array([0.5, 0.4, 0.5]), 12
-    shown, beyond = verdicts.cell_probabilities(mean, sd, req, n)
-    one = lambda d: float(verdicts._one_sided(np.array([d]), n, 3)[0])  # noqa: E731
+    shown, beyond, negligible = verdicts.cell_probabilities(mean, sd, req, n, "majority")
+    one = lambda d: float(verdicts._one_sided(np.array([d]), n, 1 - 0.05 / 3)[0])  # noqa: E731
+    own = lambda d: float(verdicts._one_sided(np.array([d]), n, 0.95)[0])  # noqa: E731
     assert shown[0] == pytest.approx(one(1.0)) and beyond[0] == pytest.approx(one(-1.0))
     assert shown[1] == pytest.approx(one(1.5)) and beyond[1] == pytest.approx(one(-1.5))
     assert shown[2] == pytest.approx(one(2.6) * one(1.4))
     assert beyond[2] == pytest.approx(1 - (1 - one(-2.6)) * (1 - one(-1.4)))
+    assert negligible.tolist() == [0.0, 0.0, 0.0]
     p = shown
     two_of_three = p[0] * p[1] + p[0] * p[2] + p[1] * p[2] - 2 * p[0] * p[1] * p[2]
     assert verdicts.decide_probability(mean, sd, req, "majority", HOLDS, n) == pytest.approx(
         two_of_three
     )
-    assert verdicts.decide_probability(mean, sd, req, "all", HOLDS, n) == pytest.approx(p.prod())
+    every = verdicts.cell_probabilities(mean, sd, req, n, "all")  # shown on each own interval
+    assert every[0][0] == pytest.approx(own(1.0)) and every[1][0] == pytest.approx(one(-1.0))
+    assert verdicts.decide_probability(mean, sd, req, "all", HOLDS, n) == pytest.approx(
+        every[0].prod()
+    )
     b = beyond
     at_least_two = b[0] * b[1] + b[0] * b[2] + b[1] * b[2] - 2 * b[0] * b[1] * b[2]
     assert verdicts.decide_probability(mean, sd, req, "majority", FAILS, n) == pytest.approx(
         at_least_two
     )
     two = {k: v[:2] for k, v in req.items()}
-    still = verdicts.cell_probabilities(np.array([2.0, 3.0]), np.array([0.0, 0.0]), two, n)
+    still = verdicts.cell_probabilities(np.array([2.0, 3.0]), np.array([0.0, 0.0]), two, n)[:2]
     assert still[0].tolist() == [1.0, 1.0] and still[1].tolist() == [0.0, 0.0]
     assert np.isnan(verdicts.n_to_decide(mean, np.array([0.5, np.nan, 0.5]), req, "all", HOLDS))

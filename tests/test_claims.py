@@ -31,7 +31,7 @@ def _verdict(rules, start, evidence):
 
 def test_obj4_is_judged_on_the_subjects_interval():
     """Five subjects with test-retest angles around 0.5 deg: below Kong's 1 deg; around 1.0 with a
-    wide spread: inconclusive; around 1.5: does not hold; one subject: inconclusive (no interval)."""
+    wide spread: inconclusive; around 1.5: does not hold; one subject: not testable (no interval)."""
     rng = np.random.default_rng(0)
 
     def judged(centre, spread, subjects=5):
@@ -42,7 +42,7 @@ def test_obj4_is_judged_on_the_subjects_interval():
     assert judged(0.5, 0.05) == HOLDS
     assert judged(1.0, 0.3) == INCONCLUSIVE
     assert judged(1.5, 0.05) == FAILS
-    assert judged(0.5, 0.05, subjects=1) == INCONCLUSIVE
+    assert judged(0.5, 0.05, subjects=1) == UNTESTABLE
     claim = _verdict(kong_claims.RULES, "< 1 deg excluding", _evidence())
     assert claim.verdict == UNTESTABLE
     box = _angles({("box", "EDGE", "box"): [0.3, 0.4]})  # a rigid box is not a body segment
@@ -64,7 +64,7 @@ def test_a_cell_beyond_the_bound_before_adjustment_only_leaves_the_claim_inconcl
     claim = _verdict(kong_claims.RULES, "< 1 deg excluding", _evidence(angles=_angles(values)))
     assert claim.verdict == INCONCLUSIVE and claim.judgement.leaning == FAILS
     assert np.isfinite(claim.judgement.n_to_decide) and claim.judgement.n_to_decide > 5
-    assert "simultaneous 95 % over 9 cells (Bonferroni)" in claim.numbers
+    assert "simultaneous over 9 cells (Bonferroni) for 'does not hold'" in claim.numbers
     assert "leans 'does not hold'" in claims.verdict_text(claim)
 
 
@@ -85,33 +85,38 @@ def _set_units(number, rows: dict, subjects=5, seed=0) -> dict:
 
 def test_set_preference_reads_the_subjects_differences_and_says_when_the_paper_p_is_out_of_reach():
     """Frontal better for the head (difference < 0), lateral for the thigh (> 0): holds when both
-    cells are on the paper's side; one cell clearly on the wrong side fails it; the paper's p <
-    0.001 cannot be reached by an exact test on 5 subjects, and the numbers say so."""
+    cells are on the paper's side by more than Kong's 1 deg can hide; one cell clearly on the
+    wrong side fails it; differences of the paper's size (0.05 deg) are no relevant difference.
+    The paper's p < 0.001 is out of an exact test's reach on 5 subjects, and a t-test needs
+    |t| > 8.61 for it: the numbers say both."""
     rule = kong_claims._set_preference(8)
-    holds = _evidence(_set_units(8, {"head": -0.05, "thigh": 0.05})).tables
-    claim = kong_claims.RULES[0].__class__("Obj 3", "c", "r", rule).apply(_evidence(holds))
-    assert claim.verdict == HOLDS and "out of reach by design" in claim.numbers
-    wrong = _set_units(8, {"head": 0.05, "thigh": 0.05})
-    assert (
-        kong_claims.RULES[0].__class__("o", "c", "r", rule).apply(_evidence(wrong)).verdict == FAILS
-    )
-    many = _set_units(8, {"head": -0.05}, subjects=12)
-    assert (
-        "out of reach"
-        not in kong_claims.RULES[0].__class__("o", "c", "r", rule).apply(_evidence(many)).numbers
-    )
+
+    def apply(units):
+        return claims.Rule("Obj 3", "c", "r", rule).apply(_evidence(units))
+
+    claim = apply(_set_units(8, {"head": -1.5, "thigh": 1.5}))
+    assert claim.verdict == HOLDS
+    assert "exact sign-flip test cannot go below p 0.0625" in claim.numbers
+    assert "p < 0.001 only with t beyond +-8.61" in claim.numbers
+    assert "|" not in claim.numbers  # SUMMARY.md's tables are pipe-separated
+    assert apply(_set_units(8, {"head": 1.5, "thigh": 1.5})).verdict == FAILS
+    assert apply(_set_units(8, {"head": 0.05, "thigh": -0.05})).verdict == claims.NEGLIGIBLE
+    assert "sign-flip" not in apply(_set_units(8, {"head": -1.5}, subjects=12)).numbers
     assert rule(_evidence())[0] == UNTESTABLE
 
 
 def test_no_difference_is_an_equivalence_within_kongs_marginal_difference():
     """Table 7: thighs-shanks 'no difference' holds when the difference's interval lies within
-    +-0.004 (the head-chest difference Kong calls marginal), not because p >= 0.05."""
+    +-0.004 (the head-chest difference Kong calls marginal), not because p >= 0.05; a head-chest
+    difference within the same margin is no relevant difference."""
     rule = next(r for r in kong_claims.RULES if r.key == "obj2_set_comparison")
     assert kong_claims.NO_DIFFERENCE_MARGIN == 0.004
     same = _set_units(7, {"head-chest": -0.01, "thighs-shanks": 0.0}, subjects=8)
     assert rule.apply(_evidence(same)).verdict == HOLDS
     different = _set_units(7, {"head-chest": -0.01, "thighs-shanks": 0.02}, subjects=8)
     assert rule.apply(_evidence(different)).verdict == FAILS
+    marginal = _set_units(7, {"head-chest": -0.001, "thighs-shanks": 0.0}, subjects=8)
+    assert rule.apply(_evidence(marginal)).verdict == claims.NEGLIGIBLE
 
 
 def _obj1_units(t_ap_effect, segment_effect, t_ex_effect, subjects=5, seed=0):
@@ -267,5 +272,5 @@ def test_summary_counts_every_kind_of_verdict_and_says_how_an_inconclusive_one_l
     found = [claims.Claim("Obj 1", "a", "r", HOLDS, ""), claims.Claim("Obj 1", "b", "r", INCONCLUSIVE, ""),
              claims.Claim("Obj 1", "c", "r", UNTESTABLE, "")]  # fmt: skip
     text = summary.to_markdown(found, "demo", "a demo", False, [])
-    assert "1 hold, 0 do not hold, 1 inconclusive, 1 not testable" in text
+    assert "1 hold, 0 do not hold, 0 no relevant difference, 1 inconclusive, 1 not testable" in text
     assert ricci2014.SAME_SOLUTION_DEG == 1.0  # Kong's 'less than one degree', Sec. 3.3

@@ -1,9 +1,10 @@
-"""Issue 42: every committed verdict is recomputed from committed files, without the code that
-made it: each cell's interval from the per-subject cells (scipy's t-interval at the level
-simultaneous over the claim's cells), each cell's state from its requirement, each claim's
-verdict from its cells, and SUMMARY.md's counts and verdicts from the claims. The claims without
-subjects are recomputed from the committed tables they read. Quick: it reads the committed
-results, it does not regenerate them (the slow tests do)."""
+"""Issues 42, 51: every committed verdict is recomputed from committed files, without the code
+that made it: each cell's two intervals from the per-subject cells (scipy's t-intervals: its own
+at 95 % for an all-cells claim's 'holds', at the level simultaneous over the claim's cells for
+'does not hold' and for "mostly"), each cell's state from its requirement and smallest effect of
+interest, each claim's verdict from its cells, and SUMMARY.md's counts and verdicts from the
+claims. The claims without subjects are recomputed from the committed tables they read. Quick:
+it reads the committed results, it does not regenerate them (the slow tests do)."""
 
 import re
 
@@ -22,25 +23,44 @@ def _read(folder, name):
     return pd.read_csv(folder / "tables" / f"{name}.csv", keep_default_na=False, na_values=[""])
 
 
-def _state(low, high, r) -> str:
-    """'shown', 'beyond' or 'undecided' of one interval against one cell's requirement."""
+def _sides(low, high, r) -> tuple[bool, bool]:
+    """(on the claim's side of every bound, wholly on the other side of one) of one interval."""
     if not (np.isfinite(low) and np.isfinite(high)):
-        return "undecided"
-    shown, beyond = True, False
+        return False, False
+    side, other = True, False
     if np.isfinite(r["above"]):
-        shown &= low >= r["above"] if r["above_inclusive"] else low > r["above"]
-        beyond |= high < r["above"] if r["above_inclusive"] else high <= r["above"]
+        side &= low >= r["above"] if r["above_inclusive"] else low > r["above"]
+        other |= high < r["above"] if r["above_inclusive"] else high <= r["above"]
     if np.isfinite(r["below"]):
-        shown &= high <= r["below"] if r["below_inclusive"] else high < r["below"]
-        beyond |= low > r["below"] if r["below_inclusive"] else low >= r["below"]
-    return "shown" if shown else "beyond" if beyond else "undecided"
+        side &= high <= r["below"] if r["below_inclusive"] else high < r["below"]
+        other |= low > r["below"] if r["below_inclusive"] else low >= r["below"]
+    return side, other
+
+
+def _state(simultaneous, own, r) -> str:
+    """'shown', 'beyond', 'negligible' or 'undecided' of one cell: negligible when its own
+    interval lies within its smallest effect of its bound, shown when its own interval is on the
+    claim's side, beyond when the simultaneous one is wholly on the other side."""
+    delta = r["smallest_effect"]
+    if np.isfinite(delta) and np.isfinite(own[0]) and np.isfinite(own[1]):
+        bound = r["above"] if np.isfinite(r["above"]) else r["below"]
+        if bound - delta < own[0] and own[1] < bound + delta:
+            return "negligible"
+    if _sides(*own, r)[0]:
+        return "shown"
+    return "beyond" if _sides(*simultaneous, r)[1] else "undecided"
 
 
 def _verdict(states: list[str], combine: str) -> str:
     m, shown, beyond = len(states), states.count("shown"), states.count("beyond")
     if combine == "majority":
         return "holds" if shown > m / 2 else "does not hold" if beyond >= m / 2 else "inconclusive"
-    return "holds" if shown == m else "does not hold" if beyond else "inconclusive"
+    if shown == m:
+        return "holds"
+    if beyond:
+        return "does not hold"
+    negligible = states.count("negligible")
+    return "no relevant difference" if negligible and shown + negligible == m else "inconclusive"
 
 
 def test_the_committed_claims_are_there():
@@ -56,23 +76,31 @@ def test_every_verdict_is_recomputed_from_its_committed_cells(folder):
     for _, claim in claims[claims["cells"] > 0].iterrows():
         own = estimates[estimates["claim"] == claim["claim"]].set_index("cell")
         values = cells[cells["claim"] == claim["claim"]]
-        m = len(own)
+        m, combine = len(own), claim["combine"]
+        shown_level = 0.95 if combine == "all" else 1 - 0.05 / m
         assert m == claim["cells"] and claim["level"] == pytest.approx(1 - 0.05 / m)
-        states = []
+        assert claim["shown_level"] == pytest.approx(shown_level)
+        states, sizes = [], []
         for cell, r in own.iterrows():
             x = values.loc[values["cell"] == cell, "value"].dropna().to_numpy(float)
             assert len(x) == r["n"], (claim["claim"], cell)
-            low, high = (np.nan, np.nan)
-            if len(x) > 1:
-                low, high = stats.t.interval(1 - 0.05 / m, len(x) - 1, x.mean(), stats.sem(x))
-                if x.std() == 0:
-                    low = high = x.mean()
-            assert (r["mean"], r["low"], r["high"]) == pytest.approx(
-                (x.mean(), low, high), rel=1e-6, abs=1e-9, nan_ok=True
+            sizes.append(len(x))
+            intervals = []
+            for level in (1 - 0.05 / m, shown_level):
+                low, high = (np.nan, np.nan)
+                if len(x) > 1:
+                    low, high = stats.t.interval(level, len(x) - 1, x.mean(), stats.sem(x))
+                    if x.std() == 0:
+                        low = high = x.mean()
+                intervals.append((low, high))
+            committed = (r["mean"], r["low"], r["high"], r["low_each"], r["high_each"])
+            assert committed == pytest.approx(
+                (x.mean(), *intervals[0], *intervals[1]), rel=1e-6, abs=1e-9, nan_ok=True
             ), (claim["claim"], cell)
-            states.append(_state(low, high, r))
+            states.append(_state(*intervals, r))
             assert states[-1] == r["state"], (claim["claim"], cell)
-        assert _verdict(states, claim["combine"]) == claim["verdict"], claim["claim"]
+        expected = _verdict(states, combine) if max(sizes) >= 2 else "not testable on this dataset"
+        assert expected == claim["verdict"], claim["claim"]
         deciding = own.loc[claim["deciding_cell"]]
         assert (claim["mean"], claim["low"], claim["high"]) == pytest.approx(
             (deciding["mean"], deciding["low"], deciding["high"]), rel=1e-6, nan_ok=True
@@ -88,10 +116,13 @@ def test_summary_says_what_the_claims_table_says(folder):
     text = (folder / "SUMMARY.md").read_text()
     paper = claims[claims["section"] == "paper"]["verdict"].tolist()
     counts = re.search(
-        r"(\d+) hold, (\d+) do not hold, (\d+) inconclusive, (\d+) not testable", text
+        r"(\d+) hold, (\d+) do not hold, (\d+) no relevant difference, (\d+) inconclusive, "
+        r"(\d+) not testable",
+        text,
     )
     assert counts, "SUMMARY.md has no counts"
-    expected = [paper.count(v) for v in ("holds", "does not hold", "inconclusive")]
+    kinds = ("holds", "does not hold", "no relevant difference", "inconclusive")
+    expected = [paper.count(v) for v in kinds]
     expected.append(paper.count("not testable on this dataset"))
     assert [int(c) for c in counts.groups()] == expected
     rows = [line.split("|")[3].strip() for line in text.splitlines()
@@ -119,3 +150,17 @@ def test_the_claims_without_subjects_are_recomputed_from_the_committed_tables():
     verdict, _ = ricci_claims._random_starts(ricci_claims.Evidence({"ricci_lm": lm}, None))
     committed = _read(RESULTS / "ricci_sim", "claims").set_index("claim")
     assert committed.loc["ricci_random_starts", "verdict"] == verdict
+
+
+@pytest.mark.parametrize("folder", FOLDERS, ids=lambda p: p.name)
+def test_every_summary_table_row_has_its_headers_cells(folder):
+    """A '|' inside a claim's numbers (a '|t|') split its row and shifted every verdict after it;
+    each row of SUMMARY.md's tables has as many cells as its table's header."""
+    width = None
+    for line in (folder / "SUMMARY.md").read_text().splitlines():
+        if not line.startswith("|"):
+            width = None
+            continue
+        if width is None:
+            width = line.count("|")
+        assert line.count("|") == width, line[:120]

@@ -1,5 +1,6 @@
-"""Issue 42: the operating characteristics of the claims' rules and the powered design's n, on
-cases whose answer is known, and the committed powered design's consistency with its config."""
+"""Issues 42, 51: the operating characteristics of the claims' rules and the power analysis behind
+the powered design's n (the pilot's uncertainty, the family's joint power), on cases whose answer
+is known, and the committed powered design's consistency with its config."""
 
 import numpy as np
 import pandas as pd
@@ -7,7 +8,7 @@ import pytest
 import yaml
 
 from aceval.evaluation.verdicts import Requirement, requirement_arrays
-from aceval.report import operating
+from aceval.report import operating, power
 
 from .runner import REPO
 
@@ -54,14 +55,71 @@ def test_the_rule_says_holds_when_true_and_does_not_hold_when_false_with_enough_
 
 def test_the_powered_design_is_the_committed_one_with_the_n_fixed_in_advance():
     """config/powered.yaml simulates POWERED_N subjects, and the committed kong_powered results
-    judge its claims on that many; the committed power analysis is what fixed it."""
+    judge its claims on that many; the power analysis of the committed paper's design is what
+    fixed it, and every claim of its family is decidable within the budget at the upper-limit
+    SDs."""
     spec = yaml.safe_load((REPO / "config" / "powered.yaml").read_text())
-    assert spec["datasets"]["kong_powered"]["simulate"]["subjects"] == operating.POWERED_N
+    assert spec["datasets"]["kong_powered"]["simulate"]["subjects"] == power.POWERED_N
     cells = pd.read_csv(REPO / "results" / "kong_powered" / "tables" / "claim_cells.csv")
-    assert cells["subject"].nunique() == operating.POWERED_N
-    power = pd.read_csv(REPO / "results" / "operating_characteristics" / "power.csv")
-    assert operating.powered_n(power) == operating.POWERED_N
-    assert power.loc[power["affordable"], "n_to_decide"].max() <= operating.AFFORDABLE_N
+    assert cells["subject"].nunique() == power.POWERED_N
+    members = power.family(REPO / "results" / power.PAPER_DESIGN)
+    assert power.powered_n(members) == power.POWERED_N
+    committed = pd.read_csv(REPO / "results" / "operating_characteristics" / "power.csv")
+    assert committed.loc[committed["affordable"], "n_at_sd_ucl"].max() <= power.AFFORDABLE_N
+    assert committed["affordable"].sum() == len(members)
+
+
+def test_the_pilot_sds_upper_limit_is_the_chi_square_one():
+    """The one-sided 80 % upper limit of an SD from 5 values: sqrt(4 / chi2_0.2(4)) = 1.557; the
+    95 % interval of a 5-value SD is x0.60-2.87 (the issue's numbers)."""
+    from scipy import stats
+
+    assert power.sd_ucl_factor(5) == pytest.approx(np.sqrt(4 / stats.chi2.ppf(0.2, 4)))
+    assert power.sd_ucl_factor(5) == pytest.approx(1.557, abs=1e-3)
+    assert np.sqrt(4 / stats.chi2.ppf(0.975, 4)) == pytest.approx(0.60, abs=0.01)
+    assert power.sd_ucl_factor(5, 0.975) == pytest.approx(2.87, abs=0.01)
+    assert power.sd_ucl_factor(93) < 1.1  # a large pilot's SD is nearly certain
+
+
+def test_the_familys_joint_power_is_the_product_and_its_bound_any_dependence():
+    """Two one-cell claims at 0.5 SD on their side: the product of their probabilities (claims
+    independent) and 1 - sum(1 - P) (Bonferroni's lower bound, any dependence); the powered n
+    is the fewest at which the product reaches 80 %."""
+    from aceval.evaluation.verdicts import FAILS, HOLDS, decide_probability
+
+    req = requirement_arrays([Requirement.of(">", 0.0)])
+    mean, sd = np.array([0.5]), np.array([1.0])
+    members = [(mean, sd, sd * 1.5, req, "all")] * 2
+    one = power.decided_probability(mean, sd * 1.5, req, "all", 60)
+    either = sum(decide_probability(mean, sd * 1.5, req, "all", v, 60) for v in (HOLDS, FAILS))
+    assert one == pytest.approx(either)
+    product, bound = power.family_power(members, 60)
+    assert product == pytest.approx(one**2) and bound == pytest.approx(1 - 2 * (1 - one))
+    n = power.powered_n(members)
+    assert power.family_power(members, n)[0] >= 0.8 > power.family_power(members, n - 1)[0]
+    far = [(np.array([0.01]), sd, sd, req, "all")]  # beyond any affordable n
+    assert power.powered_n(far) == power.AFFORDABLE_N
+
+
+def test_assurance_averages_the_power_over_the_truths_a_pilot_leaves_possible():
+    """A 5-subject pilot at 0.8 SD above 0: at the n where the observed SD gives 80 %, the
+    average over the pilot's uncertainty is lower (Browne 1995: about half such designs are
+    underpowered); with a 93-subject pilot it is close to the plug-in power."""
+    from aceval.evaluation.verdicts import HOLDS, n_to_decide
+
+    req = requirement_arrays([Requirement.of(">", 0.0)])
+    rng = np.random.default_rng(0)
+    for subjects, gap in ((5, 0.05), (93, 0.03)):
+        wide = _population([0.0], subjects=subjects, seed=3)
+        wide = (wide - wide.mean()) / wide.std() + 0.8  # mean 0.8, SD 1 exactly
+        n = int(n_to_decide(np.array([0.8]), np.array([1.0]), req, "all", HOLDS))
+        plug_in = power.decided_probability(np.array([0.8]), np.array([1.0]), req, "all", n)
+        assured = power.assurance(wide, req, "all", n, rng)
+        assert plug_in >= 0.8
+        if subjects == 5:
+            assert assured < plug_in - gap
+        else:
+            assert assured == pytest.approx(plug_in, abs=gap)
 
 
 def test_the_committed_operating_characteristics_cover_every_claim_at_both_n():
@@ -69,9 +127,25 @@ def test_the_committed_operating_characteristics_cover_every_claim_at_both_n():
         REPO / "results" / "operating_characteristics" / "operating_characteristics.csv"
     )
     kong = table[table["population"].str.startswith("kong_powered")]
-    assert set(kong["n"]) == {5, operating.POWERED_N}
+    assert set(kong["n"]) == {5, power.POWERED_N}
     assert set(table["scenario"]) == set(operating.SCENARIOS)
-    shares = table[["p_holds", "p_fails", "p_inconclusive"]].sum(axis=1)
+    shares = table[["p_holds", "p_fails", "p_inconclusive", "p_negligible"]].sum(axis=1)
     np.testing.assert_allclose(shares, 1.0, atol=1e-9)
     claims = pd.read_csv(REPO / "results" / "kong_powered" / "tables" / "claims.csv")
     assert set(claims.loc[claims["cells"] > 0, "claim"]) == set(kong["claim"])
+
+
+def test_a_superiority_claim_is_true_or_false_by_a_relevant_amount():
+    """'> 0' with a smallest effect of interest of 1: true by 0.5 SD puts the cell 0.5 SD past
+    +1, false by 0.5 SD 0.5 SD past -1, on the bound at 0 (where 'no relevant difference' is the
+    right answer)."""
+    wide = _population([0.2], sd=0.3)
+    req = requirement_arrays([Requirement.of(">", 0.0, 1.0)])
+    sd = wide.std().iloc[0]
+    true, on, false = (
+        operating.shifted(wide, req, "all", t).mean().iloc[0] for t in (0.5, 0, -0.5)
+    )
+    assert (true, on, false) == pytest.approx((1.0 + 0.5 * sd, 0.0, -1.0 - 0.5 * sd))
+    rng = np.random.default_rng(4)
+    at_zero = operating.sampled(operating.shifted(wide, req, "all", 0.0), req, "all", 60, rng)
+    assert at_zero["p_negligible"] > 0.95

@@ -9,7 +9,7 @@ import pandas as pd
 
 from aceval.evaluation.methods_comparison import full_set_errors
 from aceval.evaluation.stats import mean_ci
-from aceval.evaluation.verdicts import half_width
+from aceval.evaluation.verdicts import half_width, level
 
 CELL = ["segment", "test", "sensor_set"]
 RANKING_COLUMNS = [
@@ -64,7 +64,7 @@ def methods_ranking(calibrations: pd.DataFrame) -> pd.DataFrame:
     for rank, method in enumerate(order, start=1):
         mean, low, high, n = stats[method]
         d = differences[method].dropna()
-        half = float(half_width(d.std(), len(d), m)) if method != order[0] else np.nan
+        half = float(half_width(d.std(), len(d), level(m))) if method != order[0] else np.nan
         rows.append(
             {
                 "rank": rank,

@@ -180,13 +180,15 @@ def mixed_model_of_cells(cells: pd.DataFrame) -> dict:
     on the subjects when the fit is interior): ``t`` is the REML estimate over its standard error,
     ``df`` the subjects - 1 (a Wald z with a normal reference is optimistic with few subjects).
 
-    ``fit_flags`` (:data:`FIT_FLAGS`, ';'-joined), all read from the final fit:
-    ``not_converged`` (its optimiser did not converge; the intermediate "retrying" of
-    statsmodels' other optimisers does not count), ``hessian_not_pd`` (no valid standard errors),
-    ``boundary`` (the subjects' variance below :data:`BOUNDARY_RATIO` of the residual one: a
-    singular fit; its p stands, flagged). A fit that did not converge or has no positive-definite
-    Hessian has no p (it leaves the Holm family). ``n`` counts cells, ``n_groups`` subjects;
-    ``note`` says why a model was not fitted.
+    Where statsmodels' default optimisers stop short, the model is refitted with
+    :data:`REFIT_METHODS` and the fit with the largest log-likelihood kept (:func:`_fit_differences`).
+    ``fit_flags`` (:data:`FIT_FLAGS`, ';'-joined), all read from that final fit:
+    ``not_converged`` (its optimiser did not converge), ``hessian_not_pd`` (no valid standard
+    errors), ``boundary`` (the subjects' variance below :data:`BOUNDARY_RATIO` of the residual
+    one: a singular fit, which treats the cells as independent; its p stands, flagged, and the
+    ``note`` gives the paired t-test on the subjects beside it, which does not). A fit that did
+    not converge or has no positive-definite Hessian has no p (it leaves the Holm family). ``n``
+    counts cells, ``n_groups`` subjects; ``note`` also says why a model was not fitted.
     """
     out = {
         "mean_a": float(cells["mean_a"].mean()) if len(cells) else np.nan,
@@ -218,6 +220,12 @@ def mixed_model_of_cells(cells: pd.DataFrame) -> dict:
     df = out["n_groups"] - 1
     t, se = float(fit.tvalues[0]), float(fit.bse[0])
     half = float(stats.t.ppf(0.975, df)) * se
+    if "boundary" in flags:
+        paired = subject_test(cells)
+        out["note"] = (
+            f"subjects' variance on the boundary: the paired t-test on the subjects beside it, "
+            f"t {paired['t']:.3f}, p {paired['p']:.3g}"
+        )
     return out | {
         "ci95_low": out["mean_difference"] - half,
         "ci95_high": out["mean_difference"] + half,
@@ -227,32 +235,60 @@ def mixed_model_of_cells(cells: pd.DataFrame) -> dict:
     }
 
 
-def _fit_differences(d: np.ndarray, subjects: np.ndarray):
-    """(fit, flags) of ``d ~ 1`` with a random intercept per subject (:func:`mixed_model_of_cells`);
-    (None, cause) when it cannot be fitted.
+#: the optimisers tried after statsmodels' default when its fit stops short (not converged, no
+#: positive-definite Hessian, a failure, or on the boundary where gradient methods stall): the
+#: derivative-free Powell and Nelder-Mead; the fit with the largest REML log-likelihood is kept
+REFIT_METHODS = ("powell", "nm")
+
+
+def _one_fit(model, method: str | None):
+    """``(fit, flags)`` of one optimiser (None: statsmodels' default sequence), the flags from
+    this fit alone (:data:`FIT_FLAGS`); ``(None, cause)`` when it fails.
     """
     import warnings
 
-    from statsmodels.regression.mixed_linear_model import MixedLM
     from statsmodels.tools.sm_exceptions import ConvergenceWarning
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", ConvergenceWarning)
         warnings.simplefilter("ignore", RuntimeWarning)
         try:
-            fit = MixedLM(d, np.ones((len(d), 1)), groups=subjects).fit(reml=True)
+            fit = model.fit(reml=True) if method is None else model.fit(reml=True, method=method)
         except (ValueError, np.linalg.LinAlgError) as exc:
             return None, str(exc)
     said = " ".join(str(w.message) for w in caught if issubclass(w.category, ConvergenceWarning))
+    ratio = float(np.min(np.diag(np.atleast_2d(fit.cov_re)))) / max(float(fit.scale), 1e-300)
+    boundary = ratio < BOUNDARY_RATIO
     flags = []
     if not fit.converged:  # the final optimiser's own word, not the earlier ones' retries
         flags.append("not_converged")
-    if "Hessian" in said or not np.isfinite(fit.bse).all():
+    # on the boundary the variance's own curvature is singular by nature (statsmodels then warns
+    # of the whole Hessian); the set effect's standard error is what the test needs
+    if not np.isfinite(fit.bse_fe).all() or ("Hessian" in said and not boundary):
         flags.append("hessian_not_pd")
-    ratio = float(np.min(np.diag(np.atleast_2d(fit.cov_re)))) / max(float(fit.scale), 1e-300)
-    if ratio < BOUNDARY_RATIO:
+    if boundary:
         flags.append("boundary")
     return fit, flags
+
+
+def _fit_differences(d: np.ndarray, subjects: np.ndarray):
+    """(fit, flags) of ``d ~ 1`` with a random intercept per subject (:func:`mixed_model_of_cells`):
+    statsmodels' default optimisers, then, where that fit stops short (flagged, or failed), each
+    of :data:`REFIT_METHODS`; the fit with the largest log-likelihood, its flags its own (ties:
+    the earlier). (None, cause) when every optimiser fails.
+    """
+    from statsmodels.regression.mixed_linear_model import MixedLM
+
+    model = MixedLM(d, np.ones((len(d), 1)), groups=subjects)
+    best, flags = _one_fit(model, None)
+    if best is not None and not flags:
+        return best, flags
+    cause = flags if best is None else ""
+    for method in REFIT_METHODS:
+        fit, its_flags = _one_fit(model, method)
+        if fit is not None and (best is None or fit.llf > best.llf + 1e-9):
+            best, flags = fit, its_flags
+    return (best, flags) if best is not None else (None, cause)
 
 
 def variance_shares(

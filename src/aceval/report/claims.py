@@ -1,22 +1,26 @@
 """The vocabulary of SUMMARY.md's claims: a :class:`Claim` (the paper's words, the rule that tests
-them, the verdict and the numbers behind it), the four verdicts, and how a rule reaches one.
-Each paper's rules, as data: :mod:`aceval.report.kong_claims`, :mod:`aceval.report.ricci_claims`.
+them, the verdict and the numbers behind it), the verdicts, and how a rule reaches one. Each
+paper's rules, as data: :mod:`aceval.report.kong_claims`, :mod:`aceval.report.ricci_claims`.
 
 Every claim with subjects is judged on *cells* (:class:`Cells`): one value per subject and cell
 (the subject is the independent unit), each cell with the side of the paper's number it must be
-on. :mod:`aceval.evaluation.verdicts` makes the cells' 95 % t-intervals simultaneous over the
-claim's cells (Bonferroni) and reads both verdicts from the same intervals:
+on. :mod:`aceval.evaluation.verdicts` reads the verdicts from the cells' t-intervals:
 
-* **holds**: every cell's interval is on the claim's side (for "mostly": more than half);
-* **does not hold**: a cell's interval is wholly on the other side, after the adjustment;
-* **inconclusive**: neither; it says which way the point estimates lean and how many subjects
-  would decide it with 80 % probability;
-* **not testable**: this dataset has nothing to judge it on.
+* **holds**: every cell's own 95 % interval is on the claim's side (an intersection-union test;
+  for "mostly": more than half of the intervals simultaneous over the cells);
+* **does not hold**: a cell's interval, simultaneous over the claim's cells (Bonferroni), is
+  wholly on the other side (for "mostly": half of them or more);
+* **no relevant difference**: a superiority claim whose cells' intervals lie within its smallest
+  effect of interest (the others shown);
+* **inconclusive**: none of these; it says which way the point estimates lean and how many
+  subjects would decide it with 80 % probability;
+* **not testable**: this dataset has nothing to judge it on, or no cell has two subjects.
 
 "No difference" and "reproduces the paper's value" are equivalences (the interval within a margin
 fixed in advance), never p >= 0.05. Every number a rule compares with is the paper's own (its
-words, its tables' values) or a cited smallest effect of interest; the rule says which. A claim
-without subjects (one rigid box, the code checks) is judged on its values.
+words, its tables' values at the precision they are reported with) or a cited smallest effect of
+interest; the rule says which. A claim without subjects (one rigid box, the code checks) is
+judged on its values.
 """
 
 from __future__ import annotations
@@ -31,6 +35,8 @@ from aceval.evaluation.verdicts import (
     FAILS,
     HOLDS,
     INCONCLUSIVE,
+    MIN_SUBJECTS,
+    NEGLIGIBLE,
     UNTESTABLE,
     VERDICTS,
     Judgement,
@@ -45,6 +51,7 @@ __all__ = [
     "HOLDS",
     "INCONCLUSIVE",
     "LOWER",
+    "NEGLIGIBLE",
     "PAPER",
     "UNTESTABLE",
     "UPPER",
@@ -178,31 +185,80 @@ def interval(mean: float, low: float, high: float, digits: int = 2) -> str:
     return f"{mean:.{digits}f} [{low:.{digits}f}, {high:.{digits}f}]"
 
 
-def adjustment(m: int) -> str:
-    """How the intervals are adjusted over a claim's ``m`` cells."""
+def adjustment(m: int, combine: str = "all") -> str:
+    """Which interval decides which verdict over a claim's ``m`` cells."""
     if m <= 1:
         return "95 % interval, one cell"
-    return f"{100 * (1 - 0.05 / m):.3g} % intervals: simultaneous 95 % over {m} cells (Bonferroni)"
+    simultaneous = f"{100 * (1 - 0.05 / m):.3g} %"
+    if combine == "majority":
+        return f"{simultaneous} intervals: simultaneous 95 % over {m} cells (Bonferroni), both verdicts"
+    return (
+        f"own 95 % intervals for 'holds', {simultaneous} simultaneous over {m} cells "
+        "(Bonferroni) for 'does not hold'"
+    )
+
+
+def _subjects_text(table: pd.DataFrame, row: pd.Series, subjects: str) -> str:
+    """'n 5 subjects', or 'n 2-5 subjects per cell (this cell 2)' and the cells without an
+    interval.
+    """
+    low, high = int(table["n"].min()), int(table["n"].max())
+    one = {"subjects": "subject", "children": "child"}.get(subjects, subjects)
+    text = (
+        f"n {high} {one if high == 1 else subjects}"
+        if low == high
+        else f"n {low}-{high} {subjects} per cell (this cell {int(row['n'])})"
+    )
+    alone = int((table["n"] < MIN_SUBJECTS).sum())
+    if alone and low != high:
+        text += (
+            f"; {alone} cell{'s' if alone > 1 else ''} with fewer than {MIN_SUBJECTS}: no interval"
+        )
+    return text
+
+
+def _deciding_interval(judgement: Judgement, row: pd.Series, digits: int, unit: str) -> str:
+    """The deciding cell's interval that decided (or would decide) the verdict: the simultaneous
+    one for 'does not hold' and for "mostly", else its own; both when they differ.
+    """
+    simultaneous = interval(row["mean"], row["low"], row["high"], digits)
+    if judgement.m <= 1 or judgement.combine == "majority":
+        return f"{simultaneous}{unit}"
+    own = interval(row["mean"], row["low_each"], row["high_each"], digits)
+    if not np.isfinite(row["low"]):
+        return f"{own}{unit}"
+    return f"{own}{unit}, simultaneous [{row['low']:.{digits}f}, {row['high']:.{digits}f}]"
 
 
 def described(judgement: Judgement, found: Cells) -> str:
-    """The numbers of a claim judged on cells: the deciding cell's interval, the adjustment, the
-    cells' states and the note.
+    """The numbers of a claim judged on cells: the deciding cell's intervals, which interval
+    decides which verdict, the cells' states, the subjects and the note.
     """
     table = judgement.estimates
     if table.empty:
         return "no cell"
     row = judgement.deciding
     unit = f" {found.unit}" if found.unit else ""
-    which = {HOLDS: "closest to its bound", FAILS: "farthest beyond its bound"}.get(
-        judgement.verdict, "closest to failing"
-    )
+    if judgement.verdict == UNTESTABLE:
+        return (
+            f"no cell has {MIN_SUBJECTS} {found.subjects}: no interval, so no verdict; "
+            f"cell {row['cell']}: {interval(row['mean'], np.nan, np.nan, found.digits)}{unit} "
+            f"({row['requirement']}{unit}); {_subjects_text(table, row, found.subjects)}"
+        ) + (f"; {found.note}" if found.note else "")
+    which = {
+        HOLDS: "closest to its bound",
+        FAILS: "farthest beyond its bound",
+        NEGLIGIBLE: "with the smallest margin",
+    }.get(judgement.verdict, "closest to failing")
     which = "at the majority" if found.combine == "majority" else which
-    states = " / ".join(str((table["state"] == s).sum()) for s in ("shown", "beyond", "undecided"))
+    names = ["shown", "beyond", "undecided"]
+    if np.isfinite(table["smallest_effect"]).any():
+        names.insert(2, "negligible")
+    states = " / ".join(str((table["state"] == s).sum()) for s in names)
     text = (
-        f"cell {which}: {row['cell']} {interval(row['mean'], row['low'], row['high'], found.digits)}"
-        f"{unit} ({row['requirement']}{unit}); {adjustment(judgement.m)}; cells shown / beyond / "
-        f"undecided: {states}; n {int(table['n'].max())} {found.subjects}"
+        f"cell {which}: {row['cell']} {_deciding_interval(judgement, row, found.digits, unit)} "
+        f"({row['requirement']}{unit}); {adjustment(judgement.m, judgement.combine)}; cells "
+        f"{' / '.join(names)}: {states}; {_subjects_text(table, row, found.subjects)}"
     )
     return text + (f"; {found.note}" if found.note else "")
 
@@ -217,12 +273,60 @@ def verdict_text(claim: Claim) -> str:
     if not j.leaning:
         return f"{claim.verdict} (the estimates lean neither way)"
     n = j.n_to_decide
-    needed = (
-        f"about {int(n)} subjects would decide it (80 %)"
-        if np.isfinite(n)
-        else "not decidable with 100,000 subjects at these effects"
-    )
+    if np.isfinite(n):
+        needed = f"about {int(n)} subjects would decide it (80 %)"
+    elif not np.isfinite(j.estimates["sd"]).all():
+        needed = "no SD: the subjects needed cannot be computed"
+    else:
+        needed = "not decidable with 100,000 subjects at these effects"
     return f"{claim.verdict} (leans '{j.leaning}'; {needed})"
+
+
+def rule_sentences(found: list[Claim]) -> list[str]:
+    """How each family of claims present in ``found`` is judged, one line each (SUMMARY.md)."""
+    judged = [c.judgement for c in found if c.judgement is not None and c.judgement.m]
+    cells = pd.concat([j.estimates for j in judged]) if judged else pd.DataFrame()
+    two_bounds = (
+        (np.isfinite(cells["above"]) & np.isfinite(cells["below"])).any() if len(cells) else False
+    )
+    families = [
+        (
+            any(j.combine == "all" for j in judged),
+            "- a claim over every cell holds when each cell's own 95 % interval is on the claim's "
+            "side (an intersection-union test: showing every cell needs no adjustment), does not "
+            "hold when one cell's interval, made simultaneous over the claim's cells (Bonferroni), "
+            "is wholly on the other side;",
+        ),
+        (
+            any(j.combine == "majority" for j in judged),
+            '- a "mostly" claim holds when more than half of its cells\' simultaneous intervals '
+            "are on the claim's side, does not hold when half of them or more are wholly on the "
+            "other side;",
+        ),
+        (
+            two_bounds,
+            '- an equivalence ("no difference", "reproduces the paper\'s value", "about" a '
+            "number) holds when the interval lies inside its margin and does not hold when it "
+            "lies wholly outside it (two one-sided tests at 2.5 % each, as every side here);",
+        ),
+        (
+            len(cells) > 0 and np.isfinite(cells["smallest_effect"]).any(),
+            "- a superiority claim has a smallest effect of interest: a cell whose own interval "
+            "lies within it of the bound is negligible, and a claim whose cells are all shown or "
+            "negligible, one at least negligible, has no relevant difference;",
+        ),
+        (
+            any(c.judgement is None and c.verdict != UNTESTABLE for c in found),
+            "- a claim without subjects (one rigid box, one set of random starts) is judged on "
+            "its values, and says so;",
+        ),
+        (
+            any(c.verdict == UNTESTABLE for c in found),
+            f"- not testable: the dataset has nothing to judge the claim on, or no cell has "
+            f"{MIN_SUBJECTS} subjects (no interval).",
+        ),
+    ]
+    return [text for present, text in families if present]
 
 
 def claims_table(found: list[Claim]) -> pd.DataFrame:
@@ -244,11 +348,14 @@ def claims_table(found: list[Claim]) -> pd.DataFrame:
                 "cells": j.m if j is not None else 0,
                 "combine": j.combine if j is not None else "",
                 "level": j.level if j is not None and j.m else np.nan,
+                "shown_level": j.shown_level if j is not None and j.m else np.nan,
                 "deciding_cell": row["cell"] if row is not None else "",
                 "n": row["n"] if row is not None else np.nan,
                 "mean": row["mean"] if row is not None else np.nan,
                 "low": row["low"] if row is not None else np.nan,
                 "high": row["high"] if row is not None else np.nan,
+                "low_each": row["low_each"] if row is not None else np.nan,
+                "high_each": row["high_each"] if row is not None else np.nan,
                 "requirement": row["requirement"] if row is not None else "",
             }
         )

@@ -1,25 +1,18 @@
-"""How often each claim's rule says what (issue 42): its operating characteristics, and the power
-analysis that fixed the powered design's number of subjects.
+"""How often each claim's rule says what: its operating characteristics, beside the power
+analysis that fixed the powered design's number of subjects (:mod:`aceval.report.power`).
 
 Both read only committed files: every dataset's ``tables/claim_cells.csv`` (one value per subject
 and cell of every claim), ``claim_estimates.csv`` (each cell's requirement) and ``claims.csv``.
 
-* **Power analysis** (:func:`power_table`, on the paper's design, kong_sim's 5 subjects): per
-  claim, the number of subjects at which it would reach the verdict its estimates lean to with 80 %
-  probability, its cells' means and SDs taken as the truth
-  (:func:`aceval.evaluation.verdicts.n_to_decide`). The powered design's n (:func:`powered_n`) is
-  the largest of those that is at most :data:`AFFORDABLE_N`: every claim decidable at an
-  affordable n gets its 80 %; the others are listed with the n they would need.
-* **Operating characteristics** (:func:`operating_table`): the subjects of the powered design
-  (Ricci's: its 40 children) are the population. Each claim's cells are shifted so that the cell
-  that decides it lies :data:`SHIFT_SD` of its subjects' SD on the claim's side of its bound (the
-  claim true), on the bound, or as far on the other side (false), every other cell moved by the
-  same number of its own SDs; then :data:`DRAWS` samples of n subjects are drawn with replacement
-  (the subject brings all its cells) and judged by the very rule of SUMMARY.md
-  (:func:`aceval.evaluation.verdicts.verdict_codes`), at the paper's n and the powered n. Beside
-  it, how often the cells' own 95 % intervals and the simultaneous ones cover the population's
-  means. Resampling the committed cells costs seconds; a workflow run per sample would cost
-  minutes each.
+**Operating characteristics** (:func:`operating_table`): the subjects of the powered design
+(Ricci's: its 40 children) are the population. Each claim's cells are shifted so that the cell
+that decides it lies :data:`SHIFT_SD` of its subjects' SD on the claim's side of its bound (the
+claim true), on the bound, or as far on the other side (false), every other cell moved by the
+same number of its own SDs; then :data:`DRAWS` samples of n subjects are drawn with replacement
+(the subject brings all its cells) and judged by the very rule of SUMMARY.md
+(:func:`aceval.evaluation.verdicts.verdict_codes`), at the paper's n and the powered n. Beside it,
+how often the cells' own 95 % intervals and the simultaneous ones cover the population's means.
+Resampling the committed cells costs seconds; a workflow run per sample would cost minutes each.
 
 ``python -m aceval.report.operating RESULTS`` writes both into RESULTS/operating_characteristics/.
 """
@@ -33,24 +26,30 @@ import numpy as np
 import pandas as pd
 
 from aceval.evaluation.verdicts import (
-    CODES,
     FAILS,
     HOLDS,
     POWER,
-    REQUIREMENT_COLUMNS,
-    cell_states,
-    combined,
     half_width,
+    level,
     margins,
-    n_to_decide,
     verdict_codes,
 )
+from aceval.report.power import (
+    AFFORDABLE_N,
+    FAMILY_POWER,
+    PAPER_DESIGN,
+    PILOT_UCL,
+    POWERED_DESIGN,
+    POWERED_N,
+    RICCI_DESIGN,
+    claim_specs,
+    family,
+    family_table,
+    power_table,
+    powered_n,
+    prediction_check,
+)
 
-#: the paper's design (Kong's 5 subjects), the powered one, and Ricci's (the paper's 40 children)
-PAPER_DESIGN, POWERED_DESIGN, RICCI_DESIGN = "kong_sim", "kong_powered", "ricci_sim"
-#: the most subjects a simulated design may cost here (issue 43: 60-100 subjects, about two
-#: minutes of workflow each run on 2 cores)
-AFFORDABLE_N = 100
 #: samples of subjects per claim, design and scenario (Monte Carlo SE of a share at most 1.1 %)
 DRAWS = 2000
 #: how far the claim is true or false in the scenarios: half of the deciding cell's SD over the
@@ -67,81 +66,29 @@ RARELY = 0.05
 SEED = 42
 
 
-def claim_specs(folder: Path) -> dict:
-    """Per claim judged on cells: ``(wide, req, combine)``: the subjects x cells table of its
-    values (cells in the claim's order), the cells' requirements as arrays and how they combine.
-    """
-    tables = folder / "tables"
-    claims = pd.read_csv(tables / "claims.csv", keep_default_na=False, na_values=[""])
-    estimates = pd.read_csv(tables / "claim_estimates.csv")
-    cells = pd.read_csv(tables / "claim_cells.csv")
-    specs = {}
-    for _, claim in claims[claims["cells"] > 0].iterrows():
-        own = estimates[estimates["claim"] == claim["claim"]]
-        values = cells[cells["claim"] == claim["claim"]]
-        wide = values.pivot_table(index="subject", columns="cell", values="value", sort=False)
-        wide = wide.reindex(columns=list(own["cell"]))
-        req = {
-            c: own[c].to_numpy(bool if c.endswith("inclusive") else float)
-            for c in REQUIREMENT_COLUMNS
-        }
-        specs[claim["claim"]] = (wide, req, claim["combine"], claim)
-    return specs
-
-
-def _leaning(mean: np.ndarray, req: dict, combine: str) -> str:
-    """The verdict the point estimates would give (intervals of zero width)."""
-    code = int(combined(*cell_states(mean, mean, req), combine))
-    return CODES[code] if code != 2 else ""
-
-
-def power_table(folder: Path) -> pd.DataFrame:
-    """Per claim of the paper's design: its verdict, the way its estimates lean, the subjects
-    that would decide it that way with :data:`POWER` and whether that is affordable.
-    """
-    rows = []
-    for key, (wide, req, combine, claim) in claim_specs(folder).items():
-        mean, sd = wide.mean().to_numpy(), wide.std().to_numpy()
-        leaning = _leaning(mean, req, combine)
-        n = n_to_decide(mean, sd, req, combine, leaning) if leaning else np.nan
-        rows.append(
-            {
-                "claim": key,
-                "objective": claim["objective"],
-                "n": len(wide),
-                "verdict": claim["verdict"],
-                "estimates_lean": leaning,
-                "n_to_decide": n,
-                "affordable": bool(np.isfinite(n) and n <= AFFORDABLE_N),
-            }
-        )
-    return pd.DataFrame(rows)
-
-
-def powered_n(power: pd.DataFrame) -> int:
-    """The subjects a powered design needs: the most any affordable claim needs
-    (:func:`power_table`).
-    """
-    return int(power.loc[power["affordable"], "n_to_decide"].max())
-
-
-#: the powered design's subjects (config/powered.yaml), fixed in advance by :func:`powered_n` on
-#: the paper's design as committed on 2026-11-27 (issue 42): 93. Not recomputed with every later
-#: run of the paper's design: a design is fixed before its data are seen, and the table beside it
-#: (power.csv) says what the analysis gives on the cells committed now.
-POWERED_N = 93
-
-
 # --- operating characteristics ------------------------------------------------------------------
+
+
+def placed_against(req: dict, target: float) -> dict:
+    """The requirement a scenario is placed against: a superiority cell's bound moved to the edge
+    of its negligible band (its smallest effect of interest), on the claim's side when the claim
+    is true (``target`` > 0: true by a relevant amount), on the other side when it is false (a
+    relevant difference the other way); the bound itself when on it.
+    """
+    shift = np.sign(target) * np.nan_to_num(req["smallest_effect"], nan=0.0)
+    return {**req, "above": req["above"] + shift, "below": req["below"] - shift}
 
 
 def shifted(wide: pd.DataFrame, req: dict, combine: str, target: float | None) -> pd.DataFrame:
     """The population with every cell moved so that the deciding cell lies ``target`` of its SDs
-    on the claim's side of its nearest bound (negative: beyond it), each other cell by the same
-    number of its own SDs (a range's cell no farther in than its middle); None: as it is.
+    on the claim's side of its nearest bound (negative: beyond it; a superiority cell's bound
+    taken at the edge of its smallest effect of interest, :func:`placed_against`), each other
+    cell by the same number of its own SDs (a range's cell no farther in than its middle); None:
+    as it is.
     """
     if target is None:
         return wide
+    req = placed_against(req, target)
     mean, sd = wide.mean().to_numpy(), wide.std().to_numpy()
     z = margins(mean, sd, req)
     finite = np.isfinite(z)
@@ -174,15 +121,15 @@ def sampled(wide: pd.DataFrame, req: dict, combine: str, n: int, rng) -> dict:
             mean = np.nanmean(draws, axis=1)
             sd = np.nanstd(draws, axis=1, ddof=1)
         codes.append(verdict_codes(mean, sd, count, req, combine))
-        one = half_width(sd, count, 1)
+        one = half_width(sd, count, level(1))
         covered.append(np.abs(mean - truth) <= one)
-        all_covered.append((np.abs(mean - truth) <= half_width(sd, count, m)).all(axis=1))
+        all_covered.append((np.abs(mean - truth) <= half_width(sd, count, level(m))).all(axis=1))
     codes, covered = np.concatenate(codes), np.concatenate(covered)
     per_cell = covered.mean(axis=0)
     return {
         **{
             f"p_{name}": float(np.mean(codes == k))
-            for name, k in (("holds", 0), ("fails", 1), ("inconclusive", 2))
+            for name, k in (("holds", 0), ("fails", 1), ("inconclusive", 2), ("negligible", 3))
         },
         "coverage_median": float(np.median(per_cell)),
         "coverage_min": float(per_cell.min()),
@@ -271,33 +218,62 @@ def verdicts_by_design(results: Path) -> pd.DataFrame:
     )
 
 
-def _markdown(power: pd.DataFrame, table: pd.DataFrame, n: int, verdicts: pd.DataFrame) -> str:
+#: the sizes at which the family's joint probability of being decided is tabulated: the paper's,
+#: the powered design's, the one before it (93) and the budget
+FAMILY_SIZES = tuple(sorted({5, 20, 40, 60, 80, POWERED_N, 93, AFFORDABLE_N}))
+
+
+def _percent(table: pd.DataFrame, columns) -> pd.DataFrame:
     shown = table.copy()
-    for column in (
-        "p_holds",
-        "p_fails",
-        "p_inconclusive",
-        "coverage_median",
-        "coverage_min",
-        "simultaneous_coverage",
-    ):
-        shown[column] = shown[column].map(lambda v: f"{100 * v:.0f} %")
+    for column in columns:
+        shown[column] = shown[column].map(lambda v: f"{100 * v:.0f} %" if pd.notna(v) else "")
+    return shown
+
+
+def _markdown(analysis: dict, table: pd.DataFrame, verdicts: pd.DataFrame) -> str:
+    """operating_characteristics.md: the power analysis, its check, both designs' verdicts and
+    the rules' operating characteristics.
+    """
+    power, joint, check, n = (analysis[k] for k in ("power", "family", "check", "n"))
+    shown = _percent(
+        table,
+        [c for c in table.columns if c.startswith(("p_", "coverage_", "simultaneous_"))],
+    )
+    power = _percent(power, ["p_decide", "p_decide_sd_ucl", "assurance"])
+    joint = _percent(joint, [c for c in joint.columns if c.startswith("joint")])
+    check = _percent(check, ["p_decide", "assurance"])
     return "\n".join(
         [
             "# Operating characteristics of the claims' rules (SIMULATED)",
             "",
             "Made by `python -m aceval.report.operating results` from the committed "
-            "`results/*/tables/claim_*.csv` (aceval.report.operating explains how).",
+            "`results/*/tables/claim_*.csv` (aceval.report.operating and aceval.report.power "
+            "explain how).",
             "",
             "## Power analysis on the paper's design (kong_sim, 5 subjects)",
             "",
-            f"Subjects at which each claim reaches the verdict its estimates lean to with "
-            f"{POWER:.0%} probability, its cells' means and SDs taken as the truth. The powered "
-            f"design's n is the largest of those at most {AFFORDABLE_N}: fixed in advance at "
-            f"**{POWERED_N}** (config/powered.yaml); on the cells committed now the analysis "
-            f"gives {n}.",
+            f"Per claim: the subjects at which it reaches the verdict its estimates lean to with "
+            f"{POWER:.0%} probability, its cells' means taken as the truth and their SDs as "
+            f"observed (`n_to_decide`), at their one-sided {PILOT_UCL:.0%} upper confidence limit "
+            "(`n_at_sd_ucl`: a 5-subject SD is that uncertain) and scaled (`n_sd_x*`); its "
+            f"probability of being decided at {POWERED_N} subjects with the SDs as observed, at "
+            "their upper limit, and averaged over the truths the pilot leaves possible "
+            f"(`assurance`). The family: the claims decidable within {AFFORDABLE_N} subjects at "
+            f"the upper-limit SDs (`affordable`). The powered design's n is the fewest at which "
+            f"the family is decided with {FAMILY_POWER:.0%} (independent claims, upper-limit "
+            f"SDs), at most {AFFORDABLE_N}: fixed in advance at **{POWERED_N}** "
+            f"(config/powered.yaml); on the cells committed now the analysis gives {n}.",
             "",
             power.to_markdown(index=False),
+            "",
+            "The family's joint probability of being decided (`any_dependence`: the Bonferroni "
+            "inequality's lower bound, 1 - sum(1 - P), whatever the claims' dependence):",
+            "",
+            joint.to_markdown(index=False),
+            "",
+            f"## What the analysis said, and what the powered design ({POWERED_N} subjects) gave",
+            "",
+            check.to_markdown(index=False),
             "",
             "## The committed verdicts at both n",
             "",
@@ -307,15 +283,30 @@ def _markdown(power: pd.DataFrame, table: pd.DataFrame, n: int, verdicts: pd.Dat
             "",
             f"Population: the subjects of the committed powered design (Ricci: its children), each "
             f"claim's cells shifted so that the deciding cell lies {SHIFT_SD:g} SD on the claim's side "
-            f"of its bound (true), on it, or {SHIFT_SD:g} SD beyond it (false), or as simulated; "
-            f"{DRAWS} samples of n subjects with replacement per row. coverage: the cells' 95 % "
-            "intervals (median and smallest over the cells) and the simultaneous ones (every cell "
-            "at once) around the population means.",
+            f"of its bound (true), on it, or {SHIFT_SD:g} SD beyond it (false), or as simulated (a "
+            "superiority claim's bound taken at the edge of its smallest effect of interest when "
+            "true or false: true or false by a relevant amount; on the bound, 'no relevant "
+            "difference' is the right answer where the subjects' SD is small against it); "
+            f"{DRAWS} samples of n subjects with replacement per row. p_negligible: 'no relevant "
+            "difference'. coverage: the cells' 95 % intervals (median and smallest over the cells) "
+            "and the simultaneous ones (every cell at once) around the population means.",
             "",
             shown.to_markdown(index=False),
             "",
         ]
     )
+
+
+def power_analysis(results: Path) -> dict:
+    """The power analysis on the paper's design (:mod:`aceval.report.power`): per claim, the
+    family's joint probability, the n it gives, and its check against the powered design.
+    """
+    folder = results / PAPER_DESIGN
+    power = power_table(folder)
+    members = family(folder)
+    check = prediction_check(power, results / POWERED_DESIGN)
+    joint = family_table(members, FAMILY_SIZES)
+    return {"power": power, "family": joint, "check": check, "n": powered_n(members)}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -330,21 +321,25 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--power", action="store_true", help="the power analysis only")
     args = parser.parse_args(argv)
     results = args.results
-    power = power_table(results / PAPER_DESIGN)
     if args.power:
-        print(power.to_string(index=False))
-        print(f"powered design: {powered_n(power)} subjects")
+        folder = results / PAPER_DESIGN
+        members = family(folder)
+        print(power_table(folder).to_string(index=False))
+        print(family_table(members, FAMILY_SIZES).to_string(index=False))
+        print(f"powered design: {powered_n(members)} subjects")
         return 0
+    analysis = power_analysis(results)
     table = operating_table(results)
     out = results / "operating_characteristics"
     out.mkdir(parents=True, exist_ok=True)
-    power.to_csv(out / "power.csv", index=False, float_format="%.4f")
+    for name in ("power", "family", "check"):
+        csv = {"family": "family_power", "check": "power_check"}.get(name, name)
+        analysis[name].to_csv(out / f"{csv}.csv", index=False, float_format="%.4f")
     table.to_csv(out / "operating_characteristics.csv", index=False, float_format="%.4f")
     verdicts = verdicts_by_design(results)
     verdicts.to_csv(out / "verdicts_by_design.csv", index=False)
-    markdown = _markdown(power, table, powered_n(power), verdicts)
-    (out / "operating_characteristics.md").write_text(markdown)
-    print(f"powered design: {powered_n(power)} subjects", file=sys.stderr)
+    (out / "operating_characteristics.md").write_text(_markdown(analysis, table, verdicts))
+    print(f"powered design: {analysis['n']} subjects", file=sys.stderr)
     return 0
 
 

@@ -335,4 +335,5 @@ def summary_text(
         + summary.conditioning_section(tables)
         + summary.truth_section(tables)
         + summary.loose_reference_section(tables),
+        tables=tables,
     )

@@ -24,26 +24,32 @@ from aceval.report.claims import (
     GROUND_TRUTH,
     HOLDS,
     INCONCLUSIVE,
+    NEGLIGIBLE,
     PAPER,
     UNTESTABLE,
     VERDICTS,
     Claim,
+    rule_sentences,
     verdict_text,
 )
-from aceval.report.kong_claims import kong_claims
+from aceval.report.kong_claims import blind_spots, kong_claims
 from aceval.report.methods_section import static_pose_methods, unflagged_of
-from aceval.report.ricci_claims import ricci_claims
+from aceval.report.ricci_claims import ricci_claims, ricci_untestable
 
 
 def claims(tables: dict, data: dict) -> list[Claim]:
     """Kong's claims when the dataset has any of Kong's tables (by number), Ricci's when it has the
-    ricci_* tables; both read ``data``'s tidy tables (correlations, angles, calibrations).
+    ricci_* tables (else, beside Kong's, Ricci's as not testable: no functional axes); both read
+    ``data``'s tidy tables (correlations, angles, calibrations).
     """
     found = []
-    if any(isinstance(key, int) for key in tables):
+    kong = any(isinstance(key, int) for key in tables)
+    if kong:
         found += kong_claims(tables, data)
     if any(str(key).startswith("ricci_") for key in tables):
         found += ricci_claims(tables, data)
+    elif kong:
+        found += ricci_untestable()
     return found
 
 
@@ -355,10 +361,12 @@ def to_markdown(
     notes: list[str],
     first: list[str] | None = None,
     extra: list[str] | None = None,
+    tables: dict | None = None,
 ) -> str:
     """SUMMARY.md: the ``first`` section (which calibration to use for each sensor), the counts
-    and table of the papers' claims (the testable ones first), the notes, then aceval's own
-    checks against a ground truth, the checks of the code, and the ``extra`` sections.
+    and table of the papers' claims (the testable ones first) with how each family of claims is
+    judged and what it cannot see (from ``tables``), the notes, then aceval's own checks against
+    a ground truth, the checks of the code, and the ``extra`` sections.
     """
     claims = [c for c in found if c.section == PAPER]
     claims = [c for c in claims if c.verdict != UNTESTABLE] + [
@@ -378,17 +386,19 @@ def to_markdown(
     lines += [
         "## The papers' claims on this dataset",
         "",
-        f"{counts[HOLDS]} hold, {counts[FAILS]} do not hold, {counts[INCONCLUSIVE]} inconclusive, "
-        f"{counts[UNTESTABLE]} not testable. Each claim is judged on the subjects as independent "
-        "units (docs/objectives.md, 'How a claim is judged'): per cell, the 95 % t-interval of "
-        "the subjects' mean, made simultaneous over the claim's cells (Bonferroni: the numbers "
-        "say how many); holds when every cell's interval is on the claim's side, does not hold "
-        "when one cell's is wholly on the other side, inconclusive otherwise, with the way the "
-        "estimates lean and how many subjects would decide it with 80 % probability at these "
-        "effects. The cells behind every verdict are in tables/claim_cells.csv, each cell's "
-        "interval in tables/claim_estimates.csv. The claims that cannot be tested here come "
-        "last.",
+        f"{counts[HOLDS]} hold, {counts[FAILS]} do not hold, {counts[NEGLIGIBLE]} no relevant "
+        f"difference, {counts[INCONCLUSIVE]} inconclusive, {counts[UNTESTABLE]} not testable. "
+        "Each claim is judged on the subjects as independent units (docs/objectives.md, 'How a "
+        "claim is judged'), on the t-intervals of the subjects' mean in each of its cells:",
         "",
+        *rule_sentences(found),
+        "",
+        "An inconclusive claim says which way its estimates lean and how many subjects would "
+        "decide it with 80 % probability at these effects. The cells behind every verdict are in "
+        "tables/claim_cells.csv, each cell's intervals in tables/claim_estimates.csv. The claims "
+        "that cannot be tested here come last.",
+        "",
+        *blind_spots(found, tables or {}),
     ]
     lines += notes + ([""] if notes else [])
     lines += (
