@@ -113,7 +113,7 @@ def right_axis(args) -> int:
         return 1
     table = pd.DataFrame(dataset_right_axes(dataset, _trim(args)))
     columns = ["sensor_set", "imu", "segment", "side", "declared", "proposed", "verdict"]
-    columns += ["agrees", "cell", "evidence"]
+    columns += ["agrees", "sign_from", "cell", "evidence"]
     table = table[columns] if len(table) else pd.DataFrame(columns=columns)
     print(table[columns[:-2]].to_string(index=False))
     for row in table.itertuples():
