@@ -155,12 +155,9 @@ def body_frame_table(
         else None
     )
     rotated = _rotated(dataset, recording, R, quat, path)
-    digits = {
-        group: min(17, significant_digits(text[[c for c in rotated if c.startswith(group)]]) + 1)
-        for group in ("acc", "gyr", "quat")
-    }
+    digits = min(17, significant_digits(text[list(rotated)]) + 1)
     for name, values in rotated.items():
-        text[name] = [f"{v:.{digits[name.split('_')[0]]}g}" for v in values.tolist()]
+        text[name] = [f"{v:.{digits}g}" for v in values.tolist()]
     return text
 
 
@@ -170,9 +167,13 @@ def significant_digits(cells: pd.DataFrame) -> int:
     largest channel (``|R v| = |v|``), so written with one digit more its rounding is at most the
     source's rounding of that channel.
     """
-    mantissa = cells.stack().astype(str).str.replace(r"[eE].*$", "", regex=True)
-    digits = mantissa.str.replace(r"[^0-9]", "", regex=True).str.lstrip("0").str.len()
-    return max(1, int(digits.max())) if len(digits) else 17
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    texts = pa.array(cells.to_numpy().ravel(), type=pa.string())
+    mantissa = pc.replace_substring_regex(texts, r"[eE].*$", "")
+    digits = pc.utf8_ltrim(pc.replace_substring_regex(mantissa, r"[^0-9]", ""), "0")
+    return max(1, pc.max(pc.utf8_length(digits)).as_py() or 0)
 
 
 def _rotated(dataset: Dataset, recording, R: np.ndarray, quat, path) -> dict[str, np.ndarray]:
