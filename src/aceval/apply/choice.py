@@ -40,17 +40,24 @@ def read_calibrations(path: str | Path) -> pd.DataFrame:
     """The CSV of `aceval calibrate` (or a peer's) at ``path``; ApplyError naming the file and
     the cause when it is missing, unreadable, binary or not such a file.
     """
+    required = ["subject", "sensor_set", "imu", "test", "method", "n_reps", "flag"]
+    return _read_table(path, required, "a file of `aceval calibrate`", "calibrations")
+
+
+def _read_table(path, required: list[str], kind: str, rows: str) -> pd.DataFrame:
+    """The table at ``path``; ApplyError naming it and the cause when it cannot be read, lacks a
+    ``required`` column (is it ``kind``?) or holds no ``rows``.
+    """
     from aceval.data.errors import InputError
     from aceval.report.results import read_tables
 
-    required = ["subject", "sensor_set", "imu", "test", "method", "n_reps", "flag"]
     try:
-        calibrations = read_tables([path], required=required)
+        table = read_tables([path], required=required)
     except InputError as exc:
-        raise ApplyError(f"{exc}: is it a file of `aceval calibrate`?") from None
-    if calibrations.empty:
-        raise ApplyError(f"{path} holds no calibrations")
-    return calibrations
+        raise ApplyError(f"{exc}: is it {kind}?") from None
+    if table.empty:
+        raise ApplyError(f"{path} holds no {rows}")
+    return table
 
 
 def _repetitions(label) -> frozenset:
@@ -176,15 +183,7 @@ def read_decision(path: str | Path) -> pd.DataFrame:
     is missing, unreadable, not such a table, empty, or a verdict is not one of
     :data:`VERDICT_KINDS`.
     """
-    from aceval.data.errors import InputError
-    from aceval.report.results import read_tables
-
-    try:
-        decision = read_tables([path], required=DECISION_COLUMNS)
-    except InputError as exc:
-        raise ApplyError(f"{exc}: is it a decision.csv of the workflow?") from None
-    if decision.empty:
-        raise ApplyError(f"{path} holds no decision")
+    decision = _read_table(path, DECISION_COLUMNS, "a decision.csv of the workflow", "decision")
     unknown = ~decision["verdict_kind"].isin(VERDICT_KINDS)
     if unknown.any():
         line = int(np.flatnonzero(unknown)[0]) + 2

@@ -22,6 +22,7 @@ from aceval.calibrate.table import (
     AXES_COLUMNS,
     CALIBRATION_COLUMNS,
     KEY,
+    SIGN_VERIFIED,
     combine_flags,
     full_set_rows,
     has_flag,
@@ -38,10 +39,6 @@ from aceval.methods.sufficient import Pooled, pool
 from aceval.methods.uncertainty import calibration_cones
 from aceval.signals.checks import direction_checks
 from aceval.signals.gait_sign import gait_right
-
-#: the calibrations column that says whether the recordings verified the declared right axis's
-#: sign (:func:`aceval.signals.checks.direction_checks`, carried by :func:`propagate_backward`)
-SIGN_VERIFIED = "right_axis_sign_verified"
 
 #: a subset's calibration farther than this from its unit's calibration from all repetitions is
 #: ``unstable`` (:func:`flag_unstable`): Kong's Obj 5 finds calibrations of one IMU from different

@@ -11,6 +11,7 @@ from aceval.calibrate.table import (
     AXES_COLUMNS,
     CALIBRATION_COLUMNS,
     KEY,
+    SIGN_VERIFIED,
     axis_row,
     imu_identity,
 )
@@ -80,7 +81,7 @@ def calibrate_functional(
         axes.append(table)
     table = pd.DataFrame(calibrations, columns=None if calibrations else CALIBRATION_COLUMNS)
     # every axis is signed by its recordings' first phase, not by the declared right axis
-    table["right_axis_sign_verified"] = table[R_COLUMNS].notna().all(axis=1).astype(bool)
+    table[SIGN_VERIFIED] = table[R_COLUMNS].notna().all(axis=1).astype(bool)
     return table, (
         pd.concat(axes, ignore_index=True)[AXES_COLUMNS]
         if axes

@@ -24,8 +24,15 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from aceval.calibrate.pipeline import SIGN_VERIFIED, UNSTABLE_DEG, propagate_verified
-from aceval.calibrate.table import CALIBRATION_KEY, combine_flags, flag_text, matrices, parse_subset
+from aceval.calibrate.pipeline import UNSTABLE_DEG, propagate_verified
+from aceval.calibrate.table import (
+    CALIBRATION_KEY,
+    SIGN_VERIFIED,
+    combine_flags,
+    flag_text,
+    matrices,
+    parse_subset,
+)
 from aceval.data.rotations import axis_vector, error_angle_deg, vector_angle_deg
 from aceval.methods.kong import KongLimits
 from aceval.methods.moments import PHASE_COLUMNS
