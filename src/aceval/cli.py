@@ -151,8 +151,8 @@ def _add_right_axis(commands) -> None:
     """The ``right-axis`` command's arguments."""
     right_axis = commands.add_parser(
         "right-axis",
-        help="propose each IMU's right_axis from its recordings (how sure, and which imus.tsv cell "
-        "holds it)",
+        help="propose each IMU's right_axis from its recordings (how sure, what gave its sign or "
+        "that the data cannot tell it, and which imus.tsv cell holds it)",
     )
     right_axis.add_argument("dataset")
     right_axis.add_argument("--out", help="write the proposals here as a tab-separated table")
