@@ -29,7 +29,10 @@ so that any subset of repetitions is checked without reading the samples again.
   body -y; the seated shank lift and the leg swing move forward: +y). A calibration whose y axis
   (and so its x axis) points the wrong way sees the opposite; e.g. a ``right_axis`` declared with
   the wrong sign. In walking the shank swings forward faster than it moves back: the third moment
-  of its angular velocity about body y is positive.
+  of its angular velocity about body y is positive; the foot's pitch and the trunk's inverted
+  pendulum give each recording's right direction (:mod:`aceval.signals.gait_sign`), which votes
+  as a first phase does. Where the votes judge a calibration, most agree and its y is the
+  declared axis, the declared sign is verified by the data (``sign_verified``).
 * **The declared right axis points roughly right** (:data:`MAX_RIGHT_AXIS_ANGLE_DEG`).
 * **The static trial was taken standing** (:func:`static_posture`): the motion tests' own still
   portions (the samples Kong's trimmer leaves out, at least :data:`MIN_STILL_S`) give the sensor's
