@@ -125,8 +125,8 @@ def test_apply_takes_each_imus_decided_calibration_and_says_what_it_did(lab, tmp
 
 
 def test_a_static_recording_reads_gravity_along_body_z_in_the_files_units(lab, tmp_path, capsys):
-    """R on the wrong side (R^T d) turns gravity away from z; the unit scale multiplied instead
-    of divided reads -96 (g times 9.81^2 / 9.81...): both caught here, in g."""
+    """R on the wrong side (R^T d) turns gravity away from z; the unit scale (9.81 m/s^2 per g)
+    multiplied instead of divided reads about -96 instead of -1: both caught here, in g."""
     copy = tmp_path / "copy"
     assert run(capsys, lab, "--decision", decision(tmp_path / "d.csv"), "--out", copy)[0] == 0
     for imu in ("IMU4", "IMU5", "IMU6"):
