@@ -51,8 +51,9 @@ def copy_of(root: Path, out: Path, flip: bool, walking_only: bool) -> Path:
             shutil.copy(item, out / item.name)
     imus = pd.read_csv(out / "imus.tsv", sep="\t", dtype=str, keep_default_na=False)
     if flip:
-        imus["right_axis"] = [NEGATED[a[0]] + a[1:] if a[0] in NEGATED else "-" + a
-                              for a in imus["right_axis"]]  # fmt: skip
+        imus["right_axis"] = [
+            NEGATED[a[0]] + a[1:] if a[0] in NEGATED else "-" + a for a in imus["right_axis"]
+        ]
     imus.to_csv(out / "imus.tsv", sep="\t", index=False)
     if walking_only:
         dataset = load_dataset(root)
@@ -80,8 +81,9 @@ def verified(calibrations: pd.DataFrame) -> pd.Series:
 def outcome(root: Path, walking_only: bool) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         runs = {
-            name: calibrated(load_dataset(copy_of(root, Path(tmp) / name, name == "flipped",
-                                                  walking_only)))  # fmt: skip
+            name: calibrated(
+                load_dataset(copy_of(root, Path(tmp) / name, name == "flipped", walking_only))
+            )
             for name in ("clean", "flipped")
         }
     clean, flipped = runs["clean"], runs["flipped"]
