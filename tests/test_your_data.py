@@ -48,8 +48,9 @@ def test_the_doc_names_its_files_and_commands():
     assert set(files) == {"trials.tsv", "sensors.tsv", "my_lab.yaml"}
     assert [shlex.split(c)[:2] for c in commands] == [
         ["aceval", "import"], ["aceval", "validate"], ["aceval", "right-axis"],
-        ["snakemake", "-s"], ["aceval", "calibrate"], ["aceval", "apply"],
+        ["snakemake", "-s"], ["aceval", "apply"], ["aceval", "calibrate"], ["aceval", "apply"],
     ]  # fmt: skip
+    assert "--decision aceval_out/results/my_lab/tables/decision.csv" in commands[4]
     assert "aceval_out/results/my_lab/SUMMARY.md" in DOC.read_text()
     files, commands = doc_blocks(2)
     assert set(files) == {"mapping.yaml", "trials.tsv", "sensors.tsv", "other_lab.yaml"}
@@ -90,8 +91,10 @@ def test_every_command_of_the_doc_takes_the_exports_to_summary(tmp_path):
     assert "the rate given by hand, 100 Hz, fits the recordings" in said["import"]
     report = pd.read_csv(lab / "my_lab" / "import_report.tsv", sep="\t", dtype=str)
     assert (report["status"] == "imported").sum() == 5 * 10
-    # the right axes the doc's sheet declares are the ones the recordings give, where they can
-    assert said["right-axis"].count(" sure ") == 4 and "is declared" not in said["right-axis"]
+    # the right axes the doc's sheet declares are the ones the recordings give: every sign from
+    # walking alone (the lower back's from the pendulum, the feet's from their pitch)
+    assert said["right-axis"].count(" sure ") == 5 and "is declared" not in said["right-axis"]
+    assert said["right-axis"].count("foot pitch") == 2 and "trunk pendulum" in said["right-axis"]
     results = lab / "aceval_out" / "results" / "my_lab"
     summary = (results / "SUMMARY.md").read_text()
     assert "Xsens MT Manager exports" in summary

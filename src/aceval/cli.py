@@ -161,8 +161,8 @@ def _add_right_axis(commands) -> None:
     """The ``right-axis`` command's arguments."""
     right_axis = commands.add_parser(
         "right-axis",
-        help="propose each IMU's right_axis from its recordings (how sure, and which imus.tsv cell "
-        "holds it)",
+        help="propose each IMU's right_axis from its recordings (how sure, what gave its sign or "
+        "that the data cannot tell it, and which imus.tsv cell holds it)",
     )
     right_axis.add_argument("dataset")
     right_axis.add_argument("--out", help="write the proposals here as a tab-separated table")
@@ -260,23 +260,37 @@ def _add_apply(commands) -> None:
         "apply", help="write body-frame copies of a dataset's recordings into a new folder"
     )
     apply.add_argument("dataset")
-    apply.add_argument("--calibrations", required=True, help="CSV of `aceval calibrate`")
+    source = apply.add_mutually_exclusive_group(required=True)
+    source.add_argument(
+        "--decision",
+        help="the workflow's decision (results/<dataset>/tables/decision.csv): each IMU's "
+        "chosen calibration; 'no trustworthy calibration' is not applied, 'not within "
+        "tolerance' is, with a warning",
+    )
+    source.add_argument("--calibrations", help="CSV of `aceval calibrate`: one method's")
     apply.add_argument("--out", required=True, help="new folder (never the dataset itself)")
+    apply.add_argument(
+        "--include-untrusted",
+        action="store_true",
+        help="with --decision: also apply the calibration it names for an IMU it calls 'no "
+        "trustworthy calibration' (said per IMU)",
+    )
     kong = registry.paper_method("kong2016")
     apply.add_argument(
-        "--method", default=kong, help=f"method whose calibrations to apply ({kong})"
+        "--method", help=f"with --calibrations: method whose calibrations to apply ({kong})"
     )
     apply.add_argument(
         "--test",
-        help="calibration test (default: per IMU, the first test of calibrates.tsv "
-        "with a valid calibration from all its repetitions)",
+        help="with --calibrations: calibration test (default: per IMU, the first test of "
+        "calibrates.tsv with a valid calibration from all its repetitions)",
     )
     apply.add_argument("--force", action="store_true", help="replace a non-empty output folder")
     apply.add_argument(
         "--allow-subset",
         action="store_true",
-        help="where no calibration from all of an IMU's repetitions is valid, apply its largest "
-        "unflagged subset (said per IMU; without it such an IMU is left out and named)",
+        help="with --calibrations: where no calibration from all of an IMU's repetitions is "
+        "valid, apply its largest unflagged subset (said per IMU; without it such an IMU is left "
+        "out and named)",
     )
     apply.add_argument(
         "--other-dataset",

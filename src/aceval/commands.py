@@ -110,7 +110,7 @@ def right_axis(args) -> int:
         return 1
     table = pd.DataFrame(dataset_right_axes(dataset, _trim(args)))
     columns = ["sensor_set", "imu", "segment", "side", "declared", "proposed", "verdict"]
-    columns += ["agrees", "cell", "evidence"]
+    columns += ["agrees", "sign_from", "cell", "evidence"]
     table = table[columns] if len(table) else pd.DataFrame(columns=columns)
     print(table[columns[:-2]].to_string(index=False))
     for row in table.itertuples():
@@ -411,14 +411,10 @@ def _trim(args):
 
 
 def apply(args) -> int:
-    """`aceval apply`: body-frame copies of a dataset's recordings."""
-    from aceval.apply import (
-        ApplyError,
-        apply_calibrations,
-        check_rotations,
-        chosen_calibrations,
-        read_calibrations,
-    )
+    """`aceval apply`: body-frame copies of a dataset's recordings (each IMU's calibration from
+    the decision, ``--decision``, or one method's from a calibrations file).
+    """
+    from aceval.apply import ApplyError, apply_calibrations, check_not_applied, choose
     from aceval.data.contract import DatasetError
     from aceval.data.dataset import load_dataset
     from aceval.data.safety import check_writable
@@ -433,28 +429,19 @@ def apply(args) -> int:
     except DatasetError as exc:
         print(f"aceval apply: {args.dataset} is not a valid dataset:\n{exc}", file=sys.stderr)
         return 1
+    source = args.decision or args.calibrations
     try:
-        calibrations = read_calibrations(args.calibrations)
-        chosen = chosen_calibrations(
-            dataset, calibrations, args.method, args.test, args.allow_subset
-        )
-        if (chosen["calibration"] == "none").all():
-            reasons = chosen[["subject", "sensor_set", "imu", "why"]].itertuples(index=False)
-            why = [f"  {' '.join(map(str, r[:3]))}: {r[3]}" for r in reasons]
-            raise ApplyError(
-                f"{args.calibrations} has no valid {args.method} calibration"
-                + (f" from test {args.test}" if args.test else "")
-                + " to apply:\n"
-                + "\n".join(why)
-            )
-        check_rotations(chosen[chosen["calibration"] != "none"], args.calibrations)
+        chosen, said = choose(dataset, args)
+        check_not_applied(dataset, chosen, args.other_dataset, source)
     except ApplyError as exc:
         print(f"aceval apply: {exc}", file=sys.stderr)
         return 1
-    source = None if args.other_dataset else args.calibrations
 
     def write(folder):
-        for line in apply_calibrations(dataset, chosen, folder, args.method, _progress, source):
+        checked = None if args.other_dataset else source
+        for line in said + apply_calibrations(
+            dataset, chosen, folder, args.method, _progress, checked
+        ):
             print(
                 line if line.startswith("aceval") else f"aceval apply: warning: {line}",
                 file=sys.stderr,

@@ -22,6 +22,7 @@ from aceval.calibrate.table import (
     AXES_COLUMNS,
     CALIBRATION_COLUMNS,
     KEY,
+    SIGN_VERIFIED,
     combine_flags,
     full_set_rows,
     has_flag,
@@ -37,6 +38,7 @@ from aceval.methods.kong import KongLimits
 from aceval.methods.sufficient import Pooled, pool
 from aceval.methods.uncertainty import calibration_cones
 from aceval.signals.checks import direction_checks
+from aceval.signals.gait_sign import gait_right
 
 #: a subset's calibration farther than this from its unit's calibration from all repetitions is
 #: ``unstable`` (:func:`flag_unstable`): Kong's Obj 5 finds calibrations of one IMU from different
@@ -178,9 +180,11 @@ def _checked(plan: Plan, subsets: Subsets, fit: Fit) -> Fit:
     columns = dict(fit.columns)
     columns["first_phase_agreement"] = np.full(len(fit), np.nan)
     columns["right_axis_angle_deg"] = np.full(len(fit), np.nan)
+    columns[SIGN_VERIFIED] = np.zeros(len(fit), dtype=bool)
     checked = np.flatnonzero(np.isfinite(fit.R).all(axis=(1, 2)))
     units = plan.units
     unit = subsets.unit[checked]
+    cues = [units.get(name) for name in ("foot_right", "trunk_right", "gait_strength")]
     direction = direction_checks(
         units.first_phase[unit],
         units.segment[unit],
@@ -190,9 +194,11 @@ def _checked(plan: Plan, subsets: Subsets, fit: Fit) -> Fit:
         fit.R[checked],
         units.right[unit],
         _undetermined(fit, checked),
+        None if cues[0] is None else gait_right(units.segment[unit], *(c[unit] for c in cues)),
     )
     for key in ("first_phase_agreement", "right_axis_angle_deg"):
         columns[key][checked] = direction[key]
+    columns[SIGN_VERIFIED][checked] = direction["sign_verified"]
     flag[checked] = [combine_flags(f, found) for f, found in zip(flag[checked], direction["flag"])]
     return Fit(fit.R, flag, columns)
 
@@ -241,6 +247,7 @@ def propagate_backward(calibrations: pd.DataFrame) -> pd.DataFrame:
     checked test of the same IMU: every test's y axis takes its sign from the same ``right_axis``,
     so a calibration within 90 deg of one found backward is backward too. Judged on Kong's
     calibrations from all repetitions; the flag goes to every calibration (and method) of the test.
+    The sign verified elsewhere carries over likewise (:func:`propagate_verified`).
     """
     if calibrations.empty or "first_phase_agreement" not in calibrations:
         return calibrations
@@ -259,4 +266,30 @@ def propagate_backward(calibrations: pd.DataFrame) -> pd.DataFrame:
                 (calibrations[KEY] == imu.iloc[0][KEY]).all(axis=1) & (calibrations["test"] == test)
             ).to_numpy()
             flags[same] = [combine_flags(f, "backward") for f in flags[same]]
-    return calibrations.assign(flag=flags)
+    return propagate_verified(calibrations.assign(flag=flags))
+
+
+def propagate_verified(calibrations: pd.DataFrame) -> pd.DataFrame:
+    """A calibration whose direction its own recordings cannot judge (``first_phase_agreement``
+    NaN) has its sign verified (:data:`SIGN_VERIFIED`) when it is within 90 deg of one of Kong's
+    calibrations of the same IMU from all repetitions whose recordings verified it, and none of
+    the IMU's such calibrations is ``backward``: every test's y axis takes its sign from the same
+    ``right_axis``.
+    """
+    if SIGN_VERIFIED not in calibrations:
+        return calibrations
+    verified = calibrations[SIGN_VERIFIED].to_numpy(bool).copy()
+    unjudged = calibrations["first_phase_agreement"].isna().to_numpy()
+    matrices = calibrations[R_COLUMNS].to_numpy(float)
+    finite = np.isfinite(matrices).all(axis=1)
+    full = full_set_rows(kong_rows(calibrations))
+    rows_of = calibrations.groupby(KEY, sort=False).indices
+    for key, imu in full.groupby(KEY, sort=False):
+        sure = imu[imu[SIGN_VERIFIED].to_numpy(bool)]
+        if sure.empty or has_flag(imu["flag"], "backward").any():
+            continue
+        at = rows_of[key][unjudged[rows_of[key]] & finite[rows_of[key]]]
+        R = matrices[at].reshape(-1, 1, 3, 3)
+        angle = error_angle_deg(R, sure[R_COLUMNS].to_numpy(float).reshape(1, -1, 3, 3))
+        verified[at[(angle < 90.0).any(axis=1)]] = True
+    return calibrations.assign(**{SIGN_VERIFIED: verified})

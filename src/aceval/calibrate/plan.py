@@ -44,6 +44,7 @@ from aceval.signals.checks import (
     signal_verdict,
     static_posture,
 )
+from aceval.signals.gait_sign import GAIT_SIGN
 from aceval.signals.signatures import SIGNATURE_COLUMNS, signature_verdicts
 
 #: the two subset policies of a method (its ``every_subset``): every subset of a unit's
@@ -228,7 +229,7 @@ def _units(dataset, motion, z0, statics, sensors, summaries) -> tuple[Units, pd.
         out[~present] = absent
         return out
 
-    statistics = (*registry.statistics(), GYRO_THIRD)
+    statistics = (*registry.statistics(), GYRO_THIRD, GAIT_SIGN)
     values = {
         name: padded(part.columns, part.shape, part.absent, part.missing)
         for statistic in statistics

@@ -11,9 +11,11 @@ from aceval.calibrate.table import (
     AXES_COLUMNS,
     CALIBRATION_COLUMNS,
     KEY,
+    SIGN_VERIFIED,
     axis_row,
     imu_identity,
 )
+from aceval.data.contract import R_COLUMNS
 from aceval.data.dataset import Dataset
 from aceval.methods import registry
 from aceval.methods.functional import (
@@ -77,7 +79,10 @@ def calibrate_functional(
             }
             calibrations += method_rows(base, fits)
         axes.append(table)
-    return pd.DataFrame(calibrations, columns=None if calibrations else CALIBRATION_COLUMNS), (
+    table = pd.DataFrame(calibrations, columns=None if calibrations else CALIBRATION_COLUMNS)
+    # every axis is signed by its recordings' first phase, not by the declared right axis
+    table[SIGN_VERIFIED] = table[R_COLUMNS].notna().all(axis=1).astype(bool)
+    return table, (
         pd.concat(axes, ignore_index=True)[AXES_COLUMNS]
         if axes
         else pd.DataFrame(columns=AXES_COLUMNS)

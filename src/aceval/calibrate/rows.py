@@ -98,6 +98,7 @@ TABLE_COLUMNS = [
     "normal_gyro_angle_deg",
     "first_phase_agreement",
     "right_axis_angle_deg",
+    "right_axis_sign_verified",
     "gyro_acc_agreement",
     "gyro_acc_evidence_deg",
     "static_vertical_angle_deg",

@@ -17,6 +17,10 @@ from aceval.methods import registry
 from aceval.methods.interface import combine_flags as combine_flags  # the table's flags
 
 CALIBRATION_KEY = ["subject", "sensor_set", "imu", "test"]
+#: the calibrations column that says whether the recordings verified the declared right axis's
+#: sign (:func:`aceval.signals.checks.direction_checks`; carried to the tests that cannot tell by
+#: :func:`aceval.calibrate.pipeline.propagate_verified`)
+SIGN_VERIFIED = "right_axis_sign_verified"
 KEY = ["subject", "sensor_set", "imu"]
 #: the columns every calibration table has (an empty table keeps them)
 CALIBRATION_COLUMNS = [

@@ -24,8 +24,15 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from aceval.calibrate.pipeline import UNSTABLE_DEG
-from aceval.calibrate.table import CALIBRATION_KEY, combine_flags, flag_text, matrices, parse_subset
+from aceval.calibrate.pipeline import UNSTABLE_DEG, propagate_verified
+from aceval.calibrate.table import (
+    CALIBRATION_KEY,
+    SIGN_VERIFIED,
+    combine_flags,
+    flag_text,
+    matrices,
+    parse_subset,
+)
 from aceval.data.rotations import axis_vector, error_angle_deg, vector_angle_deg
 from aceval.methods.kong import KongLimits
 from aceval.methods.moments import PHASE_COLUMNS
@@ -36,6 +43,7 @@ from aceval.signals.checks import (
     direction_checks,
     right_axis_angle_deg,
 )
+from aceval.signals.gait_sign import FOOT_COLUMNS, STRENGTH_COLUMNS, TRUNK_COLUMNS, gait_right
 
 
 def gate_peers(
@@ -59,6 +67,9 @@ def gate_peers(
         peers = sensor_gates(peers, own)
     if recordings is not None and first_phase_of is not None:
         peers = direction_gates(peers, recordings, right_axis_of, first_phase_of)
+        if own is not None and SIGN_VERIFIED in own:  # a test it cannot judge, as aceval's rows
+            both = propagate_verified(pd.concat([own, peers], ignore_index=True))
+            peers[SIGN_VERIFIED] = both[SIGN_VERIFIED].to_numpy(bool)[len(own) :]
     return unstable_gates(peers, retest_k)
 
 
@@ -146,15 +157,18 @@ def direction_gates(
     """``backward`` where the repetitions the peer's calibration is made from vote that its
     forward is backward (:func:`aceval.signals.checks.direction_checks`: each repetition's own
     first-phase axis within 45 deg of the calibration's body y votes; the shank in walking by its
-    swing); column ``first_phase_agreement``. Rows without a subset label ('R1+R3') or without
-    the recordings' phases are left unchecked (NaN).
+    swing, the foot and the trunk by the physics of walking); columns ``first_phase_agreement``
+    and ``right_axis_sign_verified``. Rows without a subset label ('R1+R3') or without the
+    recordings' phases are left unchecked (NaN, False).
     """
     agreement = np.full(len(peers), np.nan)
     backward = np.zeros(len(peers), dtype=bool)
+    verified = np.zeros(len(peers), dtype=bool)
     motion = recordings[(recordings["kind"] == "motion") & (recordings["flag"].fillna("") == "")]
     if motion.empty or PHASE_COLUMNS[0] not in motion:
-        return peers.assign(first_phase_agreement=agreement)
+        return peers.assign(first_phase_agreement=agreement, **{SIGN_VERIFIED: verified})
     has_third = THIRD_MOMENT_COLUMNS[0] in motion
+    has_gait = FOOT_COLUMNS[0] in motion
     by_unit = {
         tuple(map(str, key)): group for key, group in motion.groupby(CALIBRATION_KEY, sort=False)
     }
@@ -185,11 +199,28 @@ def direction_gates(
             membership,
             R[at],
             np.broadcast_to(axis_vector(right_axis_of(key[1], key[2])), (n, 3)),
+            gait_axes=_gait_axes(group, peers["segment"].iloc[at].to_numpy(object))
+            if has_gait
+            else None,
         )
         agreement[at] = found["first_phase_agreement"]
         backward[at] = ["backward" in flag for flag in found["flag"]]
+        verified[at] = found["sign_verified"]
     flags = _with_flags(peers, [("backward", backward)])
-    return peers.assign(first_phase_agreement=agreement, flag=flags)
+    return peers.assign(first_phase_agreement=agreement, flag=flags, **{SIGN_VERIFIED: verified})
+
+
+def _gait_axes(group: pd.DataFrame, segment: np.ndarray) -> np.ndarray:
+    """(n, n_rep, 3) the right direction each repetition of ``group`` (one unit's summaries) gives
+    by the physics of walking, for each of ``n`` rows of that unit's ``segment``
+    (:func:`aceval.signals.gait_sign.gait_right`).
+    """
+    n, reps = len(segment), len(group)
+    foot, trunk, strength = (
+        np.broadcast_to(group[columns].to_numpy(float), (n, reps, 3))
+        for columns in (FOOT_COLUMNS, TRUNK_COLUMNS, STRENGTH_COLUMNS)
+    )
+    return gait_right(segment, foot, trunk, strength)
 
 
 def unstable_gates(peers: pd.DataFrame, retest_k: int | None) -> pd.DataFrame:

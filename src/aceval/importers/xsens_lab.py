@@ -151,8 +151,8 @@ def import_lab(lab: LabImport, out: Path) -> ImportReport:
         if tests[trial.test]["first_phase"] == "gait":
             _say_turns(trial, fs_hz, report)
     _check_statics(trials, tests)
+    _check_right_axes(trials, tests, fs_hz)
     imus = _imus(trials)
-    _check_right_axes(imus, trials, tests, fs_hz)
     writer = DatasetWriter(out, _meta(lab, fs_hz, imus))
     repetitions = _write(writer, trials, report)
     writer.close()
@@ -292,10 +292,17 @@ def _imus(trials: list[Trial]) -> pd.DataFrame:
     return pd.DataFrame(sorted(rows.values(), key=lambda row: row["line"]))[IMU_COLUMNS]
 
 
-def _check_right_axes(imus, trials, tests, fs_hz: float) -> None:
-    """Refuse empty right_axis cells, with what the recordings propose for each."""
-    empty = imus[imus["right_axis"] == ""]
-    if empty.empty:
+def _check_right_axes(trials, tests, fs_hz: float) -> None:
+    """Refuse empty right_axis cells, each sensors.tsv line with what its own recordings propose
+    (a line names one sensor: subjects who wore different sensors are judged apart).
+    """
+    empty = {
+        f["row"]["line"]: f["row"]
+        for trial in trials
+        for f in trial.sensors.values()
+        if not f["row"]["right_axis"]
+    }
+    if not empty:
         return
     from aceval.signals.right_axis import propose, recording_evidence
 
@@ -306,20 +313,18 @@ def _check_right_axes(imus, trials, tests, fs_hz: float) -> None:
             continue
         phase = tests[trial.test]["first_phase"]
         for sensor_set in {f["row"]["sensor_set"] for f in trial.sensors.values()}:
-            group = {
-                f["row"]["imu"]: (
-                    f["acc"][motion],
-                    f["gyr"][motion],
-                    f["row"]["segment"],
-                    f["row"]["side"],
-                )
+            rows = {
+                f["row"]["imu"]: f
                 for f in trial.sensors.values()
                 if f["row"]["sensor_set"] == sensor_set
             }
+            group = {
+                imu: (f["acc"][motion], f["gyr"][motion], f["row"]["segment"], f["row"]["side"])
+                for imu, f in rows.items()
+            }
             for imu, stats in recording_evidence(group, phase, fs_hz).items():
-                key = (trial.subject, sensor_set, imu, trial.test)
                 unit = units.setdefault(
-                    key,
+                    (trial.subject, sensor_set, imu, trial.test),
                     {
                         "subject": trial.subject,
                         "sensor_set": sensor_set,
@@ -327,20 +332,26 @@ def _check_right_axes(imus, trials, tests, fs_hz: float) -> None:
                         "segment": group[imu][2],
                         "test": trial.test,
                         "first_phase": phase,
+                        "line": rows[imu]["row"]["line"],
                         "stats": [],
                     },
                 )
                 unit["stats"].append(stats)
-    proposals = {(p["sensor_set"], p["imu"]): p for p in propose(list(units.values()))}
+    proposals = {p["key"]: p for p in propose(list(units.values()), key=lambda u: u["line"])}
     lines = []
-    for row in empty.itertuples():
-        p = proposals.get((row.sensor_set, row.imu))
+    for line, row in sorted(empty.items()):
+        p = proposals.get(line)
         said = (
-            f"the recordings propose {p['proposed'] or 'nothing'} ({p['verdict']}: {p['evidence']})"
-            if p
-            else "no recording of it moves in a test that calibrates it"
+            "no recording of it moves in a test that calibrates it"
+            if p is None
+            else f"the recordings propose {p['proposed']} ({p['verdict']}: {p['evidence']})"
+            if p["proposed"]
+            else f"the recordings cannot tell: {p['evidence']}"
         )
-        lines.append(f"  {row.source} ({row.imu}, {row.segment} {row.side}): {said}")
+        who = f", subject {row['subject']}" if row["subject"] else ""
+        lines.append(
+            f"  {row['source']} ({row['imu']}, {row['segment']} {row['side']}{who}): {said}"
+        )
     raise FormatError(
         "right_axis is empty for these sensors; fill in column right_axis (the sensor axis, +x "
         "-x +y -y +z -z, that points to the subject's right as worn) and import again:\n"

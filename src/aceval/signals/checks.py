@@ -29,7 +29,10 @@ so that any subset of repetitions is checked without reading the samples again.
   body -y; the seated shank lift and the leg swing move forward: +y). A calibration whose y axis
   (and so its x axis) points the wrong way sees the opposite; e.g. a ``right_axis`` declared with
   the wrong sign. In walking the shank swings forward faster than it moves back: the third moment
-  of its angular velocity about body y is positive.
+  of its angular velocity about body y is positive; the foot's pitch and the trunk's inverted
+  pendulum give each recording's right direction (:mod:`aceval.signals.gait_sign`), which votes
+  as a first phase does. Where the votes judge a calibration, most agree and its y is the
+  declared axis, the declared sign is verified by the data (``sign_verified``).
 * **The declared right axis points roughly right** (:data:`MAX_RIGHT_AXIS_ANGLE_DEG`).
 * **The static trial was taken standing** (:func:`static_posture`): the motion tests' own still
   portions (the samples Kong's trimmer leaves out, at least :data:`MIN_STILL_S`) give the sensor's
@@ -231,6 +234,20 @@ def right_axis_angle_deg(body_y: np.ndarray, right: np.ndarray) -> np.ndarray:
     return vector_angle_deg(body_y, right)
 
 
+def _voting_axes(expected, segment, phase_axes, gait_axes) -> tuple[np.ndarray, np.ndarray]:
+    """(B, n_rep, 3) each recording's axis that votes on the direction, and (B,) which
+    calibrations vote: a first phase's, or in walking a foot's or trunk's right direction by the
+    physics of walking (``gait_axes``, when given; the shank is judged by its swing instead).
+    """
+    phased = np.isin(expected, ["-y", "+y"])
+    walking = (expected == "gait") & (np.asarray(segment, dtype=object) != "shank")
+    axes = np.asarray(phase_axes, float)
+    if gait_axes is not None and walking.any():
+        axes = np.where(walking[:, None, None], np.asarray(gait_axes, float), axes)
+        phased = phased | walking
+    return axes, phased
+
+
 def direction_checks(
     expected: np.ndarray,
     segment: np.ndarray,
@@ -240,6 +257,7 @@ def direction_checks(
     R: np.ndarray,
     right: np.ndarray,
     undetermined: np.ndarray | None = None,
+    gait_axes: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
     """Is forward forward? For each calibration ``R`` (B, 3, 3) of an IMU from the recordings
     ``membership`` (B, n_rep) weighs (0/1) among those of its test.
@@ -247,28 +265,33 @@ def direction_checks(
     ``expected`` (B,): the test's ``first_phase`` ('-y', '+y', 'gait' or ''); ``segment`` (B,).
     ``phase_axes`` (B, n_rep, 3): each recording's rotation axis signed so that its first phase is
     positive about it; a recording votes when that axis is within 45 deg of the calibration's body
-    y (sensor frame: ``R[:, 1]``) and agrees when the sign is the protocol's. ``gait``: shanks
-    only, from the summed third moments ``third`` (B, n_rep, 10) (:func:`swing_skew`). ``right``
-    (B, 3): the declared right axis. ``undetermined`` (B,), optional: True where the
-    calibration's y axis is itself undetermined (Kong's plane normal: eigenvalue ratio above 0.5),
-    so that its angle to the declared right axis says nothing about the declaration.
+    y (sensor frame: ``R[:, 1]``) and agrees when the sign is the protocol's. ``gait``: the shank
+    from the summed third moments ``third`` (B, n_rep, 10) (:func:`swing_skew`); the foot and the
+    trunk from ``gait_axes`` (B, n_rep, 3), optional: each recording's right direction by the
+    physics of walking (:func:`aceval.signals.gait_sign.gait_right`; NaN where it does not tell),
+    voting as a first phase of sign +y does. ``right`` (B, 3): the declared right axis.
+    ``undetermined`` (B,), optional: True where the calibration's y axis is itself undetermined
+    (Kong's plane normal: eigenvalue ratio above 0.5), so that its angle to the declared right
+    axis says nothing about the declaration.
 
     Returns ``flag`` ('backward' when most votes disagree or the shank swings backward,
     'right_axis_mismatch' when the declared right axis is more than 60 deg from y0 (where y0 is
     undetermined: 'right_axis_unchecked', not a mislabel), joined by ';' when both hold, else ''),
     ``mismatch`` (that angle test alone, whatever the vote; False where undetermined),
-    ``first_phase_agreement`` (share of agreeing votes; NaN without votes) and
-    ``right_axis_angle_deg``.
+    ``first_phase_agreement`` (share of agreeing votes; NaN without votes),
+    ``right_axis_angle_deg`` and ``sign_verified`` (the recordings judged the direction, most of
+    them agree, and y is within 60 deg of the declared right axis: the declared sign is the
+    data's).
     """
     expected = np.asarray(expected, dtype=object)
     body_y = R[:, 1, :]
+    axes, phased = _voting_axes(expected, segment, phase_axes, gait_axes)
     with np.errstate(invalid="ignore"):
-        dots = np.einsum("bri,bi->br", np.asarray(phase_axes, float), body_y)
+        dots = np.einsum("bri,bi->br", axes, body_y)
     voting = (np.isfinite(dots) & (np.abs(dots) >= MIN_AXIS_ALIGNMENT)).astype(float)
     protocol_sign = np.where(expected == "-y", -1.0, 1.0)[:, None]
     agree = voting * (np.sign(dots) == protocol_sign)
     votes = np.einsum("br,br->b", membership, voting)
-    phased = np.isin(expected, ["-y", "+y"])
     with np.errstate(invalid="ignore", divide="ignore"):
         agreement = np.where(
             phased & (votes > 0), np.einsum("br,br->b", membership, agree) / votes, np.nan
@@ -303,6 +326,7 @@ def direction_checks(
         "mismatch": mismatch,
         "first_phase_agreement": agreement,
         "right_axis_angle_deg": angle,
+        "sign_verified": (agreement > 0.5) & ~far,
     }
 
 

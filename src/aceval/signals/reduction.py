@@ -49,6 +49,7 @@ from aceval.signals.checks import (  # the pair moments' columns: a: first recor
     agreement_moments,
     recording_signals,
 )
+from aceval.signals.gait_sign import GAIT_SIGN
 from aceval.signals.segmentation import TrimParams, mask_to_ranges, movement_mask
 from aceval.signals.signatures import motion_signatures, sagittal_rate, speed_envelope
 
@@ -185,9 +186,10 @@ def _read(dataset, rec, report, is_static, needed, trim, statistics) -> tuple:
 def motion_statistics() -> list:
     """The statistics the pass computes of every motion recording: those the registry's methods
     declare (:func:`aceval.methods.registry.statistics`), then the direction checks' third
-    moments (:data:`aceval.signals.checks.GYRO_THIRD`).
+    moments (:data:`aceval.signals.checks.GYRO_THIRD`) and the walking sign cues
+    (:data:`aceval.signals.gait_sign.GAIT_SIGN`).
     """
-    return [*registry.statistics(), GYRO_THIRD]
+    return [*registry.statistics(), GYRO_THIRD, GAIT_SIGN]
 
 
 def summarise_recordings(

@@ -1,4 +1,5 @@
-"""``aceval apply``: body-frame copies of a dataset's recordings (d_body = R d_sensor).
+"""Body-frame copies of a dataset's recordings (d_body = R d_sensor), once the calibration of
+each IMU is chosen (:mod:`aceval.apply.choice`).
 
 The copies go into a new folder laid out like the dataset (same sheets, same relative paths,
 same units), with ``applied_calibrations.tsv`` naming the calibration used for each IMU. The
@@ -7,9 +8,12 @@ the file and stops the command before anything is in place); the time column and
 apply does not change are carried as the input's own text (a CSV) or values (Parquet, the format
 of a simulated dataset: the copy is Parquet too); the vendor's orientation quaternions
 and ground_truth.tsv are rotated into the new sensor frame (the body frame the calibration
-estimates), so the copy validates and still has a truth. Calibrations are checked before use: a
-matrix that is not a rotation, or a calibration made from other recordings than the dataset's
-(:func:`recordings_fingerprint`), is refused.
+estimates), so the copy validates and still has a truth. A CSV's rotated columns are written one
+significant digit finer than the source's values (:func:`significant_digits`): a rotated value is
+at most about as large as the sensor's largest channel, so its rounding stays within the
+source's own rounding of that channel (a tenth of it in most samples). Calibrations made from
+other recordings than the dataset's (:func:`recordings_fingerprint`), or any onto a copy apply
+wrote (already in the body frame) but its own, are refused.
 """
 
 from __future__ import annotations
@@ -22,7 +26,7 @@ import numpy as np
 import pandas as pd
 from scipy.spatial.transform import Rotation
 
-from aceval.calibrate.table import unflagged
+from aceval.apply.choice import CHOICE_COLUMNS, KEY, VERDICT_KINDS, ApplyError
 from aceval.data.contract import QUAT_COLUMNS, R_COLUMNS, ValidationReport
 from aceval.data.dataset import Dataset
 from aceval.data.recording_checks import position, read_checked
@@ -30,21 +34,12 @@ from aceval.data.safety import contained
 from aceval.data.writer import write_sheet
 from aceval.methods import registry
 
-KEY = ["subject", "sensor_set", "imu"]
 #: the calibrations column that names the recordings a calibration was made from
 FINGERPRINT = "recordings_sha1"
-#: largest |R R^T - I| and |det R - 1| of a matrix taken for a rotation (the calibrations CSV keeps
-#: 17 digits; 1e-6 is a rotation error of about 6e-5 deg)
-ROTATION_TOLERANCE = 1e-6
 #: the sheets apply writes anew (the others are copied as they are)
 REWRITTEN = {"imus.tsv", "recordings.tsv", "ground_truth.tsv"}
-#: beside each IMU in applied_calibrations.tsv: which calibration apply used ('all repetitions',
-#: 'subset' or 'none') and why
-CHOICE_COLUMNS = ["calibration", "why"]
-
-
-class ApplyError(ValueError):
-    """The calibrations cannot be applied to this dataset; the message says which row and why."""
+#: the sheet a body-frame copy carries (its recordings are already turned)
+APPLIED_SHEET = "applied_calibrations.tsv"
 
 
 def fingerprints(dataset: Dataset, subject: str) -> tuple[str, str]:
@@ -74,127 +69,6 @@ def recordings_fingerprint(dataset: Dataset, subject: str) -> str:
     return fingerprints(dataset, subject)[0]
 
 
-def read_calibrations(path: str | Path) -> pd.DataFrame:
-    """The CSV of `aceval calibrate` (or a peer's) at ``path``; ApplyError naming the file and
-    the cause when it is missing, unreadable, binary or not such a file.
-    """
-    from aceval.data.errors import InputError
-    from aceval.report.results import read_tables
-
-    required = ["subject", "sensor_set", "imu", "test", "method", "n_reps", "flag"]
-    try:
-        calibrations = read_tables([path], required=required)
-    except InputError as exc:
-        raise ApplyError(f"{exc}: is it a file of `aceval calibrate`?") from None
-    if calibrations.empty:
-        raise ApplyError(f"{path} holds no calibrations")
-    return calibrations
-
-
-def _repetitions(label) -> frozenset:
-    """``'R1+R3'`` -> {1, 3} (empty for a missing label)."""
-    return (
-        frozenset(part.strip() for part in str(label).split("+"))
-        if label == label
-        else (frozenset())
-    )
-
-
-def chosen_calibrations(
-    dataset: Dataset,
-    calibrations: pd.DataFrame,
-    method: str | None = None,
-    test: str | None = None,
-    allow_subset: bool = False,
-) -> pd.DataFrame:
-    """What apply does for each (subject, set, IMU) of the dataset that a test of calibrates.tsv
-    calibrates: one row with the calibration's columns and :data:`CHOICE_COLUMNS`. The
-    ``method``'s (default Kong's, the registry's method of Kong et al. 2016) calibration from
-    all the unit's repetitions (the union of those of its rows: a hand-deleted row is missed,
-    not replaced), unflagged, from ``test`` or else the first test
-    of calibrates.tsv that has one (``calibration`` 'all repetitions'); failing that, with
-    ``allow_subset`` only, the largest unflagged subset of the first test that has one
-    ('subset'); else 'none'. ``why`` says which and why (which tests were passed over, flagged
-    what).
-    """
-    method = method or registry.paper_method("kong2016")
-    rows = calibrations[calibrations["method"] == method]
-    if test is not None:
-        rows = rows[rows["test"] == test]
-    rows = rows.assign(subject=rows["subject"].map(dataset.subject_label))
-    tests = list(dict.fromkeys(dataset.calibrates["test"])) if test is None else [test]
-    tests += sorted(set(rows["test"]) - set(tests))
-    calibrated = dataset.calibrates["imu"].unique()
-    wanted = dataset.recordings[dataset.recordings["imu"].isin(calibrated)][KEY].drop_duplicates()
-    groups = dict(list(rows.groupby(KEY, sort=False)))
-    out = []
-    for key in wanted.itertuples(index=False, name=None):
-        out.append(_choice(key, groups.get(key), tests, method, allow_subset))
-    columns = list(dict.fromkeys([*KEY, "test", "repetitions", "n_reps", *calibrations.columns]))
-    return pd.DataFrame(out, columns=[*columns, *CHOICE_COLUMNS])
-
-
-def _choice(key, group, tests: list[str], method: str, allow_subset: bool) -> dict:
-    """:func:`chosen_calibrations`' row of one IMU (``group``: its rows of the method, or None)."""
-    passed = []
-    if group is not None:
-        sets = group["repetitions"].map(_repetitions)
-        valid = unflagged(group)
-        for test in tests:
-            unit = (group["test"] == test).to_numpy()
-            if not unit.any():
-                continue
-            everything = frozenset().union(*sets[unit])
-            full = unit & (sets == everything).to_numpy()
-            n = len(everything)
-            if (full & valid.to_numpy()).any():
-                row = group[full & valid.to_numpy()].iloc[0].to_dict()
-                why = f"all {n} repetitions of {test}"
-                return row | {"calibration": "all repetitions", "why": why + _passed(passed)}
-            flag = group.loc[full, "flag"].astype(str)
-            passed.append(
-                f"{test}: its calibration from all {n} repetitions is "
-                + (f"flagged {flag.iloc[0]}" if full.any() else "not in the calibrations file")
-            )
-        subsets = group[valid.to_numpy()].assign(
-            _order=group["test"].map({t: k for k, t in enumerate(tests)})
-        )
-        if len(subsets):
-            best = subsets.sort_values(["_order", "n_reps"], ascending=[True, False]).iloc[0]
-            if allow_subset:
-                row = best.drop("_order").to_dict()
-                why = f"the subset {row['repetitions']} of {row['test']} (--allow-subset)"
-                return row | {"calibration": "subset", "why": why + _passed(passed)}
-            passed.append(
-                f"an unflagged subset ({best['repetitions']} of {best['test']}) is there: "
-                "--allow-subset applies the largest"
-            )
-    else:
-        passed.append(f"no {method} calibration of it in the calibrations file")
-    return dict(zip(KEY, key)) | {"calibration": "none", "why": "; ".join(passed)}
-
-
-def _passed(passed: list[str]) -> str:
-    return f" (passed over: {'; '.join(passed)})" if passed else ""
-
-
-def check_rotations(chosen: pd.DataFrame, source: str) -> None:
-    """ApplyError naming the first chosen row (subject, set, IMU, test) whose matrix is not a
-    rotation: a cell that is not a number, not orthonormal, or a reflection.
-    """
-    for _, row in chosen.iterrows():
-        what = f"{source}: {row['subject']} {row['sensor_set']} {row['imu']} {row['test']}"
-        R = pd.to_numeric(row[R_COLUMNS], errors="coerce").to_numpy(float).reshape(3, 3)
-        if not np.isfinite(R).all():
-            raise ApplyError(f"{what}: r11..r33 are not all numbers")
-        off = np.abs(R @ R.T - np.eye(3)).max()
-        if off > ROTATION_TOLERANCE or abs(np.linalg.det(R) - 1) > ROTATION_TOLERANCE:
-            raise ApplyError(
-                f"{what}: the matrix is not a rotation (|R R^T - I| = {off:.3g}, "
-                f"det {np.linalg.det(R):.6g}): was the file edited?"
-            )
-
-
 def check_source(dataset: Dataset, chosen: pd.DataFrame, source: str) -> list[str]:
     """ApplyError when a subject's calibrations were made from other recordings than this
     dataset's (another dataset, files changed since, or labels exchanged: :func:`fingerprints`);
@@ -202,6 +76,11 @@ def check_source(dataset: Dataset, chosen: pd.DataFrame, source: str) -> list[st
     peer tool (a method aceval does not have; no fingerprint) cannot be checked as fully.
     """
     if FINGERPRINT not in chosen.columns or chosen[FINGERPRINT].isna().all():
+        if "verdict_kind" in chosen.columns:
+            return [
+                f"{source} does not say which recordings its calibrations were made from (no "
+                f"{FINGERPRINT} column): not checked that it is this dataset's decision"
+            ]
         foreign = sorted(set(chosen["method"]) - set(registry.own()))
         if foreign:
             whose = "a peer tool's" if set(foreign) <= set(registry.peers()) else "not aceval's"
@@ -235,12 +114,35 @@ def check_source(dataset: Dataset, chosen: pd.DataFrame, source: str) -> list[st
     return warnings
 
 
+def check_not_applied(dataset: Dataset, chosen: pd.DataFrame, other_dataset: bool, source) -> None:
+    """ApplyError when ``dataset`` is a copy apply wrote (it holds :data:`APPLIED_SHEET`: its
+    recordings are in the body frame already) and the calibrations (of the file ``source``) are
+    not shown to be made from the copy itself (``other_dataset``, no fingerprint, or another
+    one): applying them would turn the recordings a second time.
+    """
+    if not (dataset.root / APPLIED_SHEET).is_file():
+        return
+    fingerprinted = FINGERPRINT in chosen.columns and chosen[FINGERPRINT].notna().any()
+    try:
+        mine = not other_dataset and fingerprinted
+        mine = mine and check_source(dataset, chosen[chosen["calibration"] != "none"], source) == []
+    except ApplyError:
+        mine = False
+    if not mine:
+        raise ApplyError(
+            f"{dataset.root} is a body-frame copy written by aceval apply ({APPLIED_SHEET}): its "
+            "recordings are turned already, and these calibrations were not made from it: "
+            "applying them would turn them a second time. Apply to the original dataset instead"
+        )
+
+
 def body_frame_table(
     dataset: Dataset, path: str, R: np.ndarray, report: ValidationReport, row
 ) -> pd.DataFrame | None:
-    """The CSV recording at ``path`` with acc and gyr in the body frame (file units, 17 digits)
-    and the quaternions (sensor -> world) now new-sensor -> world; every other column as the
-    input's text. None when the recording has an error (added to ``report``).
+    """The CSV recording at ``path`` with acc and gyr in the body frame (file units, one
+    significant digit more than the source's: :func:`significant_digits`) and the quaternions
+    (sensor -> world) now new-sensor -> world; every other column as the input's text. None when
+    the recording has an error (added to ``report``).
     """
     recording = read_checked(dataset, row, report)
     if recording is None:
@@ -252,9 +154,26 @@ def body_frame_table(
         if set(QUAT_COLUMNS) <= set(text)
         else None
     )
-    for name, values in _rotated(dataset, recording, R, quat, path).items():
-        text[name] = [repr(v) for v in values.tolist()]
+    rotated = _rotated(dataset, recording, R, quat, path)
+    digits = min(17, significant_digits(text[list(rotated)]) + 1)
+    for name, values in rotated.items():
+        text[name] = [f"{v:.{digits}g}" for v in values.tolist()]
     return text
+
+
+def significant_digits(cells: pd.DataFrame) -> int:
+    """The most significant digits any of the number texts ``cells`` holds (``-0.01230`` and
+    ``1.230e-2``: 4; at least 1). A rotated value is at most about as large as its sensor's
+    largest channel (``|R v| = |v|``), so written with one digit more its rounding is at most the
+    source's rounding of that channel.
+    """
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    texts = pa.array(cells.to_numpy().ravel(), type=pa.string())
+    mantissa = pc.replace_substring_regex(texts, r"[eE].*$", "")
+    digits = pc.utf8_ltrim(pc.replace_substring_regex(mantissa, r"[^0-9]", ""), "0")
+    return max(1, pc.max(pc.utf8_length(digits)).as_py() or 0)
 
 
 def _rotated(dataset: Dataset, recording, R: np.ndarray, quat, path) -> dict[str, np.ndarray]:
@@ -324,14 +243,16 @@ def apply_calibrations(
     source: str | None = None,
 ) -> list[str]:
     """Write the body-frame copies into the empty folder ``out`` with the calibrations ``chosen``
-    (:func:`chosen_calibrations`: its 'none' rows are left out, and listed in
-    applied_calibrations.tsv with the others); returns what to say: a line per IMU (which
-    calibration, and why), the warnings and a summary. ApplyError (naming the file or row and the
-    cause) when a recording to copy has an error or, once all were read, when ``source`` (the
-    calibrations file's name; None: not checked) was made from other recordings than the
-    dataset's (:func:`check_source`).
+    (:func:`chosen_calibrations` of ``method``, or :func:`decided_calibrations`: its 'none' rows
+    are left out, and listed in applied_calibrations.tsv with the others); returns what to say: a
+    line per IMU (which calibration, and why), the warnings (a decision's ``not within
+    tolerance`` and untrusted calibrations applied, by name) and a summary. ApplyError (naming
+    the file or row and the cause) when a recording to copy has an error or, once all were read,
+    when ``source`` (the calibrations file's name; None: not checked) was made from other
+    recordings than the dataset's (:func:`check_source`).
     """
-    method = method or registry.paper_method("kong2016")
+    decided = "verdict_kind" in chosen.columns
+    method = None if decided else method or registry.paper_method("kong2016")
     applied = chosen[chosen["calibration"] != "none"]
     rotations = {
         tuple(row[KEY]): row[R_COLUMNS].to_numpy(float).reshape(3, 3)
@@ -358,33 +279,57 @@ def apply_calibrations(
             progress(done, len(keep), "recordings written")
     warnings = check_source(dataset, applied, source) if source is not None else []
     columns = [*KEY, "test", "repetitions", "method", *CHOICE_COLUMNS, *R_COLUMNS]
-    table = chosen.assign(method=method).reindex(columns=columns)
+    table = (chosen if decided else chosen.assign(method=method)).reindex(columns=columns)
     cells = table.astype(object).fillna("")  # an empty column reads as float
-    write_sheet(out / "applied_calibrations.tsv", columns, cells.to_numpy().tolist())
-    said = [
-        f"aceval apply: {' '.join(map(str, row[KEY]))}: "
-        + (
-            f"{method} from {row['why']}"
-            if row["calibration"] != "none"
-            else f"not applied: {row['why']}"
-        )
-        for _, row in chosen.iterrows()
-    ]
+    write_sheet(out / APPLIED_SHEET, columns, cells.to_numpy().tolist())
     missing = int((chosen["calibration"] == "none").sum())
-    return (
-        said
-        + warnings
-        + [
-            f"aceval apply: {len(keep)} recordings of {len(rotations)} IMUs in the body frame ({method}); "
-            f"{missing} IMU(s) without a valid {method} calibration from all their repetitions "
-            "left out (listed above)"
-            + (
-                "; ground_truth.tsv rotated into the new frames"
-                if dataset.ground_truth is not None
-                else ""
-            )
-        ]
+    which = "the decision's calibration of each" if decided else method
+    summary = (
+        f"aceval apply: {len(keep)} recordings of {len(rotations)} IMUs in the body frame ({which}); "
+        + (
+            f"{missing} IMU(s) not applied (listed above)"
+            if decided
+            else f"{missing} IMU(s) without a valid {method} calibration from all their "
+            "repetitions left out (listed above)"
+        )
+        + (
+            "; ground_truth.tsv rotated into the new frames"
+            if dataset.ground_truth is not None
+            else ""
+        )
     )
+    return _said_lines(chosen, method) + warnings + _decision_warnings(chosen) + [summary]
+
+
+def _said_lines(chosen: pd.DataFrame, method: str | None) -> list[str]:
+    """A line per IMU: which calibration was applied and why, or why none (``method`` None: a
+    decision's, each IMU's own method, test and repetitions).
+    """
+    said = []
+    for _, row in chosen.iterrows():
+        what = f"aceval apply: {' '.join(map(str, row[KEY]))}: "
+        if row["calibration"] == "none":
+            said.append(what + f"not applied: {row['why']}")
+        elif method is None:
+            said.append(
+                what + f"{row['method']} ({row['test']} {row['repetitions']}): {row['why']}"
+            )
+        else:
+            said.append(what + f"{method} from {row['why']}")
+    return said
+
+
+def _decision_warnings(chosen: pd.DataFrame) -> list[str]:
+    """A warning per IMU whose calibration was applied though the decision says it is not within
+    the lab's tolerance or not trustworthy.
+    """
+    if "verdict_kind" not in chosen.columns:
+        return []
+    warned = chosen[chosen["calibration"].isin(VERDICT_KINDS[2:])]
+    return [
+        f"{' '.join(map(str, row[KEY]))}: applied, but the decision says {row['why']}"
+        for _, row in warned.iterrows()
+    ]
 
 
 def _write_truth(dataset: Dataset, rotations: dict, path: Path) -> None:
