@@ -30,7 +30,8 @@ test is recorded on one clock, so its motion can be compared with the others':
   same vote on the angular-speed envelope, which has no sign (``speed_side_votes``), tells a
   sensor on the other leg (both vote against) from a swing whose sign alone is reversed (the
   speed votes for its side): a gyroscope with one axis negated (left-handed) or a right axis
-  declared with the wrong sign, flagged ``swing_reversed`` instead.
+  declared with the wrong sign, flagged ``swing_reversed`` instead; where the speed does not
+  tell (its votes even), the message names both causes.
 
 The limits and the rates measured with them are in config/README.md's table of checks
 (``python benchmarks/check_rates.py``).
@@ -197,14 +198,21 @@ def signature_verdicts(motion: pd.DataFrame) -> dict[tuple, dict]:
             messages.append(
                 f"in walking its swing runs against its side's segments ({votes:+.0f} over "
                 f"{evidence:.0f} comparisons) while its angular speed rises and falls with them "
-                f"({speed_votes:+.0f}): the swing's sign is reversed, not the side: a gyroscope "
-                "axis negated (a left-handed gyroscope) or right_axis with the wrong sign?"
+                f"({speed_votes:+.0f}): its swing's sign reversed rather than its side? (a "
+                "gyroscope axis negated: a left-handed gyroscope; or right_axis with the wrong sign)"
             )
         elif evidence >= MIN_SIDE_EVIDENCE and votes < 0:
             flags.append("opposite_side_timing")
+            sure = speed_votes < 0  # its speed, which has no sign, votes for the other side too
             messages.append(
                 f"in walking it swings with the other side's segments ({votes:+.0f} over "
                 f"{evidence:.0f} comparisons): on the other leg (left and right exchanged)?"
+                + (
+                    ""
+                    if sure
+                    else " Or its swing's sign reversed (a gyroscope axis negated, right_axis "
+                    "with the wrong sign): its angular speed does not tell"
+                )
             )
         test_flags = {}
         if k in timing.index.droplevel("test"):
