@@ -150,6 +150,11 @@ class Dataset:
         return self.tests["kind"].to_dict()
 
     @cached_property
+    def calibrated(self) -> set[tuple[str, str]]:
+        """``{(test, imu)}``: the motion tests that may calibrate each IMU (calibrates.tsv)."""
+        return set(map(tuple, self.calibrates[["test", "imu"]].to_numpy()))
+
+    @cached_property
     def imu_regions(self) -> dict[tuple[str, str], str]:
         """``{(sensor_set, imu): region}`` (imus.tsv)."""
         return self.imus["region"].to_dict()
