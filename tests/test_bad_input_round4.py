@@ -40,6 +40,7 @@ from .sweep import (
     write_sheet,
 )
 
+
 @pytest.fixture(scope="module")
 def workspace(tmp_path_factory) -> Workspace:
     return Workspace(tmp_path_factory.mktemp("round4"))
