@@ -80,7 +80,7 @@ def calibrate_functional(
                 "n_reps": int(used["n_recordings"].sum()),
                 "n_samples": int(used["n_samples"].sum()),
             }
-            verdict = (sensors or {}).get((subject, sensor_set, imu), {})
+            verdict = sensors.get((subject, sensor_set, imu), {})
             per_test = [verdict.get("test_flags", {}).get(t, "") for t in used["test"]]
             sensor_flag = combine_flags(verdict.get("flag", ""), *per_test)
             calibrations += [

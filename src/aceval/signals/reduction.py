@@ -320,13 +320,11 @@ def summarise(
             if statistic.reduce is not None:
                 row.update(statistic.reduce(data.acc, data.gyr, mask, dataset.fs_hz))
     except CalibrationError as exc:
-        peak = np.degrees(np.linalg.norm(data.gyr, axis=1).max())
-        units = dataset.meta["units"]["gyr"]
-        doubt = (
-            gyro_units_doubt(peak, data.acc, dataset.fs_hz, units)
-            if exc.code == "no_movement"
-            else ""
-        )
+        doubt = ""  # a gyroscope that reads far too little: its units, named where it moved
+        if exc.code == "no_movement":
+            peak = float(np.degrees(np.linalg.norm(data.gyr, axis=1).max()))
+            units = dataset.meta["units"]["gyr"]
+            doubt = gyro_units_doubt(peak, data.acc, dataset.fs_hz, units)
         row.update(flag=exc.code, message=f"{rec['path']}: {exc}" + (f"; {doubt}" if doubt else ""))
     return row
 
