@@ -2,6 +2,10 @@
 
 import sys
 
-from aceval.cli import main
+try:
+    from aceval.cli import main
+except KeyboardInterrupt:  # Ctrl-C while the command line loads: nothing was started
+    print("aceval: interrupted (Ctrl-C); no output written", file=sys.stderr)
+    sys.exit(130)
 
 sys.exit(main())

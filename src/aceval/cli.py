@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
 from pathlib import Path
 
@@ -416,7 +417,11 @@ def main(argv: list[str] | None = None) -> int:
 
     if argv is None:  # a command-line run (not a call from Python): SIGTERM cleans up
         exit_cleanly_on_sigterm()
-    return _run(args)
+    try:
+        return _run(args)
+    except KeyboardInterrupt:  # Ctrl-C: every output staged so far is gone with the stack
+        print(f"aceval {args.command}: interrupted (Ctrl-C); no output written", file=sys.stderr)
+        return 128 + signal.SIGINT
 
 
 def _run(args) -> int:

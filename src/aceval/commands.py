@@ -185,7 +185,7 @@ def calibrate(args) -> int:
     try:  # the sheets here; each recording file is checked in the pass that reads it
         dataset = load_dataset(args.dataset)
     except DatasetError as exc:
-        print(f"aceval calibrate: {args.dataset} is not a valid dataset:\n{exc}", file=sys.stderr)
+        print(f"aceval calibrate: {args.dataset}: no file written:\n{exc}", file=sys.stderr)
         return 1
     if args.subject is not None:  # '01' is subject '1' (dataset.subject_key)
         args.subject = [dataset.subject_label(s) for s in args.subject]

@@ -51,6 +51,41 @@ def read_sheet(path: str) -> list[dict]:
     return _sheet(path, stat.st_size, stat.st_mtime_ns)
 
 
+def duplicate_keys(path: str) -> list[str]:
+    """Each key given twice in one mapping of the YAML (or JSON) file ``path``, as 'file line N:
+    key K is given twice (first at line M) ...': a YAML reader, Snakemake's too, keeps the last
+    one silently (two ``my_lab:`` blocks: one of them is never run). [] for a file it cannot
+    parse (Snakemake reports that itself).
+    """
+    import yaml
+
+    try:
+        with open(path, encoding="utf-8-sig") as handle:
+            root = yaml.compose(handle, Loader=yaml.SafeLoader)
+    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        return []
+    found, stack = [], [(root, "")] if root is not None else []
+    while stack:
+        node, where = stack.pop()
+        if isinstance(node, yaml.SequenceNode):
+            stack += [(item, f"{where}[{k}]") for k, item in enumerate(node.value)]
+        if not isinstance(node, yaml.MappingNode):
+            continue
+        first: dict[str, int] = {}
+        for key, value in node.value:
+            name = f"{where}.{key.value}" if where else str(key.value)
+            line = key.start_mark.line + 1
+            if key.value in first:
+                found.append(
+                    f"{path} line {line}: key {name!r} is given twice (first at line "
+                    f"{first[key.value]}): YAML keeps the last one without a word, so the first is "
+                    "never used; remove or rename one"
+                )
+            first.setdefault(key.value, line)
+            stack.append((value, name))
+    return sorted(found)
+
+
 @dataclass
 class HashCache:
     """Each recording's content hash, cached per file identity (size, mtime, ctime, inode: ctime
@@ -294,6 +329,24 @@ class Configuration:
             f"workflow builds each one's environment under .venv-peers/ the first time it runs it)."
         )
 
+    def data_note(self, dataset: str) -> str:
+        """What SUMMARY.md says about which data the dataset's results come from: the folder
+        of a lab's dataset, or how the workflow made it (its configuration entry).
+        """
+        spec = self.datasets[dataset]
+        if dataset in self.simulated:
+            made = ", ".join(f"{k} {v}" for k, v in spec["simulate"].items())
+            return (
+                f"Data: simulated by the workflow (config `datasets.{dataset}.simulate`: {made})."
+            )
+        if dataset in self.imported:
+            made = ", ".join(f"{k} {v}" for k, v in spec["import"].items() if k != "source")
+            return (
+                f"Data: imported by the workflow from `{spec['import']['source']}` under data_root "
+                f"(config `datasets.{dataset}.import`: {made})."
+            )
+        return f"Data: the dataset folder {spec['path']} (config `datasets.{dataset}.path`)."
+
     def data_label(self, dataset: str) -> str:
         """What the report's captions say about the data."""
         if dataset in self.simulated:
@@ -319,7 +372,7 @@ class Configuration:
         ]
 
     def results_options(self, dataset: str) -> list[str]:
-        """--analyses, --paper-names, --note (twice) and --test-retest-k of `aceval outputs`."""
+        """--analyses, --paper-names, --note (three times) and --test-retest-k of `aceval outputs`."""
         spec = self.datasets[dataset]
         return [
             "--analyses",
@@ -327,5 +380,6 @@ class Configuration:
             f"--paper-names={json.dumps(spec.get('paper_names', {}))}",
             f"--note={spec.get('note', '')}",
             f"--note={self.peers_note(dataset)}",
+            f"--note={self.data_note(dataset)}",
             f"--test-retest-k={self.config['objectives']['test_retest_k']}",
         ]

@@ -4,9 +4,11 @@
 # the sheets are validated).
 import os
 
-from aceval.workflow_plan import Configuration, read_sheet
+from aceval.workflow_plan import Configuration, duplicate_keys, read_sheet
 from snakemake.logging import logger
 
+for _problem in (p for f in workflow.configfiles for p in duplicate_keys(str(f))):
+    raise WorkflowError(f"aceval: a configuration file: {_problem}")
 PLAN = Configuration(config, workflow.basedir)
 DATASETS = PLAN.datasets
 PEERS_DIR = os.path.join(workflow.basedir, "workflow", "peers")

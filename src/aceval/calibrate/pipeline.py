@@ -61,7 +61,7 @@ def calibrate(
     ``sensors``: :func:`aceval.calibrate.plan.imu_checks` when the caller has it already.
     """
     if dataset.functional_axes is not None:
-        return calibrate_functional(dataset, summaries)
+        return calibrate_functional(dataset, summaries, sensors)
     return calibrate_sagittal(dataset, summaries, subsets, retest_k, sensors)
 
 

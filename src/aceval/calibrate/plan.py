@@ -140,7 +140,8 @@ def imu_checks(dataset: Dataset, summaries: pd.DataFrame, pairs=None) -> dict[tu
             summed, float(group["gyro_p90_deg_s"].max()), dataset.meta["units"]["gyr"]
         )
         messages = [verdict["message"]]
-        if key in z0.index and STILL_COLUMNS[0] in group:
+        standing = dataset.functional_axes is None  # Ricci's static posture is the sheet's
+        if standing and key in z0.index and STILL_COLUMNS[0] in group:
             still = {t: g[STILL_COLUMNS].to_numpy(float) for t, g in group.groupby("test")}
             posture = static_posture(z0.loc[key].to_numpy(float), still)
             verdict["static_vertical_angle_deg"] = posture["static_vertical_angle_deg"]

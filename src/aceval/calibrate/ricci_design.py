@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import pandas as pd
 
+from aceval.calibrate.plan import imu_checks
 from aceval.calibrate.rows import method_rows
 from aceval.calibrate.table import (
     AXES_COLUMNS,
@@ -13,6 +14,7 @@ from aceval.calibrate.table import (
     KEY,
     SIGN_VERIFIED,
     axis_row,
+    combine_flags,
     imu_identity,
 )
 from aceval.data.contract import R_COLUMNS
@@ -26,16 +28,19 @@ from aceval.methods.functional import (
 
 
 def calibrate_functional(
-    dataset: Dataset, summaries: pd.DataFrame
+    dataset: Dataset, summaries: pd.DataFrame, sensors: dict | None = None
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Ricci's protocol: for every (subject, set, IMU), the axes of the tests functional_axes.tsv
     lists for its segment (each pooled over all trials: Ricci computes rho from the 9-12
-    repetitions of a movement), then one calibration per axis method.
+    repetitions of a movement), then one calibration per axis method, flagged by the sensor
+    checks (``sensors``: :func:`aceval.calibrate.plan.imu_checks`, found here when None; its
+    flags of the IMU and of the tests used) beside the methods' own flags.
 
     ``axes`` has one row per (subject, set, IMU, test) recorded, with rho (Ricci Table 1), the
     reference axis when the test is used for the IMU's segment, and the LM residual angles
     before (identity) and after the fit (Ricci Eq. 13, Fig. 5).
     """
+    sensors = imu_checks(dataset, summaries) if sensors is None else sensors
     usable_rows = summaries[
         (summaries["flag"] == "") & summaries["kind"].isin(["static", "motion"])
     ]
@@ -77,7 +82,13 @@ def calibrate_functional(
                 "n_reps": int(used["n_recordings"].sum()),
                 "n_samples": int(used["n_samples"].sum()),
             }
-            calibrations += method_rows(base, fits)
+            verdict = sensors.get((subject, sensor_set, imu), {})
+            per_test = [verdict.get("test_flags", {}).get(t, "") for t in used["test"]]
+            sensor_flag = combine_flags(verdict.get("flag", ""), *per_test)
+            calibrations += [
+                row | {"flag": combine_flags(sensor_flag, row["flag"])}
+                for row in method_rows(base, fits)
+            ]
         axes.append(table)
     table = pd.DataFrame(calibrations, columns=None if calibrations else CALIBRATION_COLUMNS)
     # every axis is signed by its recordings' first phase, not by the declared right axis

@@ -35,8 +35,15 @@ from aceval.data.contract import (
     file_problem,
     recording_values,
 )
-from aceval.data.names import check_names, subject_key, unique_subjects
+from aceval.data.names import (
+    check_names,
+    check_places,
+    check_subject_labels,
+    subject_key,
+    unique_subjects,
+)
 from aceval.data.names import sheet_line as _line
+from aceval.data.protocol_checks import check_calibrates_not_empty, check_repetitions
 from aceval.data.recording_checks import (
     as_recording,
     check_header,
@@ -143,6 +150,11 @@ class Dataset:
     def test_kinds(self) -> dict[str, str]:
         """``{test: 'static' | 'motion'}`` (tests.tsv ``kind``)."""
         return self.tests["kind"].to_dict()
+
+    @cached_property
+    def calibrated(self) -> set[tuple[str, str]]:
+        """``{(test, imu)}``: the motion tests that may calibrate each IMU (calibrates.tsv)."""
+        return set(map(tuple, self.calibrates[["test", "imu"]].to_numpy()))
 
     @cached_property
     def imu_regions(self) -> dict[tuple[str, str], str]:
@@ -317,6 +329,8 @@ def read_sheets(
         return None, report
     report.dataset = str(meta.get("name", root.name))
     check_names(sheets, meta["sensor_sets"], report)
+    check_places(sheets["imus.tsv"], functional_axes, report)
+    check_subject_labels(sheets["subjects.tsv"], report)
 
     imus = _expand_imus(sheets["imus.tsv"], meta["sensor_sets"], report)
     _check_regions(imus, meta, report)
@@ -336,9 +350,11 @@ def read_sheets(
     imu_names = set(imus.index.get_level_values("imu"))
     calibrates = sheets["calibrates.tsv"]
     _check_calibrates(calibrates, tests, imu_names, report)
+    check_calibrates_not_empty(calibrates, report)
     recordings = sheets["recordings.tsv"]
     _check_recording_rows(recordings, subjects.index, tests.index, imu_names, meta, report)
     recordings = _unique_recordings(recordings, report)
+    check_repetitions(recordings, tests, report)
     _check_static_available(recordings, tests, calibrates, report)
     if ground_truth is not None:
         ground_truth = _check_ground_truth(ground_truth, report)

@@ -56,6 +56,12 @@ class NoMovementError(CalibrationError):
     code = "no_movement"
 
 
+class TooShortError(CalibrationError):
+    """A motion recording shorter than a repetition can be (a part of one: a cut file?)."""
+
+    code = "too_short"
+
+
 class SaturatedError(CalibrationError):
     """Too many samples clipped at the accelerometer range."""
 

@@ -94,15 +94,7 @@ def check_values(dataset, row, values: np.ndarray, report: ValidationReport) -> 
         kind = "duplicate" if np.any(dt == 0) else "decreasing"
         report.error(where, f"t is not strictly increasing ({kind} time at {at})")
         return
-    fs_in_t = 1.0 / float(np.median(dt))
-    if abs(fs_in_t - dataset.fs_hz) > FS_TOLERANCE * dataset.fs_hz:
-        report.error(
-            where,
-            f"sampling rate in t is {fs_in_t:.4g} Hz, dataset.yaml declares {dataset.fs_hz:g} Hz",
-        )
-    duration = t[-1] - t[0]
-    if duration < SHORT_RECORDING_S:
-        report.warning(where, f"very short recording: {duration:.2f} s")
+    check_time(dataset, row, t, dt, report)
     acc = values[:, 1:4]
     if dataset.test_kinds[row["test"]] == "static":
         magnitude_g = (
@@ -141,7 +133,9 @@ def check_values(dataset, row, values: np.ndarray, report: ValidationReport) -> 
                     else "aceval leaves them out"
                 ),
             )
-    check_signals(dataset, row, values, report)
+    calibrating = (row["test"], row["imu"]) in dataset.calibrated
+    suspect = calibrating and gyro_units_suspect(values, dataset, where, report)
+    check_signals(dataset, row, values, report, spikes=not suspect)
     gyr_range = dataset.meta.get("gyr_range_dps")
     if gyr_range:
         limit = SATURATION_FRACTION * np.radians(float(gyr_range)) / dataset.gyr_scale
@@ -150,6 +144,49 @@ def check_values(dataset, row, values: np.ndarray, report: ValidationReport) -> 
             report.warning(
                 where, f"{n_sat} samples at the gyroscope range +-{gyr_range} deg/s (saturated)"
             )
+
+
+def check_time(dataset, row, t: np.ndarray, dt: np.ndarray, report: ValidationReport) -> None:
+    """A recording's time ``t`` (strictly increasing; ``dt`` its steps): its sampling rate
+    against dataset.yaml's (an error), a jump (:func:`check_time_jump`) and a recording shorter
+    than :data:`SHORT_RECORDING_S` (warnings; a motion recording that short is left out).
+    """
+    where = recording_where(row)
+    fs_in_t = 1.0 / float(np.median(dt))
+    if abs(fs_in_t - dataset.fs_hz) > FS_TOLERANCE * dataset.fs_hz:
+        report.error(
+            where,
+            f"sampling rate in t is {fs_in_t:.4g} Hz, dataset.yaml declares {dataset.fs_hz:g} Hz",
+        )
+    check_time_jump(row["path"], dt, dataset.fs_hz, where, report)
+    duration = t[-1] - t[0]
+    if duration < SHORT_RECORDING_S:
+        motion = dataset.test_kinds[row["test"]] == "motion"
+        left_out = " (a motion recording this short is left out of the calibrations)"
+        report.warning(where, f"very short recording: {duration:.2f} s" + (left_out * motion))
+
+
+#: a step of ``t`` longer than this many sampling intervals is a jump: samples lost, or two
+#: recordings joined (none on the committed datasets: their longest step is 1.00 interval)
+MAX_TIME_STEP = 5.0
+
+
+def check_time_jump(path: str, dt: np.ndarray, fs_hz: float, where: str, report) -> None:
+    """A warning at the largest step of a recording's time ``t`` (``dt``: its steps, s) when it
+    is longer than :data:`MAX_TIME_STEP` sampling intervals of ``fs_hz``, with its line and how
+    many samples that many intervals hold: the recording is not one piece (the movement trimmer,
+    the pairs' time alignment and the step frequency take its samples as consecutive).
+    """
+    longest = int(np.argmax(dt))
+    if dt[longest] * fs_hz > MAX_TIME_STEP:
+        jumps = int((dt * fs_hz > MAX_TIME_STEP).sum())
+        report.warning(
+            where,
+            f"t jumps by {dt[longest]:.3g} s at {position(path, longest + 1)} (about "
+            f"{dt[longest] * fs_hz - 1:.0f} samples missing at {fs_hz:g} Hz"
+            + (f"; {jumps} jumps of more than {MAX_TIME_STEP:g} samples" if jumps > 1 else "")
+            + "): samples lost, or recordings joined? aceval takes the samples as consecutive",
+        )
 
 
 #: a channel that holds one value (exactly) for at least this share of a recording's samples, in
@@ -259,10 +296,13 @@ def vendor_up(path: Path) -> np.ndarray | None:
     return median / np.linalg.norm(median) if np.linalg.norm(median) > 0 else None
 
 
-def check_signals(dataset, row, values: np.ndarray, report: ValidationReport) -> None:
+def check_signals(
+    dataset, row, values: np.ndarray, report: ValidationReport, spikes: bool = True
+) -> None:
     """The checks of a recording's signals (file units) beyond its format: a stuck channel
     (:func:`stuck_channel`; of a static recording the accelerometer's only: a still gyroscope may
-    hold its value) and spikes (:func:`acc_spikes`), each a warning naming the file and what
+    hold its value) and, with ``spikes``, spikes (:func:`acc_spikes`: not where the gyroscope's
+    units are in doubt, since they judge its jolt), each a warning naming the file and what
     aceval does about it.
     """
     where = recording_where(row)
@@ -277,14 +317,81 @@ def check_signals(dataset, row, values: np.ndarray, report: ValidationReport) ->
             f"{name} is stuck at {value:g} for {share:.0%} of the recording (one value in a row): "
             "a dead or frozen axis; aceval leaves the recording out",
         )
-    spikes = acc_spikes(values[:, 1:4], values[:, 4:7], dataset.acc_scale, dataset.gyr_scale)
-    if spikes.any():
-        first = position(row["path"], int(np.flatnonzero(spikes)[0]))
+    if not spikes:
+        return
+    found = acc_spikes(values[:, 1:4], values[:, 4:7], dataset.acc_scale, dataset.gyr_scale)
+    if found.any():
+        first = position(row["path"], int(np.flatnonzero(found)[0]))
         report.warning(
             where,
-            f"{int(spikes.sum())} single-sample acceleration spike(s) of more than {SPIKE_G:g} g "
+            f"{int(found.sum())} single-sample acceleration spike(s) of more than {SPIKE_G:g} g "
             f"(first at {first}): beyond what a body segment does; aceval leaves them out",
         )
+
+
+#: a recording of a test that calibrates its IMU whose gyroscope peaks below the movement
+#: trimmer's threshold (its default, :class:`aceval.signals.segmentation.TrimParams`: 20 deg/s;
+#: none of the committed datasets' does) while its accelerometer's direction turns by at least
+#: :data:`UNITS_TURN_DEG` moved, and its gyroscope reads far too little: rad/s declared deg/s
+#: (57.3-fold), or a dead gyroscope. The turn: the 95th percentile of the angle of the
+#: acceleration (averaged over :data:`TURN_WINDOW_S`) from its median direction. Not judged in a
+#: test that does not calibrate the IMU: a sensor that the test barely turns may still move, and
+#: its accelerometer turn with the linear acceleration (up to 17.9 deg on kong_sim); the rates:
+#: config/README.md
+NO_MOVEMENT_DEG_S = 20.0
+UNITS_TURN_DEG = 5.0
+TURN_WINDOW_S = 0.25
+
+
+def accelerometer_turn_deg(acc: np.ndarray, fs_hz: float) -> float:
+    """How far (deg) a recording's acceleration (N, 3) turns from its median direction: the 95th
+    percentile over its samples, each averaged over :data:`TURN_WINDOW_S` (any units).
+    """
+    from scipy.ndimage import uniform_filter1d
+
+    width = max(1, int(round(TURN_WINDOW_S * fs_hz)))
+    smooth = uniform_filter1d(np.asarray(acc, dtype=float), width, axis=0, mode="nearest")
+    norm = np.linalg.norm(smooth, axis=1)
+    direction = smooth[norm > 0] / norm[norm > 0, None]
+    if not len(direction):
+        return 0.0
+    median = np.median(direction, axis=0)
+    median /= np.linalg.norm(median) or 1.0
+    return float(np.percentile(np.degrees(np.arccos(np.clip(direction @ median, -1, 1))), 95))
+
+
+def gyro_units_doubt(peak_deg_s: float, acc: np.ndarray, fs_hz: float, declared: str) -> str:
+    """Why a motion recording's gyroscope units are in doubt ('' when they are not): its peak
+    angular speed ``peak_deg_s`` (as declared) is below :data:`NO_MOVEMENT_DEG_S` while its
+    acceleration ``acc`` (N, 3) turns by :data:`UNITS_TURN_DEG` or more
+    (:func:`accelerometer_turn_deg`); ``declared``: dataset.yaml ``units.gyr``.
+    """
+    if peak_deg_s >= NO_MOVEMENT_DEG_S:
+        return ""
+    turn = accelerometer_turn_deg(acc, fs_hz)
+    if turn < UNITS_TURN_DEG:
+        return ""
+    other = "rad/s" if declared == "deg/s" else "deg/s"
+    as_other = peak_deg_s * (180.0 / np.pi if declared == "deg/s" else np.pi / 180.0)
+    return (
+        f"the accelerometer turns {turn:.0f} deg while the gyroscope peaks at {peak_deg_s:.3g} "
+        f"deg/s, below the {NO_MOVEMENT_DEG_S:g} deg/s of any movement: are units.gyr "
+        f"({declared}) right? Read as {other}, the peak is {as_other:.3g} deg/s (or the "
+        "gyroscope is dead)"
+    )
+
+
+def gyro_units_suspect(values: np.ndarray, dataset, where: str, report) -> bool:
+    """True, with a warning, when a motion recording's (N, 7) ``values`` (file units) put its
+    gyroscope's units in doubt (:func:`gyro_units_doubt`).
+    """
+    peak_deg_s = np.degrees(np.linalg.norm(values[:, 4:7], axis=1).max() * dataset.gyr_scale)
+    doubt = gyro_units_doubt(
+        float(peak_deg_s), values[:, 1:4], dataset.fs_hz, dataset.meta["units"]["gyr"]
+    )
+    if doubt:
+        report.warning(where, f"{doubt}. aceval finds no movement in it and leaves it out")
+    return bool(doubt)
 
 
 def position(path: str, index: int) -> str:

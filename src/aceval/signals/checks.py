@@ -564,5 +564,5 @@ def acc_sign_problem(agreement: float) -> str:
         "its accelerometer and that of the other sensor on the segment (the other sensor set) "
         f"disagree on the sign of gravity (agreement {agreement:.2f} < "
         f"-{ACC_SIGN_MIN_AGREEMENT:g}): one of them reads it reversed (dataset.yaml "
-        "acc_at_rest, or that sensor's export)"
+        "acc_at_rest, or that sensor's export), or has a gyroscope axis negated (left-handed)"
     )

@@ -29,10 +29,16 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from aceval.data.contract import Recording, ValidationReport
+from aceval.data.contract import SHORT_RECORDING_S, Recording, ValidationReport
 from aceval.data.dataset import Dataset
-from aceval.data.errors import CalibrationError, SaturatedError
-from aceval.data.recording_checks import known_recordings, plateau_limit, read_checked, vendor_up
+from aceval.data.errors import CalibrationError, SaturatedError, TooShortError
+from aceval.data.recording_checks import (
+    gyro_units_doubt,
+    known_recordings,
+    plateau_limit,
+    read_checked,
+    vendor_up,
+)
 from aceval.data.rotations import axis_vector, vector_angle_deg
 from aceval.methods import registry
 from aceval.methods.moments import recording_moments, vertical_axis
@@ -284,6 +290,11 @@ def summarise(
         row.update(agreement_moments(data.acc, data.gyr, dataset.fs_hz))
         row["calibrates"] = True
         row["gyro_p90_deg_s"] = typical_speed_deg_s(data.gyr)
+        if (duration := float(data.t[-1] - data.t[0])) < SHORT_RECORDING_S:
+            raise TooShortError(
+                f"{duration:.2f} s long, shorter than {SHORT_RECORDING_S:g} s: a part of a "
+                "repetition, not a whole one (a cut file?)"
+            )
         mask = moving if moving is not None else movement_mask(data.gyr, dataset.fs_hz, trim)
         still = ~mask  # standing before, between and after the movements: the vertical again
         enough = still.sum() >= MIN_STILL_S * dataset.fs_hz
@@ -311,7 +322,12 @@ def summarise(
             if statistic.reduce is not None:
                 row.update(statistic.reduce(data.acc, data.gyr, mask, dataset.fs_hz))
     except CalibrationError as exc:
-        row.update(flag=exc.code, message=f"{rec['path']}: {exc}")
+        doubt = ""  # a gyroscope that reads far too little: its units, named where it moved
+        if exc.code == "no_movement":
+            peak = float(np.degrees(np.linalg.norm(data.gyr, axis=1).max()))
+            units = dataset.meta["units"]["gyr"]
+            doubt = gyro_units_doubt(peak, data.acc, dataset.fs_hz, units)
+        row.update(flag=exc.code, message=f"{rec['path']}: {exc}" + (f"; {doubt}" if doubt else ""))
     return row
 
 

@@ -26,7 +26,12 @@ test is recorded on one clock, so its motion can be compared with the others':
   the envelope correlates better with the same side's sensor (a vote +1) or the other side's
   (-1). More votes against than for, summed over the repetitions and at least
   :data:`MIN_SIDE_EVIDENCE` votes, flags every calibration ``opposite_side_timing``: a left
-  sensor listed as right?
+  sensor listed as right? The vote is cast on the swing signed by the declared right axis; the
+  same vote on the angular-speed envelope, which has no sign (``speed_side_votes``), tells a
+  sensor on the other leg (both vote against) from a swing whose sign alone is reversed (the
+  speed votes for its side): a gyroscope with one axis negated (left-handed) or a right axis
+  declared with the wrong sign, flagged ``swing_reversed`` instead; where the speed does not
+  tell (its votes even), the message names both causes.
 
 The limits and the rates measured with them are in config/README.md's table of checks
 (``python benchmarks/check_rates.py``).
@@ -43,7 +48,7 @@ ENVELOPE_S = 0.25
 ENVELOPE_HZ = 20.0
 #: the recordings of one test must overlap this long (s) for their envelopes to be compared
 MIN_OVERLAP_S = 2.0
-SIGNATURE_COLUMNS = ["timing_r", "side_votes", "side_evidence"]
+SIGNATURE_COLUMNS = ["timing_r", "side_votes", "side_evidence", "speed_side_votes"]
 #: best envelope correlation with another sensor of the test (median over repetitions)
 MIN_TIMING_R = 0.3
 #: a sensor the test does not calibrate, against the median of the test's calibrated sensors
@@ -121,10 +126,12 @@ def motion_signatures(
             out[imu]["timing_r"] = float(others.max()) if len(others) else np.nan
         return out
     signed = {imu: rate for imu, rate in rates.items() if rate is not None}
-    names, swing = envelope_correlations(signed) if len(signed) > 1 else ([], None)
+    swing_names, swing = envelope_correlations(signed) if len(signed) > 1 else ([], None)
     for imu in signed:
-        if names:
-            out[imu].update(_side_votes(imu, names, swing, places))
+        if swing_names:
+            out[imu].update(_side_votes(imu, swing_names, swing, places))
+            speed = _side_votes(imu, names, r, places).get("side_votes", np.nan)
+            out[imu]["speed_side_votes"] = speed
     return out
 
 
@@ -172,7 +179,8 @@ def signature_verdicts(motion: pd.DataFrame) -> dict[tuple, dict]:
     moves = judged & ~speed["calibrates"] & (speed["ratio"] > MAX_OTHER_SPEED_RATIO)
     calibrated = motion[motion["calibrates"]]
     timing = calibrated.groupby(key + ["test"])["timing_r"].median()
-    side = motion.groupby(key)[["side_votes", "side_evidence"]].sum(min_count=1)
+    voted = [c for c in SIGNATURE_COLUMNS[1:] if c in motion]
+    side = motion.groupby(key)[voted].sum(min_count=1).reindex(columns=SIGNATURE_COLUMNS[1:])
     out = {}
     for k, group in speed.groupby(key, sort=False):
         messages, flags = [], []
@@ -184,12 +192,27 @@ def signature_verdicts(motion: pd.DataFrame) -> dict[tuple, dict]:
         if messages:
             flags.append("unexpected_motion_pattern")
             messages[-1] += ": on another segment than imus.tsv says (labels exchanged)?"
-        votes, evidence = side.loc[k] if k in side.index else (np.nan, np.nan)
-        if evidence >= MIN_SIDE_EVIDENCE and votes < 0:
+        votes, evidence, speed_votes = side.loc[k] if k in side.index else (np.nan,) * 3
+        if evidence >= MIN_SIDE_EVIDENCE and votes < 0 and speed_votes > 0:
+            flags.append("swing_reversed")
+            messages.append(
+                f"in walking its swing runs against its side's segments ({votes:+.0f} over "
+                f"{evidence:.0f} comparisons) while its angular speed rises and falls with them "
+                f"({speed_votes:+.0f}): its swing's sign reversed rather than its side? (a "
+                "gyroscope axis negated: a left-handed gyroscope; or right_axis with the wrong sign)"
+            )
+        elif evidence >= MIN_SIDE_EVIDENCE and votes < 0:
             flags.append("opposite_side_timing")
+            sure = speed_votes < 0  # its speed, which has no sign, votes for the other side too
             messages.append(
                 f"in walking it swings with the other side's segments ({votes:+.0f} over "
                 f"{evidence:.0f} comparisons): on the other leg (left and right exchanged)?"
+                + (
+                    ""
+                    if sure
+                    else " Or its swing's sign reversed (a gyroscope axis negated, right_axis "
+                    "with the wrong sign): its angular speed does not tell"
+                )
             )
         test_flags = {}
         if k in timing.index.droplevel("test"):
