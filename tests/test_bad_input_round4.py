@@ -235,11 +235,15 @@ def test_a_gyroscope_in_rad_s_declared_deg_s_is_named(workspace, tmp_path):
     clean = aceval("validate", lab)
     assert clean.code == 0 and "spike" not in clean.said and "units.gyr" not in clean.said
     change_recordings(recordings_of(lab), lambda t: t.assign(**{c: np.radians(t[c]) for c in GYR}))
-    result = aceval("validate", lab)
+    findings = tmp_path / "findings.tsv"
+    result = aceval("validate", lab, "--findings-out", findings)
     assert result.code == 0, result.said[-3000:]
     motion = sheet(lab / "recordings.tsv").query("test != 'T0'")
-    doubted = [line for line in said_lines(result) if "are units.gyr (deg/s) right?" in line]
-    assert len(doubted) == len(motion), result.said[-3000:]
+    # on screen one line per kind of warning (with its count); every one in the findings file
+    on_screen = [line for line in said_lines(result) if "are units.gyr (deg/s) right?" in line]
+    assert len(on_screen) == 1 and f"WARNING {len(motion)} x" in on_screen[0], result.said[-3000:]
+    doubted = [line for line in findings.read_text().splitlines() if "are units.gyr" in line]
+    assert len(doubted) == len(motion), findings.read_text()[-3000:]
     assert all("Read as rad/s" in line for line in doubted)
     assert "spike" not in result.said
     calibrated = aceval("calibrate", lab, "--out", tmp_path / "out.csv")
