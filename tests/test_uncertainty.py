@@ -280,47 +280,6 @@ def test_repetitions_in_different_planes_or_one_repetition_leave_the_heading_und
     assert np.isnan(single[1]) and undetermined(*single)
 
 
-def test_recommendation_uses_the_truth_where_there_is_one_and_test_retest_otherwise():
-    methods = pd.DataFrame(
-        {
-            "segment": ["thigh"] * 3,
-            "test": ["T3", "T6", "T6"],
-            "sensor_set": "frontal",
-            "method": ["kong", "kong", "combined"],
-            "median": [4.0, 2.0, 2.5],
-            "n": [5, 5, 5],
-            "retest_median_deg": [1.0, 0.5, 0.4],
-        }
-    )
-    retest = methods.assign(
-        median=[
-            0.9,
-            0.3,
-            0.1,
-        ][:3]
-    )
-    lines = "\n".join(
-        summary.recommendation_section({"methods": methods, "methods_retest": retest})
-    )
-    assert "**thigh**: kong from T6 (median error 2.00 deg, n = 5; test-retest 0.50 deg" in lines
-    truth_errors = pd.DataFrame(
-        {"subject": "S1", "sensor_set": "frontal", "imu": ["IMU1", "IMU2"], "segment": "thigh",
-         "truth_uncertainty_deg": [0.5, 2.5], "methods_differ_deg": [1.0, 4.0]}
-    )  # fmt: skip
-    measured = summary.recommendation_section({"methods": methods, "truth_errors": truth_errors})
-    assert "the truth +- 2.5 deg, its two methods up to 4.0 deg apart" in "".join(measured)
-    no_truth = "\n".join(summary.recommendation_section({"methods_retest": retest}))
-    assert "No ground truth here" in no_truth
-    assert "**thigh**: combined from T6 (median test-retest 0.10 deg" in no_truth
-    static = retest.assign(method=["kong", "kong", "opensense_imuplacer"])
-    assert (
-        "opensense"
-        not in "\n".join(summary.recommendation_section({"methods_retest": static})).split(
-            "repeats by design"
-        )[1]
-    )
-
-
 def test_an_undetermined_calibration_has_no_error_to_the_truth_rather_than_a_crash():
     from aceval.data.contract import R_COLUMNS
     from aceval.evaluation.methods_comparison import with_truth
