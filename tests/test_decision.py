@@ -227,3 +227,14 @@ def test_flags_that_take_a_calibration_out_and_the_verdict_type():
     assert verdict(e, 5.0).kind == NOT_WITHIN and verdict(e, 6.0).kind == CARE
     assert verdict(e, 12.0).text == "use" and verdict(e, 12.0).numbers["cone_deg"] == 12.0
     assert Verdict(CARE, ("a", "b")).text == "use with care: a; b"
+
+
+def test_the_flag_readers_keep_an_empty_tables_columns():
+    """A dataset without Kong's rows (Ricci's design): the readers' masks are boolean, so that
+    selecting with them keeps the columns (an object-typed empty mask selects columns instead)."""
+    from aceval.calibrate.table import has_flag, only_flags, spread_usable
+
+    empty = pd.DataFrame(columns=["subject", "method", "flag"])
+    assert has_flag(empty["flag"], "backward").dtype == bool
+    assert only_flags(empty, ["unstable"]).dtype == bool and removes(empty["flag"]).dtype == bool
+    assert list(spread_usable(empty).columns) == ["subject", "method", "flag"]

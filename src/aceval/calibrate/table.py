@@ -60,7 +60,7 @@ def flag_sets(flags: pd.Series) -> pd.Series:
 
 def has_flag(flags: pd.Series, name: str) -> pd.Series:
     """True for the rows whose ``flag`` includes ``name`` (:func:`flag_sets`)."""
-    return flag_sets(flags).map(lambda names: name in names)
+    return flag_sets(flags).map(lambda names: name in names).astype(bool)
 
 
 def parse_subset(label: str) -> tuple[int, ...]:
@@ -83,7 +83,7 @@ COMPARISON_FLAGS = ("methods_disagree",)
 def only_flags(table: pd.DataFrame, names) -> pd.Series:
     """True for the rows whose flags (:func:`flag_sets`) are all among ``names`` (or none)."""
     allowed = frozenset(names)
-    return flag_sets(table["flag"]).map(allowed.issuperset)
+    return flag_sets(table["flag"]).map(allowed.issuperset).astype(bool)
 
 
 def unflagged(table: pd.DataFrame) -> pd.Series:

@@ -73,7 +73,7 @@ def removes(flags: pd.Series) -> pd.Series:
     (any but :data:`ADVISORY_FLAGS`).
     """
     advisory = frozenset(ADVISORY_FLAGS)
-    return flag_sets(flags).map(lambda names: not names <= advisory)
+    return flag_sets(flags).map(lambda names: not names <= advisory).astype(bool)
 
 
 def advisory(flags: pd.Series) -> pd.Series:
