@@ -238,3 +238,16 @@ def test_the_flag_readers_keep_an_empty_tables_columns():
     assert has_flag(empty["flag"], "backward").dtype == bool
     assert only_flags(empty, ["unstable"]).dtype == bool and removes(empty["flag"]).dtype == bool
     assert list(spread_usable(empty).columns) == ["subject", "method", "flag"]
+
+
+def test_calibrations_without_a_cone_are_not_within_tolerance_and_say_why():
+    """Ricci's functional design has no cone column: its best calibration is named, not within
+    tolerance, its uncertainty not measured on the recording."""
+    rows = pd.DataFrame([_row("ricci_lm", 0), _row("triad", 1.0)]).drop(
+        columns=[CONE, "spread95_deg"]
+    )
+    row = decision_table(flag_disagreements(rows, 5.0), 2).iloc[0]
+    assert row["method"] == "ricci_lm" and row["verdict_kind"] == NOT_WITHIN
+    assert (
+        row["verdict"] == "not within tolerance: its uncertainty is not measured on the recording"
+    )

@@ -42,8 +42,15 @@ def _committed_datasets() -> list[str]:
 def test_the_default_tolerance_is_the_workflows():
     schema = yaml.safe_load((REPO / "workflow" / "schemas" / "config.schema.yaml").read_text())
     assert schema["properties"]["tolerance_deg"]["default"] == DEFAULT_TOLERANCE_DEG
-    # 5 deg of heading error at the knee's 60 deg of swing flexion: 5.2 deg of cross-talk
-    assert 60 * np.sin(np.radians(DEFAULT_TOLERANCE_DEG)) == pytest.approx(5.23, abs=0.01)
+    # a flexion of 60 deg (the knee in swing) about an axis turned by T about the vertical, in
+    # flexion-ab/adduction-rotation angles: 4.3 deg of ab/adduction, under McGinley's 5 deg
+    from scipy.spatial.transform import Rotation
+
+    turned = Rotation.from_euler("z", DEFAULT_TOLERANCE_DEG, degrees=True)
+    knee = turned * Rotation.from_euler("y", 60.0, degrees=True) * turned.inv()
+    flexion, abduction, _ = knee.as_euler("YXZ", degrees=True)
+    assert abs(abduction) == pytest.approx(4.33, abs=0.01) and abs(abduction) < 5.0
+    assert flexion == pytest.approx(59.9, abs=0.1)
 
 
 def _measured_flags() -> pd.DataFrame:

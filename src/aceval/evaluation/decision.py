@@ -167,6 +167,8 @@ def decision_table(
         return pd.DataFrame(columns=DECISION_COLUMNS)
     full = full_set_rows(calibrations)
     full = full[~has_flag(full["flag"], "not_applicable")].reset_index(drop=True)
+    if CONE not in full:  # Ricci's functional design: no cone
+        full = full.assign(**{CONE: np.nan})
     candidate = _candidates(full)
     units, basis = evidence_units(full[candidate], calibrations, test_retest_k, retest_units)
     evidence = cross_fitted(units, full[candidate])

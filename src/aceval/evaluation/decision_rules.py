@@ -2,13 +2,13 @@
 tolerance, which flags take a calibration out of the choice, and the verdict, a small type.
 
 * **The tolerance** ``T`` (``tolerance_deg``): the heading accuracy the lab needs.
-  :data:`DEFAULT_TOLERANCE_DEG` is 5 deg: a segment frame turned by ``theta`` about the body
-  vertical reads a flexion ``phi`` about the turned axis, so ``phi * sin(theta)`` of it appears as
-  ab/adduction (the cross-talk of a misaligned flexion axis: Piazza & Cavanagh 2000, J Biomech
-  33:1029); at the knee's 60 deg of flexion in swing (Perry & Burnfield 2010, *Gait Analysis*,
-  Ch. 5) 5 deg of heading error gives 5.2 deg of false varus-valgus, the size of a joint-angle
-  error that "should raise concern and may be large enough to mislead clinical interpretation"
-  (McGinley et al. 2009, Gait Posture 29:360, more than 5 deg).
+  :data:`DEFAULT_TOLERANCE_DEG` is 5 deg: a flexion ``phi`` about an axis turned by ``theta``
+  about the body vertical reads, in flexion-ab/adduction-rotation (Cardan) angles, about
+  ``theta * sin(phi)`` of ab/adduction (the cross-talk of a misaligned flexion axis: Piazza &
+  Cavanagh 2000, J Biomech 33:1029); at the knee's 60 deg of flexion in swing (Perry & Burnfield
+  2010, *Gait Analysis*, Ch. 5) 5 deg of heading error gives 4.3 deg of false varus-valgus, under
+  the 5 deg at which a joint-angle error "should raise concern and may be large enough to mislead
+  clinical interpretation" (McGinley et al. 2009, Gait Posture 29:360; 6 deg would give 5.2).
 * **The flags** (:func:`removes`): a check that caught a defect of the data or its labels
   (:data:`DEFECT_FLAGS`) always takes the calibration out; a flag whose flagged calibrations are
   not worse than the unflagged ones where a truth measured it (:data:`ADVISORY_FLAGS`, table
@@ -77,8 +77,11 @@ def removes(flags: pd.Series) -> pd.Series:
 
 
 def advisory(flags: pd.Series) -> pd.Series:
-    """Each row's advisory flags (:data:`ADVISORY_FLAGS`), ';'-joined ('' where none)."""
-    return flag_sets(flags).map(lambda names: ";".join(sorted(names & set(ADVISORY_FLAGS))))
+    """Each row's advisory flags but the comparison flags (which the decision reads as the
+    methods' spread), ';'-joined ('' where none).
+    """
+    shown = set(ADVISORY_FLAGS) - set(COMPARISON_FLAGS)
+    return flag_sets(flags).map(lambda names: ";".join(sorted(names & shown)))
 
 
 @dataclass(frozen=True)

@@ -42,8 +42,9 @@ def _first_lines(table: pd.DataFrame) -> list[str]:
     t = _tolerance(table)
     met = int((table["verdict_kind"] == USE).sum())
     default = (
-        "the default: 5 deg of heading error puts 5.2 deg of false varus-valgus into a knee "
-        "flexed 60 deg, the joint-angle error McGinley et al. 2009 say should raise concern"
+        "the default: 5 deg of heading error puts 4.3 deg of false varus-valgus into a knee "
+        "flexed 60 deg, under the 5 deg of joint-angle error McGinley et al. 2009 say should "
+        "raise concern"
         if t == DEFAULT_TOLERANCE_DEG
         else f"this run's; the default is {DEFAULT_TOLERANCE_DEG:g} deg"
     )
