@@ -169,7 +169,7 @@ def test_the_verdict_follows_the_tolerance():
     assert _decide([_row("kong", 0, cone=5.5), _row("triad", 1.0, cone=6.0)], 6.0)["verdict"] == (
         "use"
     )
-    far = _decide([_row("kong", 0, cone=10.5), _row("triad", 1.0, cone=6.0)])
+    far = _decide([_row("kong", 0, cone=10.5), _row("triad", 1.0, cone=11.0)])
     assert far["verdict_kind"] == NOT_WITHIN
     assert far["verdict"].startswith("not within tolerance: uncertainty 10.5 deg > 2T 10")
     alone = _decide([_row("kong", 0, cone=3.0)])
@@ -251,3 +251,15 @@ def test_calibrations_without_a_cone_are_not_within_tolerance_and_say_why():
     assert (
         row["verdict"] == "not within tolerance: its uncertainty is not measured on the recording"
     )
+
+
+def test_without_evidence_a_tie_goes_by_cone_class_then_registry_and_beyond_2t_to_the_smaller():
+    # no truth, no subsets: no evidence at all; cones 9 (kong) and 6 (triad) are both within 2T:
+    # the registry's order (kong), not the smaller cone; beyond 2T (14 and 12): the smaller
+    within_2t = _decide([_row("kong", 0, cone=9.0), _row("triad", 1.0, cone=6.0)])
+    assert within_2t["method"] == "kong" and within_2t["n_tied"] == 2
+    assert within_2t["evidence_n"] == 0 and np.isnan(within_2t["margin_deg"])
+    beyond = _decide([_row("kong", 0, cone=14.0), _row("triad", 1.0, cone=12.0)])
+    assert beyond["method"] == "triad" and beyond["verdict_kind"] == NOT_WITHIN
+    one_within = _decide([_row("kong", 0, cone=11.0), _row("triad", 1.0, cone=9.5)])
+    assert one_within["method"] == "triad" and one_within["verdict_kind"] == CARE

@@ -127,6 +127,8 @@ def _table(n: int) -> pd.DataFrame:
                 "n_calibrations": 7 + k % 5,
                 "basis": "accuracy",
                 "runner_up": "triad T6",
+                "n_tied": 1 + k % 2,
+                "evidence_n": k % 3,
                 "margin_deg": 0.25 * k,
                 "note": "",
                 "verdict": kind + (": reason" if kind != USE else ""),

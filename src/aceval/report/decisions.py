@@ -64,6 +64,17 @@ def _first_lines(table: pd.DataFrame) -> list[str]:
     ]
 
 
+def _ties(table: pd.DataFrame) -> str:
+    """'3 of 9 sensors chosen by the tie rule, 2 of them without any evidence'."""
+    chosen = table[table["method"].notna()]
+    tied = chosen["n_tied"] > 1
+    none = tied & ~(chosen["evidence_n"] > 0)
+    return (
+        f"{int(tied.sum())} of {len(chosen)} sensors chosen by the tie rule, {int(none.sum())} "
+        "of them without any evidence"
+    )
+
+
 def _choice_lines(table: pd.DataFrame) -> list[str]:
     """How the calibration is chosen and where its cones come from."""
     accuracy = table["basis"].fillna("").str.startswith("accuracy").any()
@@ -83,8 +94,9 @@ def _choice_lines(table: pd.DataFrame) -> list[str]:
         + " are shown beside it, not taken out: config/README.md) by "
         + evidence
         + "; methods whose evidence differs by less than its standard error, or has none, tie, "
-        "and a tie goes to a cone within T, then to the registry's order of methods (Kong's "
-        "first), then to the test's name. Uncertainty: `cone_deg`; spread: the largest angle to "
+        "and a tie goes to a cone within T, then within 2T, each in the registry's order of "
+        "methods (Kong's first), then to the smallest cone (the best available), then to the "
+        f"test's name ({_ties(table)}). Uncertainty: `cone_deg`; spread: the largest angle to "
         "another method's calibration of the same test; within T: its calibrations within T of "
         "it (its own included); runner-up: the next in that order, and its evidence minus the "
         "chosen one's (table `decision`, every column, with the chosen rotation).",
