@@ -263,3 +263,12 @@ def test_without_evidence_a_tie_goes_by_cone_class_then_registry_and_beyond_2t_t
     assert beyond["method"] == "triad" and beyond["verdict_kind"] == NOT_WITHIN
     one_within = _decide([_row("kong", 0, cone=11.0), _row("triad", 1.0, cone=9.5)])
     assert one_within["method"] == "triad" and one_within["verdict_kind"] == CARE
+
+
+def test_a_tie_goes_to_the_calibration_that_agrees_with_the_other_methods():
+    # three methods, no evidence, all within T: kong is the outlier (6 deg from the other two,
+    # whose spreads allow 1.4): flagged methods_disagree, so triad comes before it
+    rows = [_row("kong", 6.0, 3.0), _row("triad", 0.0, 3.0), _row("combined", 0.5, 3.0)]
+    row = _decide(rows, tolerance=10.0)
+    assert row["disagreeing"] == "kong" and row["method"] == "triad"
+    assert row["runner_up"] == "combined T6"

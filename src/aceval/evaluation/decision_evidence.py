@@ -14,9 +14,11 @@ segment, and an order of its calibrations that does not flip on noise.
   recording (a peer has none: it is a cross-check, ordered only where nothing else can be), the
   best evidence first; those whose evidence differs from the best by no more than the two
   uncertainties in quadrature (one standard error of the difference), or that have none, are a
-  tie, ordered by: a cone within the tolerance T first, then one within 2T, each in the registry's
-  order of methods (:mod:`aceval.methods.registry`: Kong's first), then the others by their cone
-  (the best available), then the test's name; the others follow by their evidence. The first is
+  tie, ordered by: a cone within the tolerance T first, then one within 2T, then the others; in
+  each, a calibration that agrees with the other methods before one flagged ``methods_disagree``
+  (on kong_powered's truth those lie 4.6 deg from it, the others 2.7), then the registry's order
+  of methods (:mod:`aceval.methods.registry`: Kong's first; beyond 2T the smaller cone first, the
+  best available), then the test's name; the others follow by their evidence. The first is
   chosen; the second is the runner-up, and the margin is its evidence minus the chosen one's
   (negative where the tie chose the worse median).
 """
@@ -26,6 +28,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from aceval.calibrate.table import has_flag
 from aceval.methods import registry
 
 #: an IMU of a subject
@@ -117,13 +120,15 @@ def ranked(candidates: pd.DataFrame, tolerance: float) -> tuple[pd.DataFrame, in
     cone = pool["cone_deg"].to_numpy(float)
     within = np.where(cone <= tolerance, 0, np.where(cone <= 2 * tolerance, 1, 2))
     beyond = within == 2  # not within 2T (or unmeasured): the smaller cone, the best available
+    disagrees = has_flag(pool["flag"], "methods_disagree").to_numpy()
     order = pool.assign(
         _after=~tied,
         _class=np.where(tied, within, 0),
+        _disagrees=tied & disagrees,
         _cone=np.where(tied & beyond, np.nan_to_num(cone, nan=np.inf), 0.0),
         _evidence=np.where(tied, 0.0, median),
         _rank=pool["method"].map(registry.rank),
     )
-    keys = ["_after", "_class", "_cone", "_evidence", "_rank"]
+    keys = ["_after", "_class", "_disagrees", "_cone", "_evidence", "_rank"]
     order = order.sort_values([*keys, "test"], kind="stable").drop(columns=keys)
     return order.reset_index(drop=True), int(tied.sum())

@@ -94,9 +94,10 @@ def _choice_lines(table: pd.DataFrame) -> list[str]:
         + " are shown beside it, not taken out: config/README.md) by "
         + evidence
         + "; methods whose evidence differs by less than its standard error, or has none, tie, "
-        "and a tie goes to a cone within T, then within 2T, each in the registry's order of "
-        "methods (Kong's first), then to the smallest cone (the best available), then to the "
-        f"test's name ({_ties(table)}). Uncertainty: `cone_deg`; spread: the largest angle to "
+        "and a tie goes to a cone within T, then within 2T; there to a calibration that agrees "
+        "with the other methods (not `methods_disagree`), then to the registry's order of "
+        "methods (Kong's first); beyond 2T to the smallest cone (the best available); then to "
+        f"the test's name ({_ties(table)}). Uncertainty: `cone_deg`; spread: the largest angle to "
         "another method's calibration of the same test; within T: its calibrations within T of "
         "it (its own included); runner-up: the next in that order, and its evidence minus the "
         "chosen one's (table `decision`, every column, with the chosen rotation).",
