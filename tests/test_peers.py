@@ -287,3 +287,25 @@ def test_opensense_says_the_static_pose_lacks_orientations_when_the_motion_has_t
     assert "in this subject's motion recordings but not in its static recordings" in notes[0]
     assert "walking_vertical" in notes[0]
     assert "this dataset's recordings have none" in notes[1]
+
+
+def test_the_gates_read_the_body_axes_as_rows_of_the_sensor_to_body_rotation():
+    """A mounting with no symmetry (body x = sensor z, body y = sensor x, body z = sensor y):
+    its rows are the body axes in the sensor frame, its columns are not. Declared right '+x'
+    and a peer axis along sensor x pass every gate; read as columns (the transpose), the right
+    axis would be sensor z (90 deg off) and the vertical sensor x, the axis itself."""
+    import pandas as pd
+
+    from aceval.data.contract import R_COLUMNS
+    from aceval.evaluation.peer_gates import axis_gates
+
+    R = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])  # sensor -> body
+    assert np.isclose(np.linalg.det(R), 1.0) and not np.allclose(R, R.T)
+    row = {"sensor_set": "s", "imu": "A", "flag": "", **dict(zip(R_COLUMNS, R.ravel()))}
+    row |= {"axis_x": 1.0, "axis_y": 0.0, "axis_z": 0.0, "axis_variance_ratio": 0.1}
+    gated = axis_gates(pd.DataFrame([row]), lambda sensor_set, imu: "+x")
+    assert gated["flag"].tolist() == [""]
+    assert gated["right_axis_angle_deg"].round(6).tolist() == [0.0]
+    assert gated["axis_vertical_angle_deg"].round(6).tolist() == [90.0]
+    wrong = axis_gates(pd.DataFrame([row]), lambda sensor_set, imu: "+z")  # the column's axis
+    assert wrong["flag"].tolist() == ["right_axis_mismatch"]

@@ -26,6 +26,12 @@ def _add_table_inputs(command) -> None:
     command.add_argument(
         "--paper-names", default="{}", help="JSON map of this dataset's test names to the paper's"
     )
+    command.add_argument(
+        "--tolerance-deg",
+        type=float,
+        help="the heading accuracy (deg) the decision's verdicts are judged against (default 5: "
+        "aceval.evaluation.decision_rules)",
+    )
 
 
 def _add_trim_options(command) -> None:

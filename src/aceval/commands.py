@@ -481,6 +481,7 @@ def _single_output(args, kind: str) -> int:
         read_tables(args.correlations),
         read_tables([args.angles] if args.angles else []),
         json.loads(args.paper_names),
+        tolerance_deg=args.tolerance_deg,
     )
     missing = [k for k in output.inputs if data.get(k) is None]
     if missing:
@@ -535,6 +536,7 @@ def outputs(args) -> int:
         test_retest_k=args.test_retest_k,
         retest_units=read_tables(args.retest_units) if args.retest_units else None,
         recordings=read_tables(args.recordings, _direction_columns) if args.peers else None,
+        tolerance_deg=args.tolerance_deg,
     )
     print("aceval outputs: read the inputs", file=sys.stderr)
     validation = None
@@ -550,9 +552,7 @@ def outputs(args) -> int:
 
 
 def _direction_columns(summaries):
-    """What the peers' direction vote reads of the one pass's summaries (each motion
-    repetition's first-phase axis and third moments), and no more.
-    """
+    """The one pass's summaries' columns the peers' direction vote reads, and no more."""
     from aceval.methods.moments import PHASE_COLUMNS
     from aceval.signals.checks import THIRD_MOMENT_COLUMNS
 

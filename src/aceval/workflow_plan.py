@@ -372,8 +372,11 @@ class Configuration:
         ]
 
     def results_options(self, dataset: str) -> list[str]:
-        """--analyses, --paper-names, --note (three times) and --test-retest-k of `aceval outputs`."""
+        """--analyses, --paper-names, --note (three times), --test-retest-k and --tolerance-deg (the
+        dataset's ``tolerance_deg``, else the run's) of `aceval outputs`.
+        """
         spec = self.datasets[dataset]
+        tolerance = spec.get("tolerance_deg", self.config.get("tolerance_deg"))
         return [
             "--analyses",
             *self.analyses(dataset),
@@ -382,4 +385,4 @@ class Configuration:
             f"--note={self.peers_note(dataset)}",
             f"--note={self.data_note(dataset)}",
             f"--test-retest-k={self.config['objectives']['test_retest_k']}",
-        ]
+        ] + ([f"--tolerance-deg={tolerance}"] if tolerance is not None else [])

@@ -15,6 +15,7 @@ import pandas as pd
 
 from aceval.calibrate.table import unflagged
 from aceval.data.contract import R_COLUMNS
+from aceval.evaluation.decision_rules import NONE, VERDICT_KINDS
 from aceval.data.dataset import Dataset
 from aceval.methods import registry
 
@@ -25,9 +26,7 @@ ROTATION_TOLERANCE = 1e-6
 #: beside each IMU in applied_calibrations.tsv: which calibration apply used ('all repetitions',
 #: 'subset' or 'none'; from a decision its verdict) and why
 CHOICE_COLUMNS = ["calibration", "why"]
-#: the decision table's verdicts (``verdict_kind``), from the best to none
-VERDICT_KINDS = ("use", "use with care", "not within tolerance", "no trustworthy calibration")
-UNTRUSTED = VERDICT_KINDS[3]
+UNTRUSTED = NONE
 #: the decision table's columns apply reads
 DECISION_COLUMNS = [*KEY, "method", "test", "repetitions", "verdict_kind", "verdict", *R_COLUMNS]
 

@@ -36,7 +36,7 @@ from aceval.methods import registry
 from aceval.methods.interface import CalibrationMethod, Fit
 from aceval.methods.kong import KongLimits
 from aceval.methods.sufficient import Pooled, pool
-from aceval.methods.uncertainty import calibration_cones
+from aceval.methods.uncertainty import calibration_cones, cone_model
 from aceval.signals.checks import direction_checks
 from aceval.signals.gait_sign import gait_right
 
@@ -83,7 +83,8 @@ def calibrate_sagittal(
     r11..r33, the method's diagnostics, the sensor checks' evidence, ``rho_static`` and
     ``rho_motion`` (the reliability of the static and gyroscope axes, Ricci Eq. 2), ``z0_tests``
     (the static test(s) z0 came from), the cone of the calibrations from all repetitions
-    (``cone_deg`` and its terms: :func:`aceval.methods.uncertainty.calibration_cones`), ``flag``
+    (``cone_deg`` and its terms: :func:`aceval.methods.uncertainty.calibration_cones`; ``cone_fit``:
+    the fit of the cone model, :func:`aceval.methods.uncertainty.cone_model`), ``flag``
     ('' when valid; ``heading_undetermined`` where that cone is no cone) and ``error_deg``,
     ``error_vertical_share`` left empty (calibration knows no truth). ``axes``: one row per
     (subject, set, IMU, test) with the axis and rho of all its repetitions.
@@ -107,14 +108,7 @@ def calibrate_sagittal(
         fit = _checked(plan, plan.subsets[policy], fitted[policy][name].result)
         checked[name] = flag_unstable(fit, rows, retest_k)
         R_full[name] = checked[name].R[_full_rows(rows)]
-    imu = plan.identity[["subject", "sensor_set", "imu"]].astype(str).agg("|".join, axis=1)
-    kong = registry.paper_method("kong2016")  # Kong's plane: every heading's conditioning
-    normal_ratio = np.full(len(plan.units), np.nan)
-    if kong in checked:
-        normal_ratio = checked[kong].columns["normal_ratio"][_full_rows(pooled[policy_of[kong]])]
-    cones = calibration_cones(
-        plan.units, plan.identity["seed"].to_numpy(), R_full, imu.to_numpy(), normal_ratio
-    )
+    cones = _cones(plan, checked, pooled, policy_of, R_full, dataset.name)
     for order, name in enumerate(checked):
         policy = policy_of[name]
         rows = pooled[policy]
@@ -142,6 +136,26 @@ def calibrate_sagittal(
         [plan.static_axes, motion_axes(plan, retest, _full_rows(retest))], ignore_index=True
     )
     return propagate_backward(calibrations.reset_index(drop=True)), axes[AXES_COLUMNS]
+
+
+def _cones(plan, checked: dict, pooled: dict, policy_of: dict, R_full: dict, dataset: str) -> dict:
+    """Every resampling method's cone of each unit and its terms
+    (:func:`aceval.methods.uncertainty.calibration_cones`, with Kong's plane's conditioning), and
+    ``cone_fit``: the fit of the cone model the ``dataset`` gets (the one fitted without its truth
+    where the cone was fitted on it: :func:`aceval.methods.uncertainty.cone_model`).
+    """
+    imu = plan.identity[["subject", "sensor_set", "imu"]].astype(str).agg("|".join, axis=1)
+    kong = registry.paper_method("kong2016")  # Kong's plane: every heading's conditioning
+    normal_ratio = np.full(len(plan.units), np.nan)
+    if kong in checked:
+        normal_ratio = checked[kong].columns["normal_ratio"][_full_rows(pooled[policy_of[kong]])]
+    fit, model = cone_model(dataset)
+    cones = calibration_cones(
+        plan.units, plan.identity["seed"].to_numpy(), R_full, imu.to_numpy(), normal_ratio, model
+    )
+    for columns in cones.values():
+        columns["cone_fit"] = np.full(len(plan.units), fit, dtype=object)
+    return cones
 
 
 def _fits(names: list[str], pooled: Pooled) -> dict[str, CalibrationMethod]:

@@ -111,6 +111,7 @@ TABLE_COLUMNS = [
     "error_deg",
     "error_vertical_share",
     "cone_deg",
+    "cone_fit",
     "spread95_deg",
     "spread_vertical_share",
     "heading_signals_deg",

@@ -55,9 +55,16 @@ def flag_text(flags: pd.Series) -> pd.Series:
     return flags.astype(object).fillna("").astype(str)
 
 
+def flag_sets(flags: pd.Series) -> pd.Series:
+    """The one reader of a ``flag`` column: each row's flags as a frozenset of names (';'-joined
+    as :func:`combine_flags` writes them; empty where there is none).
+    """
+    return flag_text(flags).str.split(";").map(lambda names: frozenset(n for n in names if n))
+
+
 def has_flag(flags: pd.Series, name: str) -> pd.Series:
-    """True for the rows whose ``flag`` (';'-joined, :func:`combine_flags`) includes ``name``."""
-    return flag_text(flags).str.split(";").map(lambda names: name in names)
+    """True for the rows whose ``flag`` includes ``name`` (:func:`flag_sets`)."""
+    return flag_sets(flags).map(lambda names: name in names).astype(bool)
 
 
 def parse_subset(label: str) -> tuple[int, ...]:
@@ -70,35 +77,40 @@ def matrices(table: pd.DataFrame) -> np.ndarray:
     return table[R_COLUMNS].to_numpy(float).reshape(-1, 3, 3)
 
 
-def unflagged(table: pd.DataFrame) -> pd.Series:
-    """True for the rows whose ``flag`` is empty (read back from a CSV, an empty flag is NaN; a
-    column with no flag at all is read as numbers, and is not turned into a million strings).
-    """
-    flag = table["flag"]
-    if pd.api.types.is_numeric_dtype(flag):
-        return flag.isna()
-    return flag.isna() | (flag.astype(str) == "")
-
-
-#: flags that judge a calibration against the other methods', not against its own recordings:
-#: the papers' analyses of one method (Kong's Objectives, the reliability of its tests) keep these
-#: rows, so that they do not depend on which other methods ran
+#: flags that judge a calibration against the other methods', not against its own recordings
+#: (:func:`aceval.evaluation.decision.flag_disagreements`): every analysis of a method keeps these
+#: rows (:func:`unflagged`), so that a method's numbers do not depend on which other methods ran;
+#: the decision reads them
 COMPARISON_FLAGS = ("methods_disagree",)
 
 
 def only_flags(table: pd.DataFrame, names) -> pd.Series:
-    """True for the rows that are unflagged or flagged by ``names`` alone."""
-    flags = table["flag"].fillna("").astype(str).str.split(";")
-    return unflagged(table) | flags.map(lambda found: set(found) - {""} <= set(names))
+    """True for the rows whose flags (:func:`flag_sets`) are all among ``names`` (or none)."""
+    allowed = frozenset(names)
+    return flag_sets(table["flag"]).map(allowed.issuperset).astype(bool)
+
+
+def unflagged(table: pd.DataFrame) -> pd.Series:
+    """True for the rows no flag takes out: no flag, or only :data:`COMPARISON_FLAGS` (read back
+    from a CSV, an empty flag is NaN; a column with no flag at all is read as numbers, and is not
+    turned into a million strings).
+    """
+    flag = table["flag"]
+    if pd.api.types.is_numeric_dtype(flag):
+        return flag.isna()
+    clean = flag.isna() | (flag.astype(str) == "")
+    if not clean.all():
+        clean[~clean] = only_flags(table[~clean], COMPARISON_FLAGS)
+    return clean
 
 
 def usable(calibrations: pd.DataFrame, method: str | None = None) -> pd.DataFrame:
-    """A method's calibrations that are not flagged, but for :data:`COMPARISON_FLAGS`
-    (Objectives 1-5 are about Kong's method; the other methods are compared in
+    """A method's calibrations that no flag takes out (:func:`unflagged`; Objectives 1-5 are
+    about Kong's method; the other methods are compared in
     :mod:`aceval.evaluation.methods_comparison`).
     """
     calibrations = kong_rows(calibrations, method)
-    return calibrations[only_flags(calibrations, COMPARISON_FLAGS)]
+    return calibrations[unflagged(calibrations)]
 
 
 #: flags that say how far a calibration is from the others of its unit, not that it is wrong in

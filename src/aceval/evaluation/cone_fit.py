@@ -1,18 +1,16 @@
-"""The cone model's few constants, fitted across simulator variants and real truths (beyond the
-papers; issue 39), and the criteria a cone is judged by.
+"""The cone model's constants, one per method, fitted split-conformally across simulator
+variants and real truths (beyond the papers), and the criteria a cone is judged by.
 
 The model (:class:`aceval.methods.uncertainty.ConeModel`) adds what the recording shows: the
 spread of its repetitions, the other estimates' disagreement (other signals, other tests), Kong's
-conditioning, and two a-priori terms. Three scales (``signals``, ``tests``, ``conditioning``) and a
-factor ``q`` per method are fitted here (:func:`fit_cone_model`), on a grid of the scales:
-
-* for each grid point, ``q`` of a method is the 95th percentile of its simulated errors over
-  their modelled RMS, every simulator variant weighing alike;
-* the grid point chosen is the one whose cones break the criteria (:data:`POOLED`, :data:`CELL`,
-  :data:`MAX_CONE_OVER_ERROR`, :func:`penalty`) least on the training rows: per simulator
-  variant and method, and on each real dataset's truths (pooled over methods, allowing for the
-  truth's own uncertainty: the error minus ``truth_uncertainty_deg``), weighing as much as all
-  the variants together.
+conditioning, and two a-priori terms. Every term counts at its own size (:data:`WEIGHTS`: 1, not
+fitted: a disagreement of 10 deg between two estimates of one heading is 10 deg of uncertainty);
+one factor ``q`` per method turns their root sum of squares into a 95 % cone
+(:func:`fit_cone_model`): split-conformally, the 95th percentile of the error over that root sum
+of squares on the datasets the fit sees, every dataset (each simulator variant, each real truth,
+its error less the truth's own uncertainty) weighing alike (:func:`factors`). What the cones then
+cover is measured on the datasets a fit did not see (:mod:`aceval.evaluation.coverage`, one left
+out at a time), against :data:`GOAL` (:func:`goal`).
 
 Rows (:func:`usable`): the calibrations from all repetitions with a spread and an error to the
 truth, unflagged but for ``heading_undetermined`` (which the cone itself decides: a row whose
@@ -21,13 +19,11 @@ cone is beyond 90 deg is dropped from the coverage as the flag drops it, never c
 
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
 import pandas as pd
 
-from aceval.calibrate.table import flag_text
-from aceval.methods.uncertainty import ConeModel, model_cones, undetermined
+from aceval.calibrate.table import flag_sets
+from aceval.methods.uncertainty import LEVEL, ConeModel, model_cones, undetermined
 
 #: a 95 % cone covers within this range pooled (per method and dataset) ...
 POOLED = (0.90, 0.99)
@@ -35,12 +31,11 @@ POOLED = (0.90, 0.99)
 CELL, MIN_CELL = 0.80, 5
 #: ... and its median is at most this many times the median error
 MAX_CONE_OVER_ERROR = 3.0
-#: the grid of the three scales
-GRID = {
-    "signals": (0.0, 0.25, 0.5, 0.75, 1.0),
-    "tests": (0.0, 0.25, 0.5, 0.75),
-    "conditioning": (0.0, 0.1, 0.2, 0.3, 0.4, 0.5),
-}
+#: what a cone should do on a dataset it was not fitted on: cover 90-99 % with a median cone at
+#: most 3 times the median error (:func:`goal`)
+GOAL = (POOLED, MAX_CONE_OVER_ERROR)
+#: the weights of the disagreement and conditioning terms: each counts at its own size
+WEIGHTS = {"signals": 1.0, "tests": 1.0, "conditioning": 1.0}
 #: the columns a row of the study needs
 TERMS = ["spread95_deg", "heading_signals_deg", "heading_tests_deg", "conditioning_deg"]
 ROW_COLUMNS = [
@@ -61,8 +56,7 @@ ROW_COLUMNS = [
 
 def usable(rows: pd.DataFrame) -> pd.DataFrame:
     """The rows the cone is fitted and judged on (module docstring)."""
-    flags = flag_text(rows["flag"]).str.split(";")
-    only = flags.map(lambda names: set(names) - {""} <= {"heading_undetermined"})
+    only = flag_sets(rows["flag"]).map(frozenset({"heading_undetermined"}).issuperset)
     finite = np.isfinite(rows["spread95_deg"].astype(float)) & np.isfinite(
         rows["error_deg"].astype(float)
     )
@@ -93,17 +87,18 @@ def _weighted_quantile(values, weights, level: float) -> float:
     return float(values[order][min(np.searchsorted(cumulative, level), len(values) - 1)])
 
 
-def factors(rows: pd.DataFrame, scales: dict, level: float = 0.95) -> dict[str, float]:
-    """``q`` per method at these ``scales``: the weighted 95th percentile of the simulated rows'
-    errors over their RMS (each dataset weighing alike).
+def factors(rows: pd.DataFrame, level: float = LEVEL) -> dict[str, float]:
+    """``q`` per method: the ``level`` quantile of its rows' errors (:func:`excess_error`) over
+    their root sum of squares (:data:`WEIGHTS`, ``q`` 1), every dataset weighing alike (so two
+    real truths of a few dozen calibrations count as much as two simulator variants of
+    thousands): the split-conformal scale of each method's cone on ``rows``.
     """
-    sim = rows[rows["kind"] == "simulated"]
-    rms = cones_of(sim, ConeModel(**scales, q={}, q_other=1.0))
-    ratio = excess_error(sim) / rms
-    weight = 1.0 / sim.groupby("dataset")["dataset"].transform("size").to_numpy(float)
+    rms = cones_of(rows, ConeModel(**WEIGHTS, q={}, q_other=1.0))
+    ratio = excess_error(rows) / rms
+    weight = 1.0 / rows.groupby("dataset")["dataset"].transform("size").to_numpy(float)
     return {
         method: _weighted_quantile(ratio[at], weight[at], level)
-        for method, at in sim.groupby("method").indices.items()
+        for method, at in rows.groupby("method").indices.items()
     }
 
 
@@ -113,19 +108,6 @@ def judged(rows: pd.DataFrame, cone: np.ndarray) -> pd.DataFrame:
     """
     lost = undetermined(cone, rows["spread95_deg"])
     return rows.assign(cone_deg=cone, undetermined=lost, hit=~lost & (excess_error(rows) <= cone))
-
-
-def penalty(table: pd.DataFrame) -> float:
-    """How far a set of (dataset, method) rows of :func:`criteria` breaks the criteria: the
-    pooled coverage outside :data:`POOLED`, the worst cell below :data:`CELL`, and a tenth of the
-    median cone's excess over :data:`MAX_CONE_OVER_ERROR` times the median error, summed.
-    """
-    pooled = np.clip(POOLED[0] - table["coverage"], 0, None) + np.clip(
-        table["coverage"] - POOLED[1], 0, None
-    )
-    cell = np.clip(CELL - table["worst_cell_coverage"].fillna(1.0), 0, None)
-    ratio = 0.1 * np.clip(table["cone_over_error"] - MAX_CONE_OVER_ERROR, 0, None)
-    return float((pooled + cell + ratio).sum())
 
 
 def criteria(data: pd.DataFrame, by: list[str]) -> pd.DataFrame:
@@ -155,25 +137,23 @@ def criteria(data: pd.DataFrame, by: list[str]) -> pd.DataFrame:
     return table.merge(worst, on=by, how="left")
 
 
-def fit_cone_model(rows: pd.DataFrame, grid: dict = GRID) -> ConeModel:
-    """The constants (module docstring) from ``rows`` (:func:`usable`, with ``dataset`` and
-    ``kind`` 'simulated' or 'real').
+def goal(coverage: float, cone_over_error: float) -> str:
+    """'met', or 'not met: ...' naming what a cone misses of :data:`GOAL` on one dataset."""
+    low, high = POOLED
+    misses = [
+        f"coverage {coverage:.0%} below {low:.0%}" if coverage < low else "",
+        f"coverage {coverage:.0%} above {high:.0%}" if coverage > high else "",
+        f"median cone {cone_over_error:.1f} times the median error, above {MAX_CONE_OVER_ERROR:g}"
+        if cone_over_error > MAX_CONE_OVER_ERROR
+        else "",
+    ]
+    misses = [m for m in misses if m]
+    return "not met: " + "; ".join(misses) if misses else "met"
+
+
+def fit_cone_model(rows: pd.DataFrame) -> ConeModel:
+    """The cone model fitted on ``rows`` (:func:`usable`, with ``dataset``): :data:`WEIGHTS` and
+    :func:`factors` (``q_other``, for a method without rows of its own: the largest).
     """
-    best = None
-    n_variants = rows.loc[rows["kind"] == "simulated", "dataset"].nunique()
-    for values in itertools.product(*grid.values()):
-        scales = dict(zip(grid, values))
-        q = factors(rows, scales)
-        model = ConeModel(**scales, q=q, q_other=max(q.values()))
-        data = judged(rows, cones_of(rows, model))
-        sim = data[data["kind"] == "simulated"]
-        score = penalty(criteria(sim, ["dataset", "method"]))
-        real = data[data["kind"] == "real"]
-        if len(real):
-            pooled = criteria(real, ["dataset"]).assign(
-                worst_cell_coverage=np.nan, cone_over_error=0.0
-            )
-            score += n_variants * penalty(pooled)
-        if best is None or score < best[0] - 1e-12:
-            best = (score, model)
-    return best[1]
+    q = factors(rows)
+    return ConeModel(**WEIGHTS, q=q, q_other=max(q.values()))

@@ -1,11 +1,15 @@
 """What each flag is worth (beyond the papers; issue 39): how many calibrations it removes, and
 whether the ones it removes are measurably worse than the ones it keeps.
 
-A flag takes a calibration out of every median, verdict and recommendation. That is worth its
-price only where the calibrations it removes lie farther from the truth than the unflagged ones.
+A flag takes a calibration out of every median and verdict, and out of the decision unless the
+truths found its calibrations no worse (:mod:`aceval.evaluation.decision_rules`, which reads the
+committed tables of this module). That is worth its price only where the calibrations it removes
+lie farther from the truth than the unflagged ones.
 :func:`flag_value_table` measures it on the calibrations from all repetitions (every method, the
 peers included): per flag and method (and over all methods), the calibrations carrying the flag,
-those it alone removes (no other flag), and the distance of flagged and unflagged calibrations
+those it alone removes (no other flag but the comparison flags, which take no calibration out:
+:data:`aceval.calibrate.table.COMPARISON_FLAGS`), and the distance of flagged and unflagged
+calibrations (no flag but the comparison flags; judging a comparison flag, no flag at all)
 
 * to the ground truth (``error_deg``) where the dataset has one, else
 * to the consensus of the other methods' unflagged calibrations of the same IMU and test (the
@@ -26,7 +30,14 @@ import pandas as pd
 from scipy.spatial.transform import Rotation
 from scipy.stats import mannwhitneyu
 
-from aceval.calibrate.table import CALIBRATION_KEY, flag_text, full_set_rows, matrices, unflagged
+from aceval.calibrate.table import (
+    CALIBRATION_KEY,
+    COMPARISON_FLAGS,
+    flag_sets,
+    full_set_rows,
+    matrices,
+    unflagged,
+)
 from aceval.data.rotations import error_angle_deg
 
 COLUMNS = [
@@ -71,10 +82,6 @@ def consensus_distance_deg(calibrations: pd.DataFrame) -> np.ndarray:
     return out
 
 
-def _names(flags: pd.Series) -> pd.Series:
-    return flag_text(flags).str.split(";").map(lambda f: [n for n in f if n])
-
-
 def flag_value_table(calibrations: pd.DataFrame) -> pd.DataFrame:
     """Per flag and method (and ``method`` 'all'): what the flag removes and how far its
     calibrations lie from the reference against the unflagged ones (module docstring).
@@ -85,13 +92,14 @@ def flag_value_table(calibrations: pd.DataFrame) -> pd.DataFrame:
     truth = "error_deg" in full and np.isfinite(full["error_deg"].astype(float)).any()
     distance = full["error_deg"].to_numpy(float) if truth else consensus_distance_deg(full)
     reference = "truth" if truth else "consensus of the other methods"
-    names = _names(full["flag"])
-    clean = names.map(len).to_numpy() == 0
+    names = flag_sets(full["flag"])
     imu = full[["subject", "sensor_set", "imu"]].astype(str).agg("|".join, axis=1)
     rows = []
-    for flag in sorted({n for f in names for n in f} - set(NOT_CALIBRATIONS)):
+    for flag in sorted(frozenset().union(*names) - set(NOT_CALIBRATIONS)):
+        kept = frozenset(COMPARISON_FLAGS) - {flag}  # what the unflagged rows may carry
+        clean = names.map(kept.issuperset).to_numpy()
         carries = names.map(lambda f, flag=flag: flag in f).to_numpy()
-        alone = names.map(lambda f, flag=flag: f == [flag]).to_numpy()
+        alone = names.map(lambda f, flag=flag, kept=kept: f - kept == {flag}).to_numpy()
         methods = sorted(full.loc[carries, "method"].unique())
         for method in ["all", *methods] if len(methods) > 1 else methods:
             # 'all': over the methods that carry the flag (the unflagged ones of the same methods)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from aceval.calibrate.table import flag_text, full_set_rows, has_flag, unflagged
+from aceval.calibrate.table import flag_sets, flag_text, full_set_rows, has_flag, unflagged
 from aceval.data.contract import R_COLUMNS
 from aceval.data.rotations import error_angle_deg, vector_angle_deg, vertical_share
 from aceval.evaluation.conditioning import heading_status
@@ -95,7 +95,7 @@ def _with_price(table: pd.DataFrame, calibrations: pd.DataFrame, keys) -> pd.Dat
         return table
     flagged = full[~unflagged(full)]
     counts = full.groupby(keys).size().rename("n_calibrations").reset_index()
-    names = flagged.assign(name=flagged["flag"].astype(str).str.split(";")).explode("name")
+    names = flagged.assign(name=flag_sets(flagged["flag"]).map(sorted)).explode("name")
     flags = (
         names.groupby([*keys, "name"])
         .size()
@@ -159,6 +159,19 @@ def retest_units(calibrations: pd.DataFrame, k: int = 3) -> pd.DataFrame:
     return angles.groupby(RETEST_UNIT)["error_angle_deg"].mean().reset_index()
 
 
+def every_retest_unit(
+    calibrations: pd.DataFrame, k: int = 3, units: pd.DataFrame | None = None
+) -> pd.DataFrame:
+    """:func:`retest_units` of every method: ``units`` (those of the methods it holds, computed
+    beforehand: the workflow's per-subject files) and the other methods' from ``calibrations``.
+    """
+    if units is None or not len(units):
+        return retest_units(calibrations, k)
+    rest = retest_units(calibrations[~calibrations["method"].isin(units["method"])], k)
+    units = pd.concat([units, rest] if len(rest) else [units], ignore_index=True)
+    return units.sort_values(RETEST_UNIT, kind="stable", ignore_index=True)
+
+
 def retest_table(
     calibrations: pd.DataFrame, k: int = 3, units: pd.DataFrame | None = None
 ) -> pd.DataFrame:
@@ -173,12 +186,7 @@ def retest_table(
     columns = ["segment", "test", "sensor_set", "method", "mean", "sd", "median", "p95", "n"]
     if "note" in calibrations:
         columns.append("note")
-    if units is not None and len(units):
-        rest = retest_units(calibrations[~calibrations["method"].isin(units["method"])], k)
-        units = pd.concat([units, rest] if len(rest) else [units], ignore_index=True)
-        units = units.sort_values(RETEST_UNIT, kind="stable", ignore_index=True)
-    else:
-        units = retest_units(calibrations, k)
+    units = every_retest_unit(calibrations, k, units)
     if units.empty:
         return pd.DataFrame(columns=columns)
     keys = ["segment", "test", "sensor_set", "method"]

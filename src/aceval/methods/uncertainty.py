@@ -153,9 +153,10 @@ class ConeModel:
     """``cone = q[method] * sqrt((spread95 / Z95)^2 + TILT_SD^2 + plane^2 + (signals * d_signals)^2
     + (tests * d_tests)^2 + (conditioning * c)^2)`` (deg): ``d_signals`` and ``d_tests`` the
     disagreements of :func:`heading_terms`, ``c = atan(sqrt(normal_ratio))`` (deg) of Kong's plane,
-    ``plane`` :data:`SEGMENT_PLANE_DEG`. ``q`` per method (``q_other`` for a method without one):
-    the factor that turns the combined RMS into a 95 % cone. Fitted by
-    :func:`aceval.evaluation.coverage.fit_cone_model`.
+    ``plane`` :data:`SEGMENT_PLANE_DEG`; ``signals``, ``tests`` and ``conditioning`` their weights.
+    ``q`` per method (``q_other`` for a method without one): the factor that turns the combined RMS
+    into a 95 % cone, split-conformally. Fitted by
+    :func:`aceval.evaluation.cone_fit.fit_cone_model`.
     """
 
     signals: float
@@ -169,23 +170,55 @@ class ConeModel:
         return np.array([self.q.get(m, self.q_other) for m in np.atleast_1d(method)], float)
 
 
-#: fitted by ``python -m aceval.evaluation.coverage study`` (2026-11-27, results/coverage/model.csv,
-#: fit 'all'; docs/uncertainty.md): nine simulator variants and the real truths of NeuRA and
-#: gaitmap_feet; tests/test_coverage.py checks that these are the committed study's constants
+#: fitted by ``python -m aceval.evaluation.coverage`` (results/coverage/model.csv, fit 'all';
+#: docs/uncertainty.md): nine simulator variants and the real truths of NeuRA and gaitmap_feet;
+#: tests/test_coverage.py checks that these are the committed study's constants
 CONE_MODEL = ConeModel(
-    signals=0.5,
-    tests=0.25,
-    conditioning=0.3,
+    signals=1.0,
+    tests=1.0,
+    conditioning=1.0,
     q={
-        "kong": 1.7530,
-        "ricci_lm": 1.6351,
-        "align_vectors": 1.6351,
-        "triad": 1.6619,
-        "combined": 1.8419,
-        "step_harmonic": 1.6199,
+        "kong": 0.8373,
+        "ricci_lm": 0.7205,
+        "align_vectors": 0.7205,
+        "triad": 0.7318,
+        "combined": 0.8854,
+        "step_harmonic": 0.6330,
     },
-    q_other=1.8419,
+    q_other=0.8854,
 )
+#: the models fitted without each real truth of the study (its fits 'left out: <name>'): the
+#: cones of a dataset of that name (:func:`cone_model`), judged out of sample on its own truth
+LEFT_OUT = {
+    "neura": ConeModel(
+        signals=1.0,
+        tests=1.0,
+        conditioning=1.0,
+        q={
+            "kong": 0.8589,
+            "ricci_lm": 0.7303,
+            "align_vectors": 0.7303,
+            "triad": 0.7400,
+            "combined": 0.9024,
+            "step_harmonic": 0.7174,
+        },
+        q_other=0.9024,
+    ),
+    "gaitmap_feet": ConeModel(
+        signals=1.0,
+        tests=1.0,
+        conditioning=1.0,
+        q={
+            "kong": 0.8723,
+            "ricci_lm": 0.7313,
+            "align_vectors": 0.7313,
+            "triad": 0.7409,
+            "combined": 0.9057,
+            "step_harmonic": 0.6330,
+        },
+        q_other=0.9057,
+    ),
+}
 
 
 def heading_terms(
@@ -251,11 +284,23 @@ def model_cones(spread95, signals, tests, conditioning, segment, method, model=C
 
 
 def undetermined(cone, spread95) -> np.ndarray:
-    """True where a calibration's heading is undetermined: its cone beyond
-    :data:`UNDETERMINED_CONE_DEG` or not estimable (NaN: too few repetitions to resample).
+    """True where a calibration's heading is undetermined: its cone, or the spread of its
+    repetitions alone (whatever the cone's factor makes of it: 180 deg where more than 5 % of the
+    resamples are flagged), beyond :data:`UNDETERMINED_CONE_DEG`, or not estimable (NaN: too few
+    repetitions to resample).
     """
-    cone = np.asarray(cone, float)
-    return ~(cone <= UNDETERMINED_CONE_DEG) | ~np.isfinite(np.asarray(spread95, float))
+    cone, spread95 = np.asarray(cone, float), np.asarray(spread95, float)
+    return ~(cone <= UNDETERMINED_CONE_DEG) | ~(spread95 <= UNDETERMINED_CONE_DEG)
+
+
+def cone_model(dataset: str) -> tuple[str, ConeModel]:
+    """``(fit, model)``: the cone model a dataset's calibrations get: the one fitted without its
+    truth where the coverage study fitted on it (:data:`LEFT_OUT`, by the dataset's name: its cones
+    are then judged out of sample), else :data:`CONE_MODEL` ('all').
+    """
+    if dataset in LEFT_OUT:
+        return f"left out: {dataset}", LEFT_OUT[dataset]
+    return "all", CONE_MODEL
 
 
 def calibration_cones(
@@ -264,13 +309,14 @@ def calibration_cones(
     R_full: dict[str, np.ndarray],
     imu: np.ndarray,
     normal_ratio: np.ndarray,
+    model: ConeModel = CONE_MODEL,
 ) -> dict[str, dict[str, np.ndarray]]:
     """Every term and the cone of each method's calibration of each unit from all its
     repetitions: ``{method: {column: (U,)}}`` with ``spread95_deg``, ``spread_vertical_share``
     (:func:`bootstrap_cones`; NaN with fewer than :data:`MIN_REPETITIONS`),
     ``heading_signals_deg``, ``heading_tests_deg``, ``conditioning_deg`` (:func:`heading_terms`;
     ``imu`` (U,) labels each unit's IMU, ``normal_ratio`` (U,) is Kong's) and ``cone_deg``
-    (:func:`model_cones`), for the methods of ``R_full`` that resample.
+    (:func:`model_cones` of ``model``), for the methods of ``R_full`` that resample.
     """
     spreads = bootstrap_cones(units, seeds, R_full)
     terms = heading_terms(R_full, imu, normal_ratio)
@@ -292,6 +338,7 @@ def calibration_cones(
             columns["conditioning_deg"],
             units.segment,
             np.full(len(spread), method),
+            model,
         )
         out[method] = columns
     return out

@@ -40,23 +40,27 @@ def named_markdown(table, output, dataset: str, simulated: bool) -> str:
 
 
 def named(
-    function: str, *kinds: str, optional: tuple[str, ...] = (), exact: bool = False
+    function: str, *kinds: str, optional: tuple[str, ...] = (), exact: bool | str = False
 ) -> Callable:
     """A builder calling ``module.function(data[kind], ...)`` (``optional`` kinds may be None),
     then rounding as every table is rounded (``exact``: not, for a table whose numbers feed a
-    recomputation).
+    recomputation; 'rotation': all but the rotation r11..r33, which another command applies).
     """
     module, name = function.rsplit(".", 1)
 
     def build(data: dict):
         import importlib
 
+        from aceval.data.contract import R_COLUMNS
         from aceval.report.kong2016 import rounded
 
         call = getattr(importlib.import_module(f"aceval.{module}"), name)
         arguments = [data[k] for k in kinds] + [data.get(k) for k in optional]
         table = call(*arguments).reset_index(drop=True)
-        return table if exact else rounded(table)
+        if exact is True:
+            return table
+        kept = [c for c in R_COLUMNS if c in table] if exact == "rotation" else []
+        return rounded(table.drop(columns=kept)).join(table[kept])[table.columns]
 
     return build
 

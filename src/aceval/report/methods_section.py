@@ -97,7 +97,11 @@ def methods_section(tables: dict) -> list[str]:
     best, methods = tables.get("methods_best"), tables.get("methods")
     if best is None or best.empty or methods is None:
         return []
-    lines = ["## Methods against the ground truth: which test for which segment", ""]
+    lines = [
+        "## Methods against the ground truth (the evidence; the decision above is the answer "
+        "per sensor)",
+        "",
+    ]
     overall = methods.groupby("method")["median"].median().dropna().sort_values()
     cells = methods.dropna(subset=["median"]).groupby("method").size()
     price = methods.groupby("method")[["n", "n_calibrations"]].sum() if "flags" in methods else None

@@ -365,16 +365,19 @@ _ENTRIES = [
         "decision",
         "beyond the papers (which calibration to use)",
         ("calibrations",),
-        "For each IMU, the calibration to use: among its unflagged calibrations from all "
-        "repetitions (every method and test), the method and test most accurate on its segment "
-        "(or, without a ground truth, most repeatable); its uncertainty, the spread between the "
-        "methods, how many calibrations it rests on, and a verdict",
+        "For each IMU, the calibration to use: among its calibrations from all repetitions "
+        "(every method and test) that no flag takes out, the method and test with the best "
+        "evidence from the other sensors of its segment (accuracy against the ground truth, or "
+        "without one repeatability; a tie broken by a stated order); its rotation, uncertainty, "
+        "the spread between the methods, the runner-up and the margin, how many calibrations it "
+        "rests on, and a verdict against the tolerance (aceval.evaluation.decision)",
         "one row per IMU of a subject",
         named(
             "evaluation.decision.decision_table",
             "calibrations",
             "test_retest_k",
-            optional=("retest_units",),
+            optional=("retest_units", "tolerance_deg"),
+            exact="rotation",
         ),
         named_markdown,
     ),

@@ -122,6 +122,7 @@ def build_data(
     test_retest_k: int = 3,
     retest_units=None,
     recordings=None,
+    tolerance_deg: float | None = None,
 ) -> dict:
     """The ``data`` dict the builders read: the tidy tables (the ``peers``' calibrations joined
     to aceval's, through every gate aceval's rows pass (:func:`aceval.evaluation.peer_gates.
@@ -130,10 +131,12 @@ def build_data(
     reference sheets,
     its ``paper_names`` (this dataset's test names -> the paper's), sensor sets and Obj 4's k;
     ``retest_units``: aceval's methods' test-retest units, computed per subject
-    (:func:`aceval.evaluation.methods_comparison.retest_units`; None: from the calibrations).
+    (:func:`aceval.evaluation.methods_comparison.retest_units`; None: from the calibrations);
+    ``tolerance_deg``: the heading accuracy the decision judges against (None: its default).
     """
     from aceval.data.dataset import load_dataset
     from aceval.evaluation.decision import flag_disagreements
+    from aceval.evaluation.decision_rules import DEFAULT_TOLERANCE_DEG
     from aceval.evaluation.methods_comparison import with_truth
     from aceval.evaluation.peer_gates import gate_peers
 
@@ -158,10 +161,12 @@ def build_data(
             ),
             truth,
         )
+    tolerance_deg = DEFAULT_TOLERANCE_DEG if tolerance_deg is None else float(tolerance_deg)
     if calibrations is not None and len(calibrations):
-        calibrations = flag_disagreements(calibrations)
+        calibrations = flag_disagreements(calibrations, tolerance_deg)
     return {
         "test_retest_k": test_retest_k,
+        "tolerance_deg": tolerance_deg,
         "calibrations": calibrations,
         "axes": axes,
         "correlations": correlations,
@@ -328,8 +333,7 @@ def summary_text(
         bool(meta.get("simulated")),
         notes,
         decision_section(tables),
-        summary.recommendation_section(tables)
-        + methods_section(tables)
+        methods_section(tables)
         + summary.retest_section(tables)
         + summary.uncertainty_section(tables)
         + summary.conditioning_section(tables)

@@ -1,6 +1,6 @@
 """SUMMARY.md: each claim of Kong et al. 2016 and Ricci et al. 2014 (reference/*/headline_findings.md)
-with its verdict (:mod:`aceval.report.claims`) and the numbers behind it, then (datasets with
-ground truth) which method and test to use for which segment.
+with its verdict (:mod:`aceval.report.claims`) and the numbers behind it, after the decision
+(:mod:`aceval.report.decisions`: SUMMARY.md's one answer per sensor), then the evidence behind it.
 
 Each check states its rule and the source of every number it compares with.
 """
@@ -33,7 +33,6 @@ from aceval.report.claims import (
     verdict_text,
 )
 from aceval.report.kong_claims import blind_spots, kong_claims
-from aceval.report.methods_section import static_pose_methods, unflagged_of
 from aceval.report.ricci_claims import ricci_claims, ricci_untestable
 
 
@@ -163,63 +162,6 @@ def _cone_verdict(pooled: pd.Series, worst_cell: float) -> str:
     if not misses:
         return "A 95 % cone here."
     return f"Not a validated 95 % cone here ({'; '.join(misses)}): an uncertainty cone."
-
-
-def _truth_rows(tables: dict, segment: str) -> pd.DataFrame:
-    """The rows of table ``truth_errors`` (a measured real-data truth) for ``segment``."""
-    table = tables.get("truth_errors")
-    if table is None or table.empty:
-        return pd.DataFrame()
-    return table[table["segment"] == segment].drop_duplicates(["subject", "sensor_set", "imu"])
-
-
-def recommendation_section(tables: dict) -> list[str]:
-    """Which method and test for which segment, from this dataset's numbers: the smallest median
-    error to the ground truth (table ``methods``) where there is one, else the smallest
-    test-retest angle (table ``methods_retest``), with the evidence beside it.
-    """
-    methods, retest = tables.get("methods"), tables.get("methods_retest")
-    truth = methods is not None and not methods.empty and methods["median"].notna().any()
-    table = methods if truth else retest
-    if table is None or table.empty or table["median"].isna().all():
-        return []
-    data = table.dropna(subset=["median"])
-    if not truth:
-        data = data[~data["method"].isin(static_pose_methods())]
-    lines = [
-        "## Which method for which segment (this dataset's numbers)",
-        "",
-        "By the smallest median error to the ground truth (table `methods`)"
-        if truth
-        else "No ground truth here: by the smallest test-retest angle (table `methods_retest`; "
-        "repeatability, not accuracy; OpenSense's static pose left out, it repeats by design)",
-        "",
-    ]
-    for segment, group in data.groupby("segment", sort=False):
-        best = group.loc[group["median"].idxmin()]
-        what = "error" if truth else "test-retest"
-        evidence = f"median {what} {best['median']:.2f} deg, n = {unflagged_of(best)}"
-        if truth and pd.notna(best.get("retest_median_deg", np.nan)):
-            evidence += f"; test-retest {best['retest_median_deg']:.2f} deg"
-        if pd.notna(best.get("cone_median_deg", np.nan)):
-            evidence += f"; cone {best['cone_median_deg']:.2f} deg"
-        truth_rows = _truth_rows(tables, segment)
-        if truth and len(truth_rows):  # the truth is a measurement: its own uncertainty beside
-            evidence += (
-                f"; the truth +- {truth_rows['truth_uncertainty_deg'].max():.1f} deg, "
-                f"its two methods up to {truth_rows['methods_differ_deg'].max():.1f} deg apart"
-            )
-        same_cell = (group["test"] == best["test"]) & (group["sensor_set"] == best["sensor_set"])
-        others = group[same_cell & (group["method"] != best["method"])]
-        if len(others):  # on the same cell: the same subjects, recordings and test
-            runner = others.loc[others["median"].idxmin()]
-            evidence += f"; next on the same test: {runner['method']} {runner['median']:.2f} deg"
-        caveat = " (one unit: not evidence enough to generalise)" if int(best["n"]) < 2 else ""
-        where = f", {best['sensor_set']} set" if data["sensor_set"].nunique() > 1 else ""
-        lines.append(
-            f"- **{segment}**: {best['method']} from {best['test']}{where} ({evidence}){caveat}."
-        )
-    return lines + [""]
 
 
 def conditioning_section(tables: dict) -> list[str]:
