@@ -15,8 +15,8 @@ import pandas as pd
 
 from aceval.calibrate.table import unflagged
 from aceval.data.contract import R_COLUMNS
-from aceval.evaluation.decision_rules import NONE, VERDICT_KINDS
 from aceval.data.dataset import Dataset
+from aceval.evaluation.decision_rules import NONE, VERDICT_KINDS
 from aceval.methods import registry
 
 KEY = ["subject", "sensor_set", "imu"]
