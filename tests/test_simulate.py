@@ -117,20 +117,23 @@ def test_lever_arm_changes_acceleration_not_rotation():
 
 
 @pytest.fixture(scope="module")
-def kong_clean(tmp_path_factory):
-    out = tmp_path_factory.mktemp("sim") / "kong_clean"
-    return simulate_kong(
-        out,
-        seed=5,
-        n_subjects=1,
-        options=SimOptions(noise=False, offplane=0.0, wobble=0.0, repetitions=2),
+def kong_clean(clean):
+    options = SimOptions(noise=False, offplane=0.0, wobble=0.0, repetitions=2)
+    folder = clean.shared(
+        "kong_clean",
+        lambda at: simulate_kong(at / "kong_clean", seed=5, n_subjects=1, options=options),
     )
+    return folder / "kong_clean"
 
 
 @pytest.fixture(scope="module")
-def kong_physiological(tmp_path_factory):
-    out = tmp_path_factory.mktemp("sim") / "kong_phys"
-    return simulate_kong(out, seed=5, n_subjects=1, options=SimOptions(noise=False, repetitions=2))
+def kong_physiological(clean):
+    options = SimOptions(noise=False, repetitions=2)
+    folder = clean.shared(
+        "kong_phys",
+        lambda at: simulate_kong(at / "kong_phys", seed=5, n_subjects=1, options=options),
+    )
+    return folder / "kong_phys"
 
 
 def calibration_errors(root):
