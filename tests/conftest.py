@@ -71,3 +71,19 @@ def regenerated(clean) -> Regeneration:
     if run["returncode"] != 0:
         pytest.fail(f"the committed configurations did not regenerate:\n{run['stderr']}")
     return Regeneration(workdir, args, configs, run["seconds"])
+
+
+def pytest_xdist_auto_num_workers(config) -> int | None:
+    """pyproject's ``-n auto``: pytest-xdist's worker per core, but none for a run of tests named
+    one by one (``file::test``: a test being debugged, its output and ``--pdb`` at hand)."""
+    if config.args and all("::" in arg for arg in config.args):
+        return 0
+    return None
+
+
+def pytest_collection_modifyitems(items) -> None:
+    """The tests that read the regenerated results run in one pytest-xdist worker (``--dist
+    loadgroup``): the other workers need not wait for the regeneration."""
+    for item in items:
+        if "regenerated" in item.fixturenames:
+            item.add_marker(pytest.mark.xdist_group("regenerated"))
