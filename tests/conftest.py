@@ -81,9 +81,14 @@ def pytest_xdist_auto_num_workers(config) -> int | None:
     return None
 
 
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist's worker reads the groups
 def pytest_collection_modifyitems(items) -> None:
-    """The tests that read the regenerated results run in one pytest-xdist worker (``--dist
-    loadgroup``): the other workers need not wait for the regeneration."""
+    """Which tests pytest-xdist runs in one worker (``--dist loadgroup``): those that read the
+    regenerated results (the other workers need not wait for the regeneration), and the quick
+    tests of one module (short: the module's imports and fixtures are most of their cost; the
+    slow ones are spread over the workers one by one)."""
     for item in items:
         if "regenerated" in item.fixturenames:
             item.add_marker(pytest.mark.xdist_group("regenerated"))
+        elif not item.get_closest_marker("xdist_group") and not item.get_closest_marker("slow"):
+            item.add_marker(pytest.mark.xdist_group(item.module.__name__))
