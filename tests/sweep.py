@@ -99,7 +99,7 @@ def refusal(result: Result, says: tuple[str, ...], kind: str = "error") -> str:
 # --- datasets -----------------------------------------------------------------------------------
 
 
-#: the clean datasets (built once) to copy for each case and a fresh folder per case
+#: the clean datasets the cases copy or read (tests/datasets.py), by the name the benchmark knows
 Workspace = CleanDatasets
 
 

@@ -11,10 +11,10 @@ import pandas as pd
 import pytest
 from scipy.spatial.transform import Rotation
 
-from aceval.cli import main
 from aceval.data.dataset import load_dataset
 
 from .labexports import export
+from .runner import aceval
 
 FS = 100.0
 SENSORS = {"00B4A201": ("shank", "right", "+y"), "00B4A202": ("foot", "right", "-z")}
@@ -59,14 +59,13 @@ def lab(tmp_path, trials: str, sensors=SENSORS, style="2019", standing_s=3.0, sh
 
 
 @pytest.fixture
-def run(capsys):
+def run():
     def run(folder, *options):
         args = ["import", "xsens", folder / "exports", "--trials", folder / "trials.tsv"]
         args += ["--sensors", folder / "sensors.tsv", "--out", folder / "out", *options]
-        code = main([str(a) for a in args])
-        captured = capsys.readouterr()
-        assert "Traceback" not in captured.err
-        return SimpleNamespace(code=code, err=captured.err, out=folder / "out")
+        result = aceval(*args)
+        assert "Traceback" not in result.err
+        return SimpleNamespace(code=result.code, err=result.err, out=folder / "out")
 
     return run
 
@@ -223,7 +222,7 @@ def test_a_broken_sheet_is_a_message_naming_its_line(tmp_path, run, trials, mess
     assert result.code == 1 and message in result.err, result.err
 
 
-def test_one_standing_only_trial_is_a_message_not_a_traceback(tmp_path, capsys):
+def test_one_standing_only_trial_is_a_message_not_a_traceback(tmp_path):
     """The one-trial import (NeuRA's) of a 2.6 s standing-only export."""
     acc, gyr = signals(standing_s=2.6, walking_s=0.0)
     path = tmp_path / "exports" / "stand-000_00B4A201.txt"
@@ -234,8 +233,7 @@ def test_one_standing_only_trial_is_a_message_not_a_traceback(tmp_path, capsys):
         "sensor_id\timu\tsensor_set\tsegment\tside\tregion\tright_axis\n"
         "00B4A201\tshank_r\tmain\tshank\tright\tlower_body\t+y\n"
     )
-    code = main(["import", "xsens", str(path.parent), "--sensors", str(sheet), "--out",
-                 str(tmp_path / "out")])  # fmt: skip
-    err = capsys.readouterr().err
-    assert code == 1 and "Traceback" not in err
+    result = aceval("import", "xsens", path.parent, "--sensors", sheet, "--out", tmp_path / "out")
+    err = result.err
+    assert result.code == 1 and "Traceback" not in err
     assert "sensor(s) 00B4A201 do not move" in err and "--trials" in err
