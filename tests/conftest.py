@@ -60,6 +60,7 @@ def regenerated(clean) -> Regeneration:
     report = clean.cache / "regeneration.json"
 
     def regenerate(workdir: Path) -> None:
+        workdir.mkdir()
         start = time.perf_counter()
         run = snakemake(workdir, *args, config=False)
         seconds = time.perf_counter() - start

@@ -18,21 +18,21 @@ from .smalldataset import simulate_small
 FULL_IMUS = tuple(f"IMU{k}" for k in range(1, 10))
 
 
-def built(folder: Path, build: Callable[[Path], object]) -> Path:
-    """``folder``, made by ``build(folder)`` the first time any process asks for it, under a lock
-    (the others wait for it); a folder whose build did not finish is made again."""
-    done = folder.with_name(f".{folder.name}.done")
+def built(path: Path, build: Callable[[Path], object]) -> Path:
+    """``path`` (a folder or a file), made by ``build(path)`` the first time any process asks for
+    it, under a lock (the others wait for it); what a build that did not finish left is made
+    again."""
+    done = path.with_name(f".{path.name}.done")
     if done.exists():
-        return folder
-    folder.parent.mkdir(parents=True, exist_ok=True)
-    with open(folder.with_name(f".{folder.name}.lock"), "w") as lock:
+        return path
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path.with_name(f".{path.name}.lock"), "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         if not done.exists():
-            shutil.rmtree(folder, ignore_errors=True)
-            folder.mkdir()
-            build(folder)
+            shutil.rmtree(path, ignore_errors=True) if path.is_dir() else path.unlink(True)
+            build(path)
             done.touch()
-    return folder
+    return path
 
 
 def succeeded(*args) -> None:
@@ -51,46 +51,27 @@ class CleanDatasets:
 
     def kong(self) -> Path:
         """1 subject, both sensor sets, 9 IMUs each, 5 repetitions, Parquet (seed 3)."""
-        return (
-            built(
-                self.cache / "kong",
-                lambda at: succeeded(
-                    "simulate", "kong", "--out", at / "kong", "--subjects", 1, "--seed", 3
-                ),
-            )
-            / "kong"
-        )
+        options = ["--subjects", 1, "--seed", 3]
+        return self.shared("kong", lambda at: succeeded("simulate", "kong", "--out", at, *options))
 
     def small(self) -> Path:
         """1 subject, frontal chest, right thigh and shank, 3 repetitions, CSV (seed 3)."""
-        return built(self.cache / "small", lambda at: simulate_small(at / "small")) / "small"
+        return self.shared("small", simulate_small)
 
     def full_lab(self) -> Path:
         """1 subject, every IMU of the frontal set in every test, as a lab records them, 5
         repetitions, CSV (seed 3)."""
-        return (
-            built(
-                self.cache / "full_lab",
-                lambda at: simulate_small(
-                    at / "full_lab", imus=FULL_IMUS, every_recording=True, repetitions=5
-                ),
-            )
-            / "full_lab"
-        )
+        options = {"imus": FULL_IMUS, "every_recording": True, "repetitions": 5}
+        return self.shared("full_lab", lambda at: simulate_small(at, **options))
 
     def clean_calibrations(self, name: str) -> Path:
         """``aceval calibrate`` of the dataset ``name`` (all methods, every subset): its CSV."""
         dataset = getattr(self, name)()
-        return (
-            built(
-                self.cache / f"{name}_calibrations",
-                lambda at: succeeded("calibrate", dataset, "--out", at / "calibrations.csv"),
-            )
-            / "calibrations.csv"
-        )
+        calibrate = lambda at: succeeded("calibrate", dataset, "--out", at)  # noqa: E731
+        return self.shared(f"{name}_calibrations.csv", calibrate)
 
     def shared(self, name: str, build: Callable[[Path], object]) -> Path:
-        """A folder ``name`` of the tests' own, made by ``build(folder)`` on first use."""
+        """A folder or file ``name`` of the tests' own, made by ``build(path)`` on first use."""
         return built(self.cache / name, build)
 
     def copy(self, name: str, where: Path) -> Path:

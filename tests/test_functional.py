@@ -119,11 +119,7 @@ def test_aligned_axes_are_flagged_not_raised():
 def ricci_child(clean):
     """One simulated child, ideal sensors and no wobble: only the off-axis movement remains."""
     options = SimOptions(noise=False, wobble=0.0)
-    folder = clean.shared(
-        "ricci_child",
-        lambda at: simulate_ricci(at / "child", seed=4, n_subjects=1, options=options),
-    )
-    return folder / "child"
+    return clean.shared("child", lambda at: simulate_ricci(at, 4, 1, options=options))
 
 
 def test_functional_design_signs_axes_and_recovers_the_mountings(ricci_child):

@@ -46,7 +46,7 @@ def hugadb(clean):
         pytest.skip(f"HuGaDB not found at {HUGADB}")
 
     def imported(folder: Path) -> None:
-        (folder / "dataset").mkdir()
+        (folder / "dataset").mkdir(parents=True)
         pd.DataFrame(import_hugadb(HUGADB, folder / "dataset").rows).to_pickle(folder / "rows.pkl")
 
     folder = clean.shared("hugadb", imported)

@@ -14,10 +14,9 @@ from aceval.simulate import SimOptions, simulate_box
 def boxes(clean):
     """Two simulated rigid boxes (two sensor sets each: Obj 1 pairs), two repetitions."""
     options = SimOptions(repetitions=2)
-    folder = clean.shared(
-        "boxes", lambda at: simulate_box(at / "boxes", 5, n_subjects=2, options=options)
+    return load_dataset(
+        clean.shared("boxes", lambda at: simulate_box(at, 5, n_subjects=2, options=options))
     )
-    return load_dataset(folder / "boxes")
 
 
 @pytest.fixture(scope="module")

@@ -119,21 +119,13 @@ def test_lever_arm_changes_acceleration_not_rotation():
 @pytest.fixture(scope="module")
 def kong_clean(clean):
     options = SimOptions(noise=False, offplane=0.0, wobble=0.0, repetitions=2)
-    folder = clean.shared(
-        "kong_clean",
-        lambda at: simulate_kong(at / "kong_clean", seed=5, n_subjects=1, options=options),
-    )
-    return folder / "kong_clean"
+    return clean.shared("kong_clean", lambda at: simulate_kong(at, 5, 1, options=options))
 
 
 @pytest.fixture(scope="module")
 def kong_physiological(clean):
     options = SimOptions(noise=False, repetitions=2)
-    folder = clean.shared(
-        "kong_phys",
-        lambda at: simulate_kong(at / "kong_phys", seed=5, n_subjects=1, options=options),
-    )
-    return folder / "kong_phys"
+    return clean.shared("kong_phys", lambda at: simulate_kong(at, 5, 1, options=options))
 
 
 def calibration_errors(root):

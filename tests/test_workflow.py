@@ -47,10 +47,7 @@ def tiny(clean) -> Path:
     """2 simulated subjects, 3 repetitions of each test, CSV (a lab's export, broken by the tests
     file by file)."""
     options = ["--seed", 1, "--subjects", 2, "--repetitions", 3, "--format", "csv"]
-    folder = clean.shared(
-        "workflow_tiny", lambda at: succeeded("simulate", "kong", "--out", at / "tiny", *options)
-    )
-    return folder / "tiny"
+    return clean.shared("tiny", lambda at: succeeded("simulate", "kong", "--out", at, *options))
 
 
 def lab_copy(source: Path, target: Path, drop=None, copy_data=False) -> Path:
