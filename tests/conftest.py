@@ -84,12 +84,22 @@ def pytest_xdist_auto_num_workers(config) -> int | None:
 
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist's worker reads the groups
 def pytest_collection_modifyitems(items) -> None:
-    """Which tests pytest-xdist runs in one worker (``--dist loadgroup``): those that read the
+    """Which tests pytest-xdist runs in one worker (``--dist loadgroup``), and in which order
+    (``--no-loadscope-reorder``: as collected here). In one worker: the tests that read the
     regenerated results (the other workers need not wait for the regeneration), and the quick
     tests of one module (short: the module's imports and fixtures are most of their cost; the
-    slow ones are spread over the workers one by one)."""
+    slow ones are spread over the workers one by one). First the regeneration (minutes), then
+    the other slow tests, then the quick ones: the long ones do not come last to one worker while
+    the others have nothing left."""
     for item in items:
         if "regenerated" in item.fixturenames:
             item.add_marker(pytest.mark.xdist_group("regenerated"))
         elif not item.get_closest_marker("xdist_group") and not item.get_closest_marker("slow"):
             item.add_marker(pytest.mark.xdist_group(item.module.__name__))
+
+    def rank(item) -> int:
+        if any(m.args == ("regenerated",) for m in item.iter_markers("xdist_group")):
+            return 0
+        return 1 if item.get_closest_marker("slow") else 2
+
+    items.sort(key=rank)
