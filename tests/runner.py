@@ -67,7 +67,7 @@ def aceval(*args, cwd: Path | str | None = None) -> Result:
     help's lines where the environment does not say COLUMNS), the warning filters (a new
     interpreter's: each warning printed on stderr once per place, whatever the test session's
     filters), NumPy's floating-point error handling, the SIGINT and SIGTERM handlers, and
-    Matplotlib's settings and open figures. stdout and stderr are UTF-8 as in a process (stdout
+    Matplotlib's settings (its matplotlibrc's for the command) and the figures it opened. stdout and stderr are UTF-8 as in a process (stdout
     strict, stderr backslash-escaping what cannot be encoded), never a terminal. An exit
     (``SystemExit``) gives its code, as the interpreter does; any other exception its traceback on
     stderr and exit code 1. The files a command leaves locked must be none: a process would
@@ -127,7 +127,7 @@ def _as_a_new_process(cwd):
             os.chdir(cwd)
         for name, size in (("COLUMNS", "80"), ("LINES", "24")):  # a pipe's, not the terminal's
             os.environ.setdefault(name, size)
-        with warnings.catch_warnings(), np.errstate(all="warn", under="ignore"):
+        with warnings.catch_warnings(), np.errstate(all="warn", under="ignore"), _matplotlib():
             warnings.resetwarnings()
             for action, category, module in DEFAULT_WARNING_FILTERS:
                 warnings.filterwarnings(action, category=category, module=module, append=True)
@@ -140,7 +140,6 @@ def _as_a_new_process(cwd):
             os.environ.update(environment)
         for number, handler in handlers.items():
             signal.signal(number, handler)
-        _fresh_matplotlib()
     left = _locked(safety) - held
     assert not left, f"aceval left temporaries locked after it returned: {sorted(map(str, left))}"
 
@@ -155,12 +154,30 @@ def _show_on_stderr(message, category, filename, lineno, file=None, line=None) -
     sys.stderr.write(warnings.formatwarning(message, category, filename, lineno, line))
 
 
-def _fresh_matplotlib() -> None:
-    """Matplotlib's settings as a new process reads them (its matplotlibrc), no figure open."""
-    if "matplotlib.pyplot" in sys.modules:
-        sys.modules["matplotlib.pyplot"].close("all")
-    if "matplotlib" in sys.modules:
-        sys.modules["matplotlib"].rc_file_defaults()
+@contextlib.contextmanager
+def _matplotlib():
+    """Matplotlib's settings as a new process reads them (its matplotlibrc) for the command, the
+    caller's again after it (a fresh import's if the command imported it), and the figures the
+    command opened closed."""
+    before = _figures()
+    caller = sys.modules.get("matplotlib")
+    try:
+        if caller is None:
+            yield
+        else:
+            with caller.rc_context():
+                caller.rc_file_defaults()
+                yield
+    finally:
+        for number in _figures() - before:
+            sys.modules["matplotlib.pyplot"].close(number)
+        if caller is None and "matplotlib" in sys.modules:
+            sys.modules["matplotlib"].rc_file_defaults()
+
+
+def _figures() -> set:
+    pyplot = sys.modules.get("matplotlib.pyplot")
+    return set(pyplot.get_fignums()) if pyplot else set()
 
 
 def aceval_process(

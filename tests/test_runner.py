@@ -19,6 +19,7 @@ def _meddling(argv):
     import matplotlib
     import numpy as np
 
+    assert matplotlib.rcParams["lines.linewidth"] == matplotlib.rcParamsOrig["lines.linewidth"]
     os.chdir("/")
     os.environ["ACEVAL_RUNNER_TEST"] = "set"
     signal.signal(signal.SIGTERM, lambda *_: None)
@@ -44,8 +45,8 @@ def test_each_command_starts_as_a_new_process_and_leaves_nothing_behind(meddling
     import matplotlib
     import numpy as np
 
+    matplotlib.rcParams["lines.linewidth"] = 2.5  # the caller's own (a seaborn theme, say)
     before = (os.getcwd(), dict(os.environ), signal.getsignal(signal.SIGTERM), np.geterr())
-    width = matplotlib.rcParams["lines.linewidth"]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the session's filters do not reach the command
         for code in (0, 3):
@@ -54,7 +55,8 @@ def test_each_command_starts_as_a_new_process_and_leaves_nothing_behind(meddling
             assert result.err.count("UserWarning: a user warning") == 1, result.err
             assert "DeprecationWarning" not in result.err
     assert (os.getcwd(), dict(os.environ), signal.getsignal(signal.SIGTERM), np.geterr()) == before
-    assert matplotlib.rcParams["lines.linewidth"] == width
+    assert matplotlib.rcParams["lines.linewidth"] == 2.5
+    matplotlib.rc_file_defaults()
 
 
 @pytest.mark.parametrize(
