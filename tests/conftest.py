@@ -82,24 +82,23 @@ def pytest_xdist_auto_num_workers(config) -> int | None:
     return None
 
 
-@pytest.hookimpl(tryfirst=True)  # before pytest-xdist's worker reads the groups
-def pytest_collection_modifyitems(items) -> None:
-    """Which tests pytest-xdist runs in one worker (``--dist loadgroup``), and in which order
-    (``--no-loadscope-reorder``: as collected here). In one worker: the tests that read the
-    regenerated results (the other workers need not wait for the regeneration), and the quick
-    tests of one module (short: the module's imports and fixtures are most of their cost; the
-    slow ones are spread over the workers one by one). First the regeneration (minutes), then
-    the other slow tests, then the quick ones: the long ones do not come last to one worker while
-    the others have nothing left."""
-    for item in items:
-        if "regenerated" in item.fixturenames:
-            item.add_marker(pytest.mark.xdist_group("regenerated"))
-        elif not item.get_closest_marker("xdist_group") and not item.get_closest_marker("slow"):
-            item.add_marker(pytest.mark.xdist_group(item.module.__name__))
+#: the file whose tests make the regenerated results (minutes), which other files' tests read
+REGENERATION_FILE = "test_committed_results.py"
 
-    def rank(item) -> int:
-        if any(m.args == ("regenerated",) for m in item.iter_markers("xdist_group")):
-            return 0
-        return 1 if item.get_closest_marker("slow") else 2
+
+def pytest_collection_modifyitems(items) -> None:
+    """The order in which pytest-xdist hands the test files to its workers (pyproject's ``--dist
+    loadfile --no-loadscope-reorder``: a file's tests in one worker, one file after another, in
+    the order of their first test here). First the regeneration's file, its regeneration first;
+    then the files with slow tests, then the quick ones: the long ones do not come last to one
+    worker while the others have nothing left. Elsewhere, the tests that read the regenerated
+    results come last in their file: the worker that asks first makes them, another waits."""
+    slow_files = {item.path for item in items if item.get_closest_marker("slow")}
+
+    def rank(item) -> tuple[int, int]:
+        reads = "regenerated" in item.fixturenames
+        if item.path.name == REGENERATION_FILE:
+            return 0, 0 if reads else 1
+        return 1 if item.path in slow_files else 2, 1 if reads else 0
 
     items.sort(key=rank)

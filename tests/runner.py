@@ -67,11 +67,12 @@ def aceval(*args, cwd: Path | str | None = None) -> Result:
     help's lines where the environment does not say COLUMNS), the warning filters (a new
     interpreter's: each warning printed on stderr once per place, whatever the test session's
     filters), NumPy's floating-point error handling, the SIGINT and SIGTERM handlers, and
-    Matplotlib's settings (its matplotlibrc's for the command) and the figures it opened. stdout and stderr are UTF-8 as in a process (stdout
-    strict, stderr backslash-escaping what cannot be encoded), never a terminal. An exit
-    (``SystemExit``) gives its code, as the interpreter does; any other exception its traceback on
-    stderr and exit code 1. The files a command leaves locked must be none: a process would
-    release them at its end, a library call must not keep them.
+    Matplotlib's settings (its matplotlibrc's for the command) and the figures it opened. stdout
+    and stderr are UTF-8 as in a process (stdout strict, stderr backslash-escaping what cannot be
+    encoded), never a terminal. An exit (``SystemExit``) gives its code, as the interpreter does;
+    any other exception its traceback on stderr and exit code 1. The files a command leaves
+    locked must be none: a process would release them at its end, a library call must not keep
+    them.
     """
     out, err = _stream("strict"), _stream("backslashreplace")
     with _as_a_new_process(cwd), contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):

@@ -121,7 +121,6 @@ def peer_python(env: str, request) -> Path:
     return python
 
 
-@pytest.mark.xdist_group("regenerated")  # in CI, it may wait for the regeneration's peers
 @pytest.mark.parametrize("peer", PEERS)
 def test_every_peer_turns_with_the_sensors(lab, tmp_path, peer, request):
     """Every calibration that enters the medians (no flag). qmt's estimator starts from a fixed
