@@ -4,8 +4,9 @@ come from here.
 
     python benchmarks/bad_input_sweep.py [--only TEXT] [--workdir DIR]
 
-Each case runs `python -m aceval` in a subprocess, so an older checkout is swept by pointing
-``PYTHONPATH`` at its ``src`` (the cases read only the command line and the files).
+Each case runs `python -m aceval` in a subprocess (the tests run most of them in their own
+process), so an older checkout is swept by pointing ``PYTHONPATH`` at its ``src`` (the cases read
+only the command line and the files).
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from tests import sweep  # noqa: E402
 from tests.sweep import CASES, Workspace  # noqa: E402
 
 
@@ -28,6 +30,7 @@ def main() -> None:
     parser.add_argument("--only", default="", help="only the cases whose name contains this")
     parser.add_argument("--workdir", help="keep the cases' folders here (default: a temporary one)")
     args = parser.parse_args()
+    sweep.IN_SUBPROCESSES = True
     with tempfile.TemporaryDirectory() as scratch:
         root = Path(args.workdir or scratch)
         workspace = Workspace(root)

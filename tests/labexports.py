@@ -12,14 +12,14 @@ variants labs send (docs/your_data.md imports exactly this folder):
 ``write_lab`` returns where the simulation's truth is, to compare the calibrations with.
 """
 
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from aceval.data.dataset import load_dataset
+
+from .runner import aceval
 
 #: the lab's sensors: (sensor ID, the lab's name, Kong segment, side, simulated IMU of the frontal
 #: set); the lumbar sensor keeps the lab's name, mapped to Kong's segment 'waist'
@@ -39,11 +39,9 @@ COLUMNS = ["PacketCounter", "SampleTimeFine", "Acc_X", "Acc_Y", "Acc_Z", "Gyr_X"
 def simulate(root: Path, repetitions: int = REPETITIONS) -> Path:
     """The simulated Kong dataset the exports are cut from (3 subjects, 3 repetitions)."""
     out = root / "simulated"
-    subprocess.run(
-        [sys.executable, "-m", "aceval", "simulate", "kong", "--out", str(out), "--seed", "7",
-         "--subjects", "3", "--repetitions", str(repetitions)],
-        check=True, capture_output=True,
-    )  # fmt: skip
+    options = ["--seed", 7, "--subjects", 3, "--repetitions", repetitions]
+    simulated = aceval("simulate", "kong", "--out", out, *options)
+    assert simulated.code == 0, simulated.err[-3000:]
     return out
 
 

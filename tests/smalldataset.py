@@ -2,13 +2,13 @@
 right thigh and right shank IMUs (Kong protocol; every test that calibrates them)."""
 
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import yaml
+
+from .runner import aceval
 
 IMUS = ("IMU2", "IMU4", "IMU5")
 SENSOR_SET = "frontal"
@@ -21,27 +21,10 @@ def simulate_small(
     that calibrate each IMU, or (``every_recording``) every IMU in every test, as a lab records.
     """
     full = root.parent / f"{root.name}_full"
-    subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "aceval",
-            "simulate",
-            "kong",
-            "--out",
-            str(full),
-            "--subjects",
-            "1",
-            "--repetitions",
-            str(repetitions),
-            "--seed",
-            "3",
-            "--format",
-            "csv",  # a lab's export: the bad-input tests edit its text
-        ],
-        check=True,
-        capture_output=True,
-    )
+    # a lab's export (CSV): the bad-input tests edit its text
+    options = ["--subjects", 1, "--repetitions", repetitions, "--seed", 3, "--format", "csv"]
+    simulated = aceval("simulate", "kong", "--out", full, *options)
+    assert simulated.code == 0, simulated.err[-3000:]
     root.mkdir(parents=True)
     for name in ("tests.tsv", "subjects.tsv"):
         shutil.copy(full / name, root / name)

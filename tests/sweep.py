@@ -1,6 +1,7 @@
 """Issue 41's sweep, reconstructed: each case breaks a copy of a small simulated dataset (or the
-environment) one way, runs `python -m aceval` as a user would (a subprocess: a traceback, a hang
-or an exit code is seen as the user sees it) and says what came out, one of
+environment) one way, runs ``aceval`` as a user would (in this process as a subprocess would run it,
+tests/runner.py; in a subprocess where only a process shows the outcome: a hang, a signal, a
+full disk, a pipe) and says what came out, one of
 
 * ``error``, ``refused``: a non-zero exit with one line naming the file (or option) and the
   cause, no traceback, no partial output, no input changed;
@@ -18,9 +19,7 @@ from __future__ import annotations
 
 import hashlib
 import os
-import resource
 import shutil
-import signal
 import subprocess
 import sys
 import time
@@ -31,6 +30,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from scipy.spatial.transform import Rotation
+
+from .datasets import CleanDatasets
+from .runner import Result, aceval_process
+from .runner import aceval as aceval_here
 
 R_COLUMNS = [f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
 ACC = ["acc_x", "acc_y", "acc_z"]
@@ -49,44 +52,23 @@ FAILURES = (
 WRONG_DEG = 2.0
 
 
-@dataclass
-class Result:
-    code: int | None  # None: did not end before its timeout
-    out: str
-    err: str
-
-    @property
-    def said(self) -> str:
-        return self.out + self.err
-
-    @property
-    def traceback(self) -> bool:
-        return "Traceback (most recent call last)" in self.said
+#: every command of every case in a subprocess, not only where the case needs one
+#: (benchmarks/bad_input_sweep.py: an older checkout is swept through ``PYTHONPATH``)
+IN_SUBPROCESSES = False
 
 
-def aceval(*args, cwd=None, timeout: float = 300, limit_bytes: int | None = None, user=None):
-    """``python -m aceval *args`` in a subprocess: its exit code, stdout and stderr."""
-
-    def limits():
-        if limit_bytes is not None:  # writes beyond it fail (EFBIG), as on a full disk
-            signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
-            resource.setrlimit(resource.RLIMIT_FSIZE, (limit_bytes, limit_bytes))
-        if user is not None:
-            os.setgid(user)
-            os.setuid(user)
-
-    try:
-        done = subprocess.run(
-            [sys.executable, "-m", "aceval", *map(str, args)],
-            capture_output=True,
-            text=True,
-            cwd=cwd,
-            timeout=timeout,
-            preexec_fn=limits,
+def aceval(
+    *args, cwd=None, timeout: float | None = None, limit_bytes: int | None = None, user=None
+):
+    """``aceval *args`` as a user runs it: its exit code, stdout and stderr. In this process
+    (tests/runner.py: as a subprocess would run it), or in a subprocess where only a process shows
+    the outcome: one that may hang (``timeout``, s), a full disk (``limit_bytes``: writes beyond
+    it fail with EFBIG), another ``user``."""
+    if IN_SUBPROCESSES or timeout is not None or limit_bytes is not None or user is not None:
+        return aceval_process(
+            *args, cwd=cwd, timeout=timeout or 300, limit_bytes=limit_bytes, user=user
         )
-    except subprocess.TimeoutExpired as exc:
-        return Result(None, str(exc.stdout or ""), str(exc.stderr or ""))
-    return Result(done.returncode, done.stdout, done.stderr)
+    return aceval_here(*args, cwd=cwd)
 
 
 def checksums(*folders: Path) -> dict[str, str]:
@@ -117,42 +99,8 @@ def refusal(result: Result, says: tuple[str, ...], kind: str = "error") -> str:
 # --- datasets -----------------------------------------------------------------------------------
 
 
-class Workspace:
-    """The clean datasets (built once) and a fresh folder per case."""
-
-    def __init__(self, root: Path):
-        self.root = Path(root)
-        self.cache = self.root / "clean"
-        self.cache.mkdir(parents=True, exist_ok=True)
-
-    def kong(self) -> Path:
-        """1 subject, both sensor sets, 9 IMUs each, 5 repetitions, Parquet (seed 3)."""
-        path = self.cache / "kong"
-        if not path.is_dir():
-            result = aceval("simulate", "kong", "--out", path, "--subjects", 1, "--seed", 3)
-            assert result.code == 0, result.err
-        return path
-
-    def small(self) -> Path:
-        """1 subject, frontal chest, right thigh and shank, 3 repetitions, CSV (seed 3)."""
-        path = self.cache / "small"
-        if not path.is_dir():
-            from tests.smalldataset import simulate_small
-
-            simulate_small(path)
-        return path
-
-    def clean_calibrations(self, name: str) -> Path:
-        out = self.cache / f"{name}.csv"
-        if not out.is_file():
-            result = aceval("calibrate", getattr(self, name)(), "--out", out)
-            assert result.code == 0, result.err
-        return out
-
-    def copy(self, name: str, where: Path) -> Path:
-        target = where / name
-        shutil.copytree(getattr(self, name)(), target, symlinks=True)
-        return target
+#: the clean datasets the cases copy or read (tests/datasets.py), by the name the benchmark knows
+Workspace = CleanDatasets
 
 
 def sheet(path: Path) -> pd.DataFrame:

@@ -25,41 +25,33 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from aceval.calibrate.table import SPREAD_FLAGS
-from aceval.cli import main
 from aceval.data.contract import RecordingError, recording_values
 from aceval.data.dataset import load_dataset
 from aceval.data.safety import MARKER
 from aceval.methods.functional import AXIS_METHODS
 
-from .smalldataset import simulate_small
-
-FULL_IMUS = tuple(f"IMU{k}" for k in range(1, 10))
+from .runner import aceval
 
 
-@pytest.fixture(scope="module")
-def pristine(tmp_path_factory) -> Path:
-    return simulate_small(tmp_path_factory.mktemp("pristine") / "lab")
+@pytest.fixture(scope="session")
+def pristine(clean) -> Path:
+    return clean.small()
 
 
-@pytest.fixture(scope="module")
-def full_lab(tmp_path_factory) -> Path:
+@pytest.fixture(scope="session")
+def full_lab(clean) -> Path:
     """Every IMU of the frontal set in every test, as a lab records them, with 5 repetitions."""
-    root = tmp_path_factory.mktemp("full") / "lab"
-    return simulate_small(root, imus=FULL_IMUS, every_recording=True, repetitions=5)
+    return clean.full_lab()
 
 
-@pytest.fixture(scope="module")
-def full_lab_calibrations(full_lab, tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("calibrations") / "calibrations.csv"
-    assert main(["calibrate", str(full_lab), "--out", str(out)]) == 0
-    return out
+@pytest.fixture(scope="session")
+def full_lab_calibrations(clean) -> Path:
+    return clean.clean_calibrations("full_lab")
 
 
-@pytest.fixture(scope="module")
-def good_calibrations(pristine, tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("calibrations") / "calibrations.csv"
-    assert main(["calibrate", str(pristine), "--out", str(out)]) == 0
-    return out
+@pytest.fixture(scope="session")
+def good_calibrations(clean) -> Path:
+    return clean.clean_calibrations("small")
 
 
 # --- how to break a copy ----------------------------------------------------------------------
@@ -988,7 +980,7 @@ def checksums(folder: Path) -> dict[str, str]:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("case", CASES, ids=[c.name for c in CASES])
-def test_bad_input(case, request, good_calibrations, tmp_path, capsys):
+def test_bad_input(case, request, good_calibrations, tmp_path):
     pristine = request.getfixturevalue(case.fixture)
     lab = tmp_path / "lab"
     shutil.copytree(pristine, lab)
@@ -1002,11 +994,10 @@ def test_bad_input(case, request, good_calibrations, tmp_path, capsys):
 
     argv = case.command(lab, tmp_path, good_calibrations)
     files_before = {p for p in tmp_path.rglob("*") if p.is_file()}
-    code = main(argv)
+    result = aceval(*argv)
 
-    captured = capsys.readouterr()
-    output = captured.out + captured.err
-    assert code == case.code, output[-3000:]
+    output = result.said
+    assert result.code == case.code, output[-3000:]
     for text in case.says:
         assert text in output, f"{text!r} not in:\n{output[-3000:]}"
     assert checksums(lab) == inputs["lab"], "an input file changed"
@@ -1026,12 +1017,13 @@ def test_bad_input(case, request, good_calibrations, tmp_path, capsys):
         # apply on the defective copy: body-frame copies that validate, or a clear refusal
         applied = tmp_path / "applied"
         calibrations = str(tmp_path / "out.csv")
-        code = main(["apply", str(lab), "--calibrations", calibrations, "--out", str(applied)])
-        said = capsys.readouterr().err
-        assert code in (0, 1), said[-3000:]
-        assert (code == 0) == applied.is_dir(), said[-3000:]
-        if code == 0:
-            assert main(["validate", str(applied)]) == 0, capsys.readouterr().out[-3000:]
+        applying = aceval("apply", lab, "--calibrations", calibrations, "--out", applied)
+        said = applying.err
+        assert applying.code in (0, 1), said[-3000:]
+        assert (applying.code == 0) == applied.is_dir(), said[-3000:]
+        if applying.code == 0:
+            validating = aceval("validate", applied)
+            assert validating.code == 0, validating.out[-3000:]
         assert checksums(lab) == inputs["lab"], "apply changed an input file"
     if case.left_out:
         calibrations = pd.read_csv(tmp_path / "out.csv", keep_default_na=False)
@@ -1076,9 +1068,9 @@ def test_the_matrix_covers_every_outcome():
 def test_force_replaces_a_folder_aceval_wrote(pristine, good_calibrations, tmp_path):
     out = tmp_path / "copy"
     argv = ["apply", str(pristine), "--calibrations", str(good_calibrations), "--out", str(out)]
-    assert main(argv) == 0 and (out / MARKER).is_file()
-    assert main(argv) == 2  # not empty, no --force
-    assert main(argv + ["--force"]) == 0 and (out / "applied_calibrations.tsv").is_file()
+    assert aceval(*argv).code == 0 and (out / MARKER).is_file()
+    assert aceval(*argv).code == 2  # not empty, no --force
+    assert aceval(*argv, "--force").code == 0 and (out / "applied_calibrations.tsv").is_file()
 
 
 @pytest.mark.slow
@@ -1115,10 +1107,12 @@ def test_apply_keeps_times_columns_and_truth_and_its_copy_validates(pristine, tm
         table[["quat_w", "quat_x", "quat_y", "quat_z"]] = quat.as_quat(scalar_first=True)
         table.to_csv(path, index=False)
     calibrations = tmp_path / "calibrations.csv"
-    assert main(["calibrate", str(lab), "--out", str(calibrations), "--method", "kong"]) == 0
+    assert aceval("calibrate", str(lab), "--out", str(calibrations), "--method", "kong").code == 0
     copy = tmp_path / "copy"
-    assert main(["apply", str(lab), "--calibrations", str(calibrations), "--out", str(copy)]) == 0
-    assert main(["validate", str(copy)]) == 0
+    assert (
+        aceval("apply", str(lab), "--calibrations", str(calibrations), "--out", str(copy)).code == 0
+    )
+    assert aceval("validate", str(copy)).code == 0
 
     source, body = pd.read_csv(lab / T1, dtype=str), pd.read_csv(copy / T1, dtype=str)
     assert (body["t"] == source["t"]).all() and body["t"].nunique() == len(body)
@@ -1264,12 +1258,12 @@ def test_right_axis_plus_z_flags_every_row_on_five_repetitions(tmp_path):
     of that IMU is flagged, every row whose y0 is more than 60 deg from the declared right axis is
     flagged (whatever its subset's own direction vote), and no other IMU gets a flag."""
     lab = tmp_path / "five"
-    assert main(["simulate", "kong", "--out", str(lab), "--seed", "1", "--subjects", "1"]) == 0
+    assert aceval("simulate", "kong", "--out", str(lab), "--seed", "1", "--subjects", "1").code == 0
     sheet = pd.read_csv(lab / "imus.tsv", sep="\t", dtype=str, keep_default_na=False)
     sheet.loc[(sheet["imu"] == "IMU4") & (sheet["sensor_set"] == "frontal"), "right_axis"] = "+z"
     sheet.to_csv(lab / "imus.tsv", sep="\t", index=False)
     out = tmp_path / "out.csv"
-    assert main(["calibrate", str(lab), "--out", str(out)]) == 0
+    assert aceval("calibrate", str(lab), "--out", str(out)).code == 0
     table = pd.read_csv(out, keep_default_na=False)
     assert set(table["n_reps"]) == {1, 2, 3, 4, 5}
     defective = (table["imu"] == "IMU4") & (table["sensor_set"] == "frontal")

@@ -8,18 +8,13 @@ from __future__ import annotations
 
 import pytest
 
-from .sweep import CASES, FAILURES, Workspace
-
-
-@pytest.fixture(scope="module")
-def workspace(tmp_path_factory) -> Workspace:
-    return Workspace(tmp_path_factory.mktemp("sweep"))
+from .sweep import CASES, FAILURES
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("case", CASES, ids=[c.name for c in CASES])
-def test_case_ends_as_expected(case, workspace, tmp_path):
-    assert case.run(workspace, tmp_path) == case.expected
+def test_case_ends_as_expected(case, clean, tmp_path):
+    assert case.run(clean, tmp_path) == case.expected
 
 
 def test_the_sweep_expects_no_failure_and_covers_every_outcome():

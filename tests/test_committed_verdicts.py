@@ -68,7 +68,13 @@ def test_the_committed_claims_are_there():
     assert {"kong_sim", "kong_powered", "ricci_sim", "box_sim"} <= names
 
 
-@pytest.mark.parametrize("folder", FOLDERS, ids=lambda p: p.name)
+#: the powered design's cells (93 subjects) in the slow tier
+BY_SIZE = [
+    pytest.param(f, marks=pytest.mark.slow) if f.name == "kong_powered" else f for f in FOLDERS
+]
+
+
+@pytest.mark.parametrize("folder", BY_SIZE, ids=lambda p: p.name)
 def test_every_verdict_is_recomputed_from_its_committed_cells(folder):
     claims, estimates, cells = (
         _read(folder, n) for n in ("claims", "claim_estimates", "claim_cells")

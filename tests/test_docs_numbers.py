@@ -11,6 +11,7 @@ before it is a range) must equal the committed value at the precision it is writ
 number followed by ``%`` is a share written as a percentage).
 """
 
+import functools
 import re
 
 import pandas as pd
@@ -40,9 +41,15 @@ def _same(cell: str, wanted: str) -> bool:
         return cell.replace(" ", "_") == wanted
 
 
+@functools.cache
+def _committed(path: str) -> pd.DataFrame:
+    """A committed table as text, read once for all the quotes from it (not to be changed)."""
+    return pd.read_csv(REPO / "results" / path, dtype=str, keep_default_na=False)
+
+
 @pytest.mark.parametrize("match", list(_quotes()))
 def test_a_quoted_number_is_the_committed_one(match):
-    table = pd.read_csv(REPO / "results" / match["path"], dtype=str, keep_default_na=False)
+    table = _committed(match["path"])
     chosen = pd.Series(True, index=table.index)
     for pair in match["keys"].split():
         key, value = pair.split("=", 1)

@@ -116,10 +116,10 @@ def test_aligned_axes_are_flagged_not_raised():
 
 
 @pytest.fixture(scope="module")
-def ricci_child(tmp_path_factory):
+def ricci_child(clean):
     """One simulated child, ideal sensors and no wobble: only the off-axis movement remains."""
-    root = tmp_path_factory.mktemp("ricci") / "child"
-    return simulate_ricci(root, seed=4, n_subjects=1, options=SimOptions(noise=False, wobble=0.0))
+    options = SimOptions(noise=False, wobble=0.0)
+    return clean.shared("child", lambda at: simulate_ricci(at, 4, 1, options=options))
 
 
 def test_functional_design_signs_axes_and_recovers_the_mountings(ricci_child):

@@ -1,8 +1,6 @@
 """Importers on the real files of ../shared/data (skipped when absent), their errors on broken
 files, the Vicon ground truth on analytic cases, and `aceval calibrate` / `aceval apply`."""
 
-import subprocess
-import sys
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -11,13 +9,14 @@ import pandas as pd
 import pytest
 from scipy.spatial.transform import Rotation
 
-from aceval.cli import main
 from aceval.data.dataset import load_dataset, validate
 from aceval.importers import FormatError
 from aceval.importers.hugadb import import_hugadb, read_hugadb
 from aceval.importers.shared import straight_strides, walking_bouts
 from aceval.importers.vicon import body_axes, optical_angular_velocity, sensor_to_segment
 from aceval.importers.xsens import read_mt_export
+
+from .runner import aceval
 
 REPO = Path(__file__).resolve().parents[1]
 DATA = REPO.parent / "shared" / "data"
@@ -35,18 +34,23 @@ def needs_data(test):
 
 
 def run(*args):
-    return subprocess.run(
-        [sys.executable, "-m", "aceval", *map(str, args)], capture_output=True, text=True
-    )
+    """``aceval *args`` in this process, as a subprocess runs it (tests/runner.py)."""
+    result = aceval(*args)
+    return SimpleNamespace(returncode=result.code, stdout=result.out, stderr=result.err)
 
 
 @pytest.fixture(scope="module")
-def hugadb(tmp_path_factory):
+def hugadb(clean):
+    """HuGaDB imported (once per test run), and its report's rows."""
     if not HUGADB.is_dir():
         pytest.skip(f"HuGaDB not found at {HUGADB}")
-    out = tmp_path_factory.mktemp("hugadb")
-    report = import_hugadb(HUGADB, out)
-    return out, pd.DataFrame(report.rows)
+
+    def imported(folder: Path) -> None:
+        (folder / "dataset").mkdir(parents=True)
+        pd.DataFrame(import_hugadb(HUGADB, folder / "dataset").rows).to_pickle(folder / "rows.pkl")
+
+    folder = clean.shared("hugadb", imported)
+    return folder / "dataset", pd.read_pickle(folder / "rows.pkl")
 
 
 @needs_data
@@ -262,16 +266,9 @@ def test_body_axes_from_a_tilted_medial_lateral_axis():
 
 
 @pytest.mark.slow
-def test_calibrate_command_options_and_apply(tmp_path, capsys):
+def test_calibrate_command_options_and_apply(tmp_path):
     """`aceval calibrate --method --tests --subsets` on a small simulation, then `aceval apply`:
-    a body-frame copy calibrated again gives the identity. In this process (``cli``): each command
-    as a subprocess cost about 2 s of imports."""
-
-    def run(*args):
-        code = main([str(a) for a in args])
-        captured = capsys.readouterr()
-        return SimpleNamespace(returncode=code, stdout=captured.out, stderr=captured.err)
-
+    a body-frame copy calibrated again gives the identity."""
     data = tmp_path / "box"
     assert run("simulate", "box", "--out", data, "--repetitions", "3").returncode == 0
     every = tmp_path / "all.csv"

@@ -11,7 +11,6 @@ import json
 import os
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -21,8 +20,7 @@ import pytest
 from aceval.data.contract import R_COLUMNS, RECORDING_COLUMNS
 from aceval.data.rotations import axis_vector, error_angle_deg
 
-from .runner import REPO
-from .smalldataset import simulate_small
+from .runner import REPO, aceval
 
 pytestmark = pytest.mark.slow
 
@@ -80,23 +78,27 @@ def assert_turned(before, after, Q: np.ndarray, keys: list[str], flagged: bool =
     assert angle.max() < 1e-3, worst[["angle"]]
 
 
+def read_calibrations(path: Path) -> pd.DataFrame:
+    return pd.read_csv(path, keep_default_na=False, na_values=[""])
+
+
 def calibrate(root: Path, out: Path, plan: bool = False) -> pd.DataFrame:
-    command = [sys.executable, "-m", "aceval", "calibrate", str(root), "--out", str(out / "c.csv")]
-    command += ["--plan-out", str(out / "plan.json")] if plan else []
+    options = ["--plan-out", out / "plan.json"] if plan else []
     out.mkdir(parents=True, exist_ok=True)
-    subprocess.run(command, check=True, capture_output=True)
-    return pd.read_csv(out / "c.csv", keep_default_na=False, na_values=[""])
+    done = aceval("calibrate", root, "--out", out / "c.csv", *options)
+    assert done.code == 0, done.err[-3000:]
+    return read_calibrations(out / "c.csv")
 
 
 @pytest.fixture(scope="module")
-def lab(tmp_path_factory) -> Path:
-    return simulate_small(tmp_path_factory.mktemp("equivariance") / "lab")
+def lab(clean) -> Path:
+    return clean.small()
 
 
 @pytest.mark.parametrize("turn", TURNS)
-def test_every_method_of_the_command_turns_with_the_sensors(lab, tmp_path, turn):
+def test_every_method_of_the_command_turns_with_the_sensors(clean, lab, tmp_path, turn):
     Q = TURNS[turn]
-    before = calibrate(lab, tmp_path / "before")
+    before = read_calibrations(clean.clean_calibrations("small"))  # `calibrate lab --out`
     after = calibrate(turned_dataset(lab, tmp_path / "turned", Q), tmp_path / "after")
     keys = ["subject", "sensor_set", "imu", "test", "repetitions", "method"]
     assert set(before["method"]) >= {"kong", "ricci_lm", "align_vectors", "triad", "combined"}

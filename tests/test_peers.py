@@ -119,22 +119,19 @@ def test_qmt_is_flagged_where_the_knee_barely_flexes():
             assert (found >= MIN_KNEE_RANGE_DEG) == flexed
 
 
-def test_the_peers_read_the_samples_acevals_methods_read(tmp_path):
+def test_the_peers_read_the_samples_acevals_methods_read(clean, tmp_path):
     """Issue 32, point 6: the plan gives each motion file's kept ranges (Kong's movement windows,
     clipped samples left out); the samples a peer reads through them are exactly those behind
     aceval's scatter (their count and their scatter sum_k a_k a_k^T)."""
-    import subprocess
-
     import pandas as pd
     from peer_io import kept_samples, read_plan, read_recording
 
-    from .smalldataset import simulate_small
+    from .runner import aceval
 
-    root = simulate_small(tmp_path / "lab")
     summaries, plan_path = tmp_path / "recordings.csv", tmp_path / "plan.json"
-    subprocess.run([sys.executable, "-m", "aceval", "calibrate", str(root), "--out",
-                    str(tmp_path / "cal.csv"), "--recordings-out", str(summaries), "--plan-out",
-                    str(plan_path)], check=True, capture_output=True)  # fmt: skip
+    outputs = ["--recordings-out", summaries, "--plan-out", plan_path]
+    done = aceval("calibrate", clean.small(), "--out", tmp_path / "cal.csv", *outputs)
+    assert done.code == 0, done.err[-3000:]
     plan, rows = read_plan(str(plan_path)), pd.read_csv(summaries).set_index(["imu", "test", "rep"])
     checked = 0
     for entry in plan["calibrations"]:

@@ -11,10 +11,12 @@ from aceval.simulate import SimOptions, simulate_box
 
 
 @pytest.fixture(scope="module")
-def boxes(tmp_path_factory):
+def boxes(clean):
     """Two simulated rigid boxes (two sensor sets each: Obj 1 pairs), two repetitions."""
-    root = tmp_path_factory.mktemp("boxes") / "boxes"
-    return load_dataset(simulate_box(root, 5, n_subjects=2, options=SimOptions(repetitions=2)))
+    options = SimOptions(repetitions=2)
+    return load_dataset(
+        clean.shared("boxes", lambda at: simulate_box(at, 5, n_subjects=2, options=options))
+    )
 
 
 @pytest.fixture(scope="module")

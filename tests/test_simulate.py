@@ -117,20 +117,15 @@ def test_lever_arm_changes_acceleration_not_rotation():
 
 
 @pytest.fixture(scope="module")
-def kong_clean(tmp_path_factory):
-    out = tmp_path_factory.mktemp("sim") / "kong_clean"
-    return simulate_kong(
-        out,
-        seed=5,
-        n_subjects=1,
-        options=SimOptions(noise=False, offplane=0.0, wobble=0.0, repetitions=2),
-    )
+def kong_clean(clean):
+    options = SimOptions(noise=False, offplane=0.0, wobble=0.0, repetitions=2)
+    return clean.shared("kong_clean", lambda at: simulate_kong(at, 5, 1, options=options))
 
 
 @pytest.fixture(scope="module")
-def kong_physiological(tmp_path_factory):
-    out = tmp_path_factory.mktemp("sim") / "kong_phys"
-    return simulate_kong(out, seed=5, n_subjects=1, options=SimOptions(noise=False, repetitions=2))
+def kong_physiological(clean):
+    options = SimOptions(noise=False, repetitions=2)
+    return clean.shared("kong_phys", lambda at: simulate_kong(at, 5, 1, options=options))
 
 
 def calibration_errors(root):

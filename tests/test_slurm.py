@@ -17,6 +17,7 @@ from pathlib import Path
 import pytest
 import yaml
 
+from .datasets import succeeded
 from .runner import REPO, snakemake
 
 pytestmark = pytest.mark.slow
@@ -141,25 +142,7 @@ def cluster(tmp_path_factory):
 def test_the_workflow_runs_unchanged_through_the_slurm_executor(cluster, tmp_path):
     """Every job goes through sbatch, and the tables, figures and summary are the local run's."""
     data = tmp_path / "tiny"
-    subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "aceval",
-            "simulate",
-            "kong",
-            "--out",
-            str(data),
-            "--seed",
-            "2",
-            "--subjects",
-            "1",
-            "--repetitions",
-            "3",
-        ],  # fmt: skip
-        check=True,
-        capture_output=True,
-    )
+    succeeded("simulate", "kong", "--out", data, "--seed", 2, "--subjects", 1, "--repetitions", 3)
     default = yaml.safe_load((REPO / "config" / "config.yaml").read_text())
     config = {
         # a cluster config names its datasets: the jobs also read config/config.yaml

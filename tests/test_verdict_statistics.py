@@ -10,7 +10,6 @@ import numpy as np
 import pandas as pd
 import pytest
 from scipy import stats as scipy_stats
-from statsmodels.stats.multitest import multipletests
 
 from aceval.evaluation import stats, verdicts
 from aceval.report import claims
@@ -101,6 +100,8 @@ def test_paired_ttest_of_one_pair_has_means_but_no_test():
 
 
 def test_holm_is_statsmodels_and_leaves_nan_out_of_the_family():
+    from statsmodels.stats.multitest import multipletests  # here: statsmodels costs 1 CPU-s
+
     rng = np.random.default_rng(4)
     p = rng.uniform(0, 0.2, 9)
     np.testing.assert_allclose(stats.holm(p), multipletests(p, method="holm")[1], rtol=1e-12)

@@ -3,14 +3,13 @@
 import hashlib
 import os
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import pandas as pd
 import pytest
 import yaml
 
+from .datasets import succeeded
 from .runner import snakemake
 
 pytestmark = pytest.mark.slow  # runs the workflow
@@ -44,31 +43,11 @@ def digest(folder: Path) -> str:
 
 
 @pytest.fixture(scope="module")
-def tiny(tmp_path_factory) -> Path:
-    """2 simulated subjects, 3 repetitions of each test."""
-    out = tmp_path_factory.mktemp("data") / "tiny"
-    subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "aceval",
-            "simulate",
-            "kong",
-            "--out",
-            str(out),
-            "--seed",
-            "1",
-            "--subjects",
-            "2",
-            "--repetitions",
-            "3",
-            "--format",
-            "csv",  # a lab's export, broken by the tests file by file
-        ],
-        check=True,
-        capture_output=True,
-    )
-    return out
+def tiny(clean) -> Path:
+    """2 simulated subjects, 3 repetitions of each test, CSV (a lab's export, broken by the tests
+    file by file)."""
+    options = ["--seed", 1, "--subjects", 2, "--repetitions", 3, "--format", "csv"]
+    return clean.shared("tiny", lambda at: succeeded("simulate", "kong", "--out", at, *options))
 
 
 def lab_copy(source: Path, target: Path, drop=None, copy_data=False) -> Path:
@@ -123,12 +102,7 @@ def test_workflow_end_to_end_then_nothing_to_do(tiny, tmp_path):
     # a lab calibrating the same folder with one command (and the config's Obj 4 k, for the axis
     # methods' subsets) gets exactly the workflow's calibrations
     standalone = tmp_path / "standalone.csv"
-    subprocess.run(
-        [sys.executable, "-m", "aceval", "calibrate", str(lab)]
-        + ["--out", str(standalone), "--retest-k", "2"],
-        check=True,
-        capture_output=True,
-    )
+    succeeded("calibrate", lab, "--out", standalone, "--retest-k", 2)
     per_subject = sorted((results / "lab" / "calibrations").glob("S?.csv"))
     workflow = pd.concat([pd.read_csv(p) for p in per_subject], ignore_index=True)
     # (a subject whose flags are all empty reads them as numbers: the dtypes differ, the values not)
@@ -161,13 +135,12 @@ def test_config_is_validated_against_the_schema(tmp_path):
     assert "nope" in run.stdout + run.stderr
 
 
-def test_any_folder_name_reaches_the_shell_quoted_and_validation_follows_the_files(tmp_path):
+def test_any_folder_name_reaches_the_shell_quoted_and_validation_follows_the_files(clean, tmp_path):
     """A dataset folder with a space, quotes, non-ASCII letters and a command substitution runs
     through the whole workflow without running anything it names; a recording changed after a good
     run is validated again (and stops the workflow) instead of being dropped silently."""
-    from .smalldataset import simulate_small
-
-    lab = simulate_small(tmp_path / "lab dir 'ü\" $(touch PWNED)")
+    lab = tmp_path / "lab dir 'ü\" $(touch PWNED)"
+    shutil.copytree(clean.small(), lab)
     work = tmp_path / "work"
     write_config(
         work,

@@ -12,10 +12,10 @@ import pandas as pd
 import pytest
 from scipy.spatial.transform import Rotation
 
-from aceval.cli import main
 from aceval.data.dataset import load_dataset
 
 from .labexports import export
+from .runner import aceval
 
 FS = 100.0
 SENSORS = {"00B4A201": ("shank", "right", "+y"), "00B4A202": ("foot", "right", "-z")}
@@ -63,14 +63,13 @@ def lab(tmp_path, trials: str, sensors=SENSORS, style="2019", standing_s=3.0, sh
 
 
 @pytest.fixture
-def run(capsys):
+def run():
     def run(folder, *options):
         args = ["import", "xsens", folder / "exports", "--trials", folder / "trials.tsv"]
         args += ["--sensors", folder / "sensors.tsv", "--out", folder / "out", *options]
-        code = main([str(a) for a in args])
-        captured = capsys.readouterr()
-        assert "Traceback" not in captured.err
-        return SimpleNamespace(code=code, err=captured.err, out=folder / "out")
+        result = aceval(*args)
+        assert "Traceback" not in result.err
+        return SimpleNamespace(code=result.code, err=result.err, out=folder / "out")
 
     return run
 
@@ -239,7 +238,7 @@ def test_a_broken_sheet_is_a_message_naming_its_line(tmp_path, run, trials, mess
     assert result.code == 1 and message in result.err, result.err
 
 
-def test_one_standing_only_trial_is_a_message_not_a_traceback(tmp_path, capsys):
+def test_one_standing_only_trial_is_a_message_not_a_traceback(tmp_path):
     """The one-trial import (NeuRA's) of a 2.6 s standing-only export."""
     acc, gyr = signals(standing_s=2.6, walking_s=0.0)
     path = tmp_path / "exports" / "stand-000_00B4A201.txt"
@@ -250,16 +249,13 @@ def test_one_standing_only_trial_is_a_message_not_a_traceback(tmp_path, capsys):
         "sensor_id\timu\tsensor_set\tsegment\tside\tregion\tright_axis\n"
         "00B4A201\tshank_r\tmain\tshank\tright\tlower_body\t+y\n"
     )
-    code = main(["import", "xsens", str(path.parent), "--sensors", str(sheet), "--out",
-                 str(tmp_path / "out")])  # fmt: skip
-    err = capsys.readouterr().err
-    assert code == 1 and "Traceback" not in err
+    result = aceval("import", "xsens", path.parent, "--sensors", sheet, "--out", tmp_path / "out")
+    err = result.err
+    assert result.code == 1 and "Traceback" not in err
     assert "sensor(s) 00B4A201 do not move" in err and "--trials" in err
 
 
-def test_the_vendors_folder_imports_as_written_and_its_sensorspec_proposes_the_sheet(
-    tmp_path, run, capsys
-):
+def test_the_vendors_folder_imports_as_written_and_its_sensorspec_proposes_the_sheet(tmp_path, run):
     """A trial given as its export folder, as MT Manager writes it (MT_<station>_000-000_<id>.txt)
     beside a lab's sensorspec.json.txt, a log and the binary recording; one export re-saved
     with a byte-order mark. Without --sensors the sensorspec proposes the sheet."""
@@ -279,9 +275,9 @@ def test_the_vendors_folder_imports_as_written_and_its_sensorspec_proposes_the_s
         "subject\ttrial\ttest\tstatic\tfirst_phase\nP1\tP1/exported000\twalk\t2\tgait\n"
     )
     args = ["import", "xsens", tmp_path / "exports", "--trials", tmp_path / "trials.tsv"]
-    code = main([str(a) for a in [*args, "--out", tmp_path / "out"]])
-    err = capsys.readouterr().err
-    assert code == 1 and not (tmp_path / "out").exists() and "Traceback" not in err
+    first = aceval(*args, "--out", tmp_path / "out")
+    err = first.err
+    assert first.code == 1 and not (tmp_path / "out").exists() and "Traceback" not in err
     assert "no --sensors: the 1 sensorspec file(s)" in err and "written to" in err
     proposed = pd.read_csv(tmp_path / "sensors.tsv", sep="\t", dtype=str, keep_default_na=False)
     assert proposed[["sensor_id", "segment", "side"]].values.tolist() == [
@@ -302,12 +298,11 @@ def test_the_vendors_folder_imports_as_written_and_its_sensorspec_proposes_the_s
     assert "says sensor" not in result.err  # the sheet agrees with the sensorspec
     proposed["side"] = ["right", "left"]  # a slip in the sheet: the sensorspec says rightfoot
     proposed.to_csv(tmp_path / "sensors.tsv", sep="\t", index=False)
-    code = main([str(a) for a in [*args, "--sensors", tmp_path / "sensors.tsv", "--out",
-                                  tmp_path / "out2"]])  # fmt: skip
-    assert code == 0
+    second = aceval(*args, "--sensors", tmp_path / "sensors.tsv", "--out", tmp_path / "out2")
+    assert second.code == 0
     assert (
         "sensors.tsv line 3 says sensor 00B4A202 is foot left; P1/exported000/sensorspec.json.txt "
-        "says 'rightfoot' (foot right): check which is right" in capsys.readouterr().err
+        "says 'rightfoot' (foot right): check which is right" in second.err
     )
 
 
@@ -330,7 +325,8 @@ def test_each_walk_takes_its_own_standing_when_the_sensors_were_put_on_again(tmp
 
     def calibrated(dataset):
         out = tmp_path / f"{dataset.name}.csv"
-        assert main(["calibrate", str(dataset), "--out", str(out)]) == 0
+        done = aceval("calibrate", dataset, "--out", out)
+        assert done.code == 0, done.err
         table = pd.read_csv(out, keep_default_na=False)
         kong = table[(table["method"] == "kong") & (table["imu"] == "shank_r")]
         kong = kong.set_index("repetitions").loc[["R1", "R2"]]

@@ -418,7 +418,10 @@ def main(argv: list[str] | None = None) -> int:
     _add_table_and_figure(commands)
     _add_outputs(commands)
 
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # a usage error (2, said on stderr) or --help (0)
+        return exc.code
     from aceval.data.safety import exit_cleanly_on_sigterm
 
     if argv is None:  # a command-line run (not a call from Python): SIGTERM cleans up
