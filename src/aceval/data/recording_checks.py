@@ -21,6 +21,7 @@ from aceval.data.contract import (
     UNITS_GRAVITY_BAND,
     Recording,
     RecordingError,
+    SignalFaults,
     ValidationReport,
     file_problem,
     recording_columns,
@@ -36,25 +37,31 @@ def recording_where(row) -> str:
     return f"{row['path']} ({row['subject']} {row['sensor_set']} {row['test']} R{row['rep']} {row['imu']})"
 
 
-def read_checked(dataset, row, report: ValidationReport) -> Recording | None:
+def read_checked(dataset, row, report: ValidationReport, values=None) -> Recording | None:
     """Read one recording (a recordings.tsv row) and run every file-level check on it, adding
-    findings to ``report``: the recording in SI units, or None when it has an error.
+    findings to ``report``: the recording in SI units, with what the checks of its signals found
+    (``faults``: the pass that summarises it uses them, not a second run), or None when it has an
+    error. ``values``: the file's (N, 7) values when the caller holds them already (a recording
+    simulated in the same process, exactly as the file reads back); else the file is read.
     """
     where = recording_where(row)
     path = dataset.root / row["path"]
-    if problem := file_problem(path):
-        report.error(where, problem)
-        return None
-    try:
-        values = recording_values(path)
-    except RecordingError as exc:
-        report.error(where, exc.cause)
-        return None
+    if values is None:
+        if problem := file_problem(path):
+            report.error(where, problem)
+            return None
+        try:
+            values = recording_values(path)
+        except RecordingError as exc:
+            report.error(where, exc.cause)
+            return None
     errors = len(report.errors)
-    check_values(dataset, row, values, report)
+    faults = check_values(dataset, row, values, report)
     if len(report.errors) > errors:
         return None
-    return as_recording(values, dataset.acc_scale, dataset.gyr_scale, path)
+    recording = as_recording(values, dataset.acc_scale, dataset.gyr_scale, path)
+    recording.faults = faults
+    return recording
 
 
 def as_recording(values: np.ndarray, acc_scale: float, gyr_scale: float, path) -> Recording:
@@ -71,9 +78,11 @@ def check_recording(dataset, row, report: ValidationReport) -> None:
     read_checked(dataset, row, report)
 
 
-def check_values(dataset, row, values: np.ndarray, report: ValidationReport) -> None:
+def check_values(dataset, row, values: np.ndarray, report: ValidationReport):
     """File-level checks of one recording's (N, 7) values (file units), adding findings to
-    ``report``: sample count, NaN, time, sampling rate, units at rest, saturation and clipping.
+    ``report``: sample count, NaN, time, sampling rate, units at rest, saturation and clipping,
+    and the signals' faults (:func:`check_signals`, returned; None when a format check stopped
+    the checks first).
     """
     where = recording_where(row)
     if len(values) < 2:
@@ -141,7 +150,7 @@ def check_values(dataset, row, values: np.ndarray, report: ValidationReport) -> 
                     else "aceval leaves them out"
                 ),
             )
-    check_signals(dataset, row, values, report)
+    faults = check_signals(dataset, row, values, report)
     gyr_range = dataset.meta.get("gyr_range_dps")
     if gyr_range:
         limit = SATURATION_FRACTION * np.radians(float(gyr_range)) / dataset.gyr_scale
@@ -150,6 +159,7 @@ def check_values(dataset, row, values: np.ndarray, report: ValidationReport) -> 
             report.warning(
                 where, f"{n_sat} samples at the gyroscope range +-{gyr_range} deg/s (saturated)"
             )
+    return faults
 
 
 #: a channel that holds one value (exactly) for at least this share of a recording's samples, in
@@ -259,11 +269,12 @@ def vendor_up(path: Path) -> np.ndarray | None:
     return median / np.linalg.norm(median) if np.linalg.norm(median) > 0 else None
 
 
-def check_signals(dataset, row, values: np.ndarray, report: ValidationReport) -> None:
-    """The checks of a recording's signals (file units) beyond its format: a stuck channel
+def check_signals(dataset, row, values: np.ndarray, report: ValidationReport) -> SignalFaults:
+    """The checks of a recording's signals beyond its format, on its (N, 7) values (file units),
+    each a warning naming the file and what aceval does about it: a stuck channel
     (:func:`stuck_channel`; of a static recording the accelerometer's only: a still gyroscope may
-    hold its value) and spikes (:func:`acc_spikes`), each a warning naming the file and what
-    aceval does about it.
+    hold its value) and spikes (:func:`acc_spikes`, in SI: the acceleration the summary leaves
+    them out of). Returns what they found, for the pass that summarises the recording.
     """
     where = recording_where(row)
     static = dataset.test_kinds[row["test"]] == "static"
@@ -277,7 +288,7 @@ def check_signals(dataset, row, values: np.ndarray, report: ValidationReport) ->
             f"{name} is stuck at {value:g} for {share:.0%} of the recording (one value in a row): "
             "a dead or frozen axis; aceval leaves the recording out",
         )
-    spikes = acc_spikes(values[:, 1:4], values[:, 4:7], dataset.acc_scale, dataset.gyr_scale)
+    spikes = acc_spikes(values[:, 1:4] * dataset.acc_scale, values[:, 4:7] * dataset.gyr_scale)
     if spikes.any():
         first = position(row["path"], int(np.flatnonzero(spikes)[0]))
         report.warning(
@@ -285,6 +296,7 @@ def check_signals(dataset, row, values: np.ndarray, report: ValidationReport) ->
             f"{int(spikes.sum())} single-sample acceleration spike(s) of more than {SPIKE_G:g} g "
             f"(first at {first}): beyond what a body segment does; aceval leaves them out",
         )
+    return SignalFaults(found, spikes)
 
 
 def position(path: str, index: int) -> str:

@@ -53,7 +53,7 @@ import numpy as np
 import pandas as pd
 from scipy.ndimage import maximum_filter1d
 
-from aceval.data.contract import GRAVITY
+from aceval.data.contract import GRAVITY, SignalFaults
 from aceval.data.rotations import vector_angle_deg
 from aceval.methods.sufficient import Part, Statistic
 
@@ -384,29 +384,35 @@ ACC_SIGN_LIMIT_DEG = 90.0
 _SIGNAL_NAMES = ["acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z"]
 
 
-def recording_signals(acc: np.ndarray, gyr: np.ndarray, rest: np.ndarray | None) -> tuple:
+def recording_signals(
+    acc: np.ndarray, gyr: np.ndarray, rest: np.ndarray | None, faults: SignalFaults | None = None
+) -> tuple:
     """The signal checks of one recording (SI, (N, 3) each): ``(statistics, spikes)``, the
     summary columns ``n_spikes`` and :data:`REST_GYRO_COLUMNS` (each axis's median angular
     velocity over the ``rest`` samples, rad/s; NaN when there are none or the sensor is not at
     rest there, :data:`REST_MAX_SD_DEG_S`), and the (N,) spike mask
     (:func:`aceval.data.recording_checks.acc_spikes`). StuckChannelError when a channel is stuck
     (:func:`aceval.data.recording_checks.stuck_channel`; ``rest`` None: a static recording,
-    whose accelerometer only is judged: a still gyroscope may hold its value).
+    whose accelerometer only is judged: a still gyroscope may hold its value). ``faults``: what
+    the checks found when the file was read (:class:`aceval.data.contract.SignalFaults`), used
+    as it is; without it they run here.
     """
     from aceval.data.errors import StuckChannelError
     from aceval.data.recording_checks import NOISY_SHARE, acc_spikes, stuck_channel
 
     static = rest is None
-    found = stuck_channel(acc, _SIGNAL_NAMES[:3])
-    if not static and not found:
-        found = stuck_channel(gyr, _SIGNAL_NAMES[3:])
-    if found:
+    if faults is None:
+        found = stuck_channel(acc, _SIGNAL_NAMES[:3])
+        if not static and not found:
+            found = stuck_channel(gyr, _SIGNAL_NAMES[3:])
+        faults = SignalFaults(found, None if found else acc_spikes(acc, gyr))
+    if faults.stuck:
         raise StuckChannelError(
-            f"{found[0]} holds one value for {found[1]:.0%} of the recording while the "
-            f"sensor's other two channels are noisy (new values at {NOISY_SHARE:.0%} of the "
+            f"{faults.stuck[0]} holds one value for {faults.stuck[1]:.0%} of the recording while "
+            f"the sensor's other two channels are noisy (new values at {NOISY_SHARE:.0%} of the "
             "samples): a dead or frozen axis"
         )
-    spikes = acc_spikes(acc, gyr)
+    spikes = faults.spikes
     still, still_acc = (gyr, acc) if static else (gyr[rest], acc[rest])
     at_rest = (
         len(still) >= 10

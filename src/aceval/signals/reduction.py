@@ -270,7 +270,7 @@ def summarise(
     row = _row(rec, is_static)
     try:
         if is_static:
-            row.update(recording_signals(data.acc, data.gyr, None)[0])
+            row.update(recording_signals(data.acc, data.gyr, None, data.faults)[0])
             row.update(zip(["z0_x", "z0_y", "z0_z"], vertical_axis(data.acc)))
             up = vendor_up(data.path)  # the vendor's orientation, when the file has one
             row["vendor_up_angle_deg"] = (
@@ -288,7 +288,8 @@ def summarise(
         row.update(
             zip(STILL_COLUMNS, vertical_axis(data.acc[still]) if enough else np.full(3, np.nan))
         )
-        signals, spikes = recording_signals(data.acc, data.gyr, still if enough else still & False)
+        rest = still if enough else still & False
+        signals, spikes = recording_signals(data.acc, data.gyr, rest, data.faults)
         row.update(signals)
         limit = dataset.acc_limit(rec["sensor_set"], rec["imu"])
         if limit is None and (plateau := plateau_limit(data.acc)) is not None:
