@@ -80,21 +80,18 @@ def check_recording(dataset, row, report: ValidationReport) -> None:
 
 def check_values(dataset, row, values: np.ndarray, report: ValidationReport):
     """File-level checks of one recording's (N, 7) values (file units), adding findings to
-    ``report``: sample count, NaN, time, sampling rate, units at rest, saturation and clipping,
-    and the signals' faults (:func:`check_signals`, returned; None when a format check stopped
-    the checks first).
+    ``report``: sample count, NaN, time, sampling rate, units at rest, saturation, clipping and
+    the signals' faults (:func:`check_signals`: returned; None when a format check stops first).
     """
     where = recording_where(row)
     if len(values) < 2:
         report.error(where, f"{len(values)} samples: a recording needs at least 2")
         return
-    bad = ~np.isfinite(values)
+    bad = ~np.isfinite(values).all(axis=1)
     if bad.any():
-        first = position(row["path"], int(np.flatnonzero(bad.any(axis=1))[0]))
-        report.error(
-            where,
-            f"{int(bad.any(axis=1).sum())} rows with NaN, inf or non-numeric values (first at {first})",
-        )
+        first = position(row["path"], int(np.flatnonzero(bad)[0]))
+        cause = f"{int(bad.sum())} rows with NaN, inf or non-numeric values (first at {first})"
+        report.error(where, cause)
         return
     t = values[:, 0]
     dt = np.diff(t)

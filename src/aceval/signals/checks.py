@@ -54,6 +54,7 @@ import pandas as pd
 from scipy.ndimage import maximum_filter1d
 
 from aceval.data.contract import GRAVITY, SignalFaults
+from aceval.data.grouping import group_positions
 from aceval.data.rotations import vector_angle_deg
 from aceval.methods.sufficient import Part, Statistic
 
@@ -425,23 +426,22 @@ def recording_signals(
     return {"n_spikes": int(spikes.sum()), **dict(zip(REST_GYRO_COLUMNS, offset))}, spikes
 
 
-def signal_verdict(static: pd.DataFrame, motion: pd.DataFrame) -> dict:
-    """What one IMU's per-recording statistics (its static and motion summary rows) say about
-    its signals: ``flag`` ('gyro_bias', 'static_disagree', 'acc_sign_mismatch', ';'-joined, or
-    ''), ``messages`` and the evidence ``gyro_bias_deg_s`` (the offset at rest, median over its
-    still recordings), ``static_spread_deg`` (the largest angle between its static recordings'
-    verticals) and ``vendor_up_angle_deg`` (the vendor's up from the accelerometer's at rest).
+def signal_verdict(offsets: np.ndarray, z0: np.ndarray, vendor: np.ndarray) -> dict:
+    """What one IMU's per-recording statistics say about its signals, from its rest offsets
+    ``offsets`` ((m, 3), :data:`REST_GYRO_COLUMNS` of its static, then its motion recordings;
+    NaN rows: none), and its usable static recordings' verticals ``z0`` ((k, 3)) and vendor's up
+    angles ``vendor`` ((k,), NaN: none): ``flag`` ('gyro_bias', 'static_disagree',
+    'acc_sign_mismatch', ';'-joined, or ''), ``messages`` and the evidence ``gyro_bias_deg_s``
+    (the offset at rest, median over its still recordings), ``static_spread_deg`` (the largest
+    angle between its static recordings' verticals) and ``vendor_up_angle_deg`` (the vendor's up
+    from the accelerometer's at rest).
     """
-    rest = pd.concat([t for t in (static, motion) if REST_GYRO_COLUMNS[0] in t])
-    offsets = rest[REST_GYRO_COLUMNS].to_numpy(float) if len(rest) else np.zeros((0, 3))
     offsets = offsets[np.isfinite(offsets).all(axis=1)]
     bias = float(np.degrees(np.linalg.norm(np.median(offsets, axis=0)))) if len(offsets) else np.nan
-    usable = static[static["flag"] == ""] if "flag" in static else static
-    z0 = usable[["z0_x", "z0_y", "z0_z"]].to_numpy(float) if "z0_x" in usable else np.zeros((0, 3))
     z0 = z0[np.isfinite(z0).all(axis=1)]
     spread = float(np.nanmax(vector_angle_deg(z0[:, None], z0[None]))) if len(z0) > 1 else np.nan
-    vendor = usable["vendor_up_angle_deg"] if "vendor_up_angle_deg" in usable else pd.Series()
-    vendor = float(vendor.max()) if vendor.notna().any() else np.nan
+    vendor = vendor[~np.isnan(vendor)]
+    vendor = float(vendor.max()) if len(vendor) else np.nan
     found = []
     if bias > GYRO_BIAS_LIMIT_DEG_S:
         cause = (
@@ -504,17 +504,20 @@ def acc_sign_agreement(pairs: pd.DataFrame) -> dict[tuple[str, str, str], float]
         & (pairs["flag"].fillna("") == "")
         & (pairs["n"] > 0)
     ]
+    n = rows["n"].to_numpy(float)[:, None, None]
+    ma, mb = rows[MEAN_A].to_numpy(float), rows[MEAN_B].to_numpy(float)
+    centred = {c[0]: rows[c].to_numpy(float) for c in (C_AA, C_BB, C_AB)}
+    signals = rows["signal"].to_numpy(object)
     out = {}
-    for (subject, sets, imu), group in rows.groupby(["subject", "sensor_set", "imu"], sort=False):
+    for (subject, sets, imu), at in group_positions(rows, ["subject", "sensor_set", "imu"]):
         moments = {}
-        for signal, part in group.groupby("signal"):
-            n = part["n"].to_numpy(float)[:, None, None]
-            ma, mb = part[MEAN_A].to_numpy(float), part[MEAN_B].to_numpy(float)
-
+        for signal in sorted(set(signals[at])):
+            part = at[signals[at] == signal]
             aa, bb, ab = (
-                (part[c].to_numpy(float).reshape(-1, 3, 3) + n * x[:, :, None] * y[:, None, :]).sum(
-                    axis=0
-                )
+                (
+                    centred[c[0]][part].reshape(-1, 3, 3)
+                    + n[part] * x[part][:, :, None] * y[part][:, None, :]
+                ).sum(axis=0)
                 for c, x, y in ((C_AA, ma, ma), (C_BB, mb, mb), (C_AB, ma, mb))
             )  # uncentred: the centred moments plus n times the product of the means
             moments[signal] = ab / np.sqrt(np.trace(aa) * np.trace(bb))
