@@ -96,11 +96,14 @@ def reduce_recordings(
     tests: list[str] | None = None,
     segment_pairs: dict | None = None,
     max_lag_s: float = 0.5,
+    memory: dict | None = None,
 ) -> Reduction:
     """Read every recording of ``subject`` (all subjects if None) once: check it, summarise it
     and reduce the Obj 1-2 pairs it belongs to. ``tests``: only these motion tests (static tests
     always); ``segment_pairs`` as in config ``objectives.segment_pairs``; ``max_lag_s``: the
-    window of the time alignment of a pair (Kong Sec. 2.3).
+    window of the time alignment of a pair (Kong Sec. 2.3); ``memory``: recordings.tsv path ->
+    the file's (N, 7) values, for recordings the caller holds already (simulated in the same
+    process: exactly what the file reads back); each is taken out of it as it is used.
     """
     recordings = known_recordings(dataset)
     if subject is not None:
@@ -115,7 +118,7 @@ def reduce_recordings(
     max_lag = int(round(max_lag_s * dataset.fs_hz))
     pair_imus = segment_pair_imus(dataset, segment_pairs or {})
     records = dict(zip(recordings.index, recordings.to_dict("records")))  # one conversion
-    statistics = motion_statistics()
+    statistics, checks = motion_statistics(dataset), sensor_checks(dataset)
     per_test = [s for s in statistics if s.reduce_test is not None]
     walking: dict[tuple, list] = {}  # (subject, test) -> its recordings, until all are read
     unread = recordings.groupby(["subject", "test"]).size().to_dict()
@@ -127,7 +130,9 @@ def reduce_recordings(
             report = ValidationReport(dataset.name)
             is_static = rec["test"] in static
             needed = is_static or (rec["test"], rec["imu"]) in allowed
-            data, moving, summary = _read(dataset, rec, report, is_static, needed, trim, statistics)
+            values = memory.pop(rec["path"], None) if memory else None
+            kind = (is_static, needed)
+            data, moving, summary = _read(dataset, rec, report, kind, trim, statistics, values)
             findings[index] = report.findings
             if summary is not None:
                 summaries[index] = summary
@@ -144,12 +149,13 @@ def reduce_recordings(
             if not is_static:
                 mask = moving if moving is not None else np.zeros(len(data.t), dtype=bool)
                 loaded[(rec["sensor_set"], rec["imu"])] = (data, mask)
-                if not needed:
+                if not needed and checks:
                     summaries[index] = _extra_row(rec, data)
                 by_set.setdefault(rec["sensor_set"], {})[rec["imu"]] = (index, data)
         if test not in static and loaded:
             pairs += _pair_rows(dataset, subj, test, int(rep), loaded, pair_imus, max_lag)
-            _add_signatures(dataset, test, by_set, summaries)
+            if checks:
+                _add_signatures(dataset, test, by_set, summaries)
         unread[(subj, test)] -= len(group)
         if not unread[(subj, test)] and (subj, test) in walking:  # its last repetition: pool them
             read = walking.pop((subj, test))
@@ -162,13 +168,15 @@ def reduce_recordings(
     return Reduction(pd.DataFrame(ordered), pd.DataFrame(pairs, columns=PAIR_COLUMNS), report)
 
 
-def _read(dataset, rec, report, is_static, needed, trim, statistics) -> tuple:
-    """``(recording, moving mask, summary)`` of one recording: read and checked (its problems in
+def _read(dataset, rec, report, kind, trim, statistics, values) -> tuple:
+    """``(recording, moving mask, summary)`` of one recording (``kind``: (static, needed)):
+    read (``values``: the file's, when the caller holds them) and checked (its problems in
     ``report``), its movement found (motion tests; None where the trimmer finds none) and, where
     an analysis ``needed`` it, its summary row (:func:`summarise`; an unreadable file's row says
     why). The recording is None where it cannot be read, the summary where it is not needed.
     """
-    data = read_checked(dataset, rec, report)
+    is_static, needed = kind
+    data = read_checked(dataset, rec, report, values)
     if data is None:
         cause = {"flag": "unreadable", "message": f"{rec['path']}: {report.errors[0].cause}"}
         return None, None, _row(rec, is_static) | cause if needed else None
@@ -182,12 +190,24 @@ def _read(dataset, rec, report, is_static, needed, trim, statistics) -> tuple:
     return data, moving, summary
 
 
-def motion_statistics() -> list:
+def motion_statistics(dataset: Dataset | None = None) -> list:
     """The statistics the pass computes of every motion recording: those the registry's methods
     declare (:func:`aceval.methods.registry.statistics`), then the direction checks' third
-    moments (:data:`aceval.signals.checks.GYRO_THIRD`).
+    moments (:data:`aceval.signals.checks.GYRO_THIRD`); of a dataset of Ricci's functional
+    design, only those its methods read (:func:`aceval.methods.registry.functional_design`).
     """
+    if dataset is not None and not sensor_checks(dataset):
+        return registry.statistics(registry.functional_design())
     return [*registry.statistics(), GYRO_THIRD]
+
+
+def sensor_checks(dataset: Dataset) -> bool:
+    """Whether the pass computes what the sensor checks read (the gyroscope-accelerometer
+    agreement, typical speeds, still portions, motion signatures: :mod:`aceval.signals.checks`,
+    :mod:`aceval.signals.signatures`): for Kong's sagittal design, whose calibrations they flag;
+    not for Ricci's functional design (``functional_axes.tsv``), whose calibrations none flags.
+    """
+    return dataset.functional_axes is None
 
 
 def summarise_recordings(
@@ -279,16 +299,14 @@ def summarise(
             row["n_samples"] = len(data.acc)
             row.update(recording_moments(data.acc, dataset.fs_hz, motion=False))
             return row
-        row.update(agreement_moments(data.acc, data.gyr, dataset.fs_hz))
+        checks = sensor_checks(dataset)
+        if checks:
+            row.update(agreement_moments(data.acc, data.gyr, dataset.fs_hz))
         row["calibrates"] = True
-        row["gyro_p90_deg_s"] = typical_speed_deg_s(data.gyr)
+        if checks:
+            row["gyro_p90_deg_s"] = typical_speed_deg_s(data.gyr)
         mask = moving if moving is not None else movement_mask(data.gyr, dataset.fs_hz, trim)
-        still = ~mask  # standing before, between and after the movements: the vertical again
-        enough = still.sum() >= MIN_STILL_S * dataset.fs_hz
-        row.update(
-            zip(STILL_COLUMNS, vertical_axis(data.acc[still]) if enough else np.full(3, np.nan))
-        )
-        rest = still if enough else still & False
+        rest = _still(dataset, data, mask, row) if checks else mask & False
         signals, spikes = recording_signals(data.acc, data.gyr, rest, data.faults)
         row.update(signals)
         limit = dataset.acc_limit(rec["sensor_set"], rec["imu"])
@@ -306,12 +324,24 @@ def summarise(
         kept = mask_to_ranges(mask)
         row["n_segments"] = len(kept)
         row["kept"] = ";".join(f"{a}:{b}" for a, b in kept)  # what the peers are given too
-        for statistic in motion_statistics() if statistics is None else statistics:
+        for statistic in motion_statistics(dataset) if statistics is None else statistics:
             if statistic.reduce is not None:
                 row.update(statistic.reduce(data.acc, data.gyr, mask, dataset.fs_hz))
     except CalibrationError as exc:
         row.update(flag=exc.code, message=f"{rec['path']}: {exc}")
     return row
+
+
+def _still(dataset: Dataset, data: Recording, mask: np.ndarray, row: dict) -> np.ndarray:
+    """The vertical of a motion recording's still portions (the samples outside the movement
+    ``mask``: standing before, between and after the movements), added to its summary ``row``
+    (NaN where they are too short); returns those samples where they are enough to tell the
+    gyroscope's offset at rest (none else).
+    """
+    still = ~mask
+    enough = still.sum() >= MIN_STILL_S * dataset.fs_hz
+    row.update(zip(STILL_COLUMNS, vertical_axis(data.acc[still]) if enough else np.full(3, np.nan)))
+    return still if enough else still & False
 
 
 def _pair_rows(
