@@ -11,7 +11,13 @@ import numpy as np
 from aceval.data.units import SIMULATED_SUBJECTS
 from aceval.data.writer import DatasetWriter, simulated_meta, write_sheet
 from aceval.simulate.body import Placement, random_mount
-from aceval.simulate.engine import band_noise, euler_pitch_roll_yaw, fine_time, small_rotations
+from aceval.simulate.engine import (
+    band_noise,
+    each_times,
+    euler_pitch_roll_yaw,
+    fine_time,
+    small_rotations,
+)
 from aceval.simulate.kong_dataset import ACC_RANGE_G, GYR_RANGE_DPS, IMUS, SENSOR_SETS, UNITS
 from aceval.simulate.motion import bell
 from aceval.simulate.options import SimOptions, sensor_signals
@@ -42,7 +48,7 @@ def _edge_rotation(rng, fs):
     pitch = np.radians(rng.normal(60, 6)) * bell(t, rest, duration)
     R = euler_pitch_roll_yaw(pitch)
     edge = np.array([-BOX[0] / 2, 0.0, BOX[2] / 2])  # the hinge, in the box frame
-    origin = -(R @ edge) + edge  # the edge stays where it is
+    origin = -each_times(R, edge) + edge  # the edge stays where it is
     return t, R, origin, bell(t, rest, duration)
 
 

@@ -20,6 +20,7 @@ from aceval.simulate.body import Placement, random_mount
 from aceval.simulate.engine import (
     ImuErrorModel,
     band_noise,
+    each_times,
     euler_pitch_roll_yaw,
     fine_time,
     small_rotations,
@@ -111,7 +112,7 @@ def _compose(A, B):
 
 def _rotate(R, v: np.ndarray):
     """``R @ v`` for a stack ``R`` (``None``: the identity, ``v`` itself)."""
-    return v if R is None else R @ v
+    return v if R is None else each_times(R, v)
 
 
 def _poses(child: Child, relative: dict, base, n: int):
