@@ -202,6 +202,7 @@ def _facets(
         panel.set_xlim(-0.5, len(categories) - 0.5)
         panel.set_title(str(name))
         panel.set_xlabel(xlabel if k // ncols == nrows - 1 or k + ncols >= len(col_order) else "")
+        _labels_with_ticks(panel)
         panel.set_ylabel(ylabel if k % ncols == 0 else "")
     for panel in axes.flat[len(col_order) :]:
         panel.set_visible(False)
@@ -220,6 +221,14 @@ def _facets(
         )
     figure.tight_layout()
     return figure
+
+
+def _labels_with_ticks(panel) -> None:
+    """As seaborn: an axis's label is shown only where its tick labels are (a shared axis shows
+    them on the outer panels only).
+    """
+    for axis in (panel.xaxis, panel.yaxis):
+        axis.label.set_visible(any(label.get_visible() for label in axis.get_ticklabels()))
 
 
 def _estimates(data, by: list, y: str, estimator: str, errorbar) -> pd.DataFrame:
@@ -258,9 +267,11 @@ def _points(panel, rows, x, hue, categories, colors) -> None:
 
 
 def _bars(panel, rows, x, hue, categories, colors) -> None:
-    """Each hue level's estimates as bars side by side within 0.8 of a category, with their
-    error bars (seaborn's ``barplot``).
+    """Each hue level's estimates as bars side by side within 0.8 of a category, in its colour
+    desaturated to 0.75 (seaborn's default), with their error bars (seaborn's ``barplot``).
     """
+    import colorsys
+
     position = {c: k for k, c in enumerate(categories)}
     width = 0.8 / len(colors)
     offsets = np.linspace(0, 0.8 - width, len(colors))
@@ -269,7 +280,9 @@ def _bars(panel, rows, x, hue, categories, colors) -> None:
         mine = rows.loc[rows[hue] == level]
         mine = mine.loc[mine[x].isin(position)]
         at = mine[x].map(position).to_numpy(float) + offset
-        panel.bar(at - width / 2, mine["estimate"], width=width, align="edge", color=color)
+        hue_, light, saturation = colorsys.rgb_to_hls(*matplotlib.colors.to_rgb(color))
+        face = colorsys.hls_to_rgb(hue_, light, 0.75 * saturation)
+        panel.bar(at - width / 2, mine["estimate"], width=width, align="edge", color=face)
         bars = np.full((len(at), 3), np.nan)
         bars[:, 0], bars[:, 1] = mine["low"].to_numpy(float), mine["high"].to_numpy(float)
         panel.plot(np.repeat(at, 3), bars.ravel(), color=".26", linewidth=1.8)
@@ -449,6 +462,7 @@ def _reliability(data: dict, out: Path, title: str) -> None:
             linewidth=0.08 * np.sqrt(14),
         )  # one call, in the table's order (which point lies on top), as seaborn's scatterplot
         panel.set(xlabel=label, ylabel="test-retest angle (deg)", yscale="log")
+        _labels_with_ticks(panel)
     handles = [
         plt.Line2D([], [], marker="o", linestyle="", color=c, markersize=np.sqrt(14), mec="w")
         for c in colors.values()
