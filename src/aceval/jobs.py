@@ -298,7 +298,7 @@ def _make_and_calibrate(args, root: Path, folder: Path):
     """
     from aceval.data.units import subject_batches
 
-    simulation = writer = dataset = None
+    simulation = writer = dataset = report = None
     if args.simulate:
         simulation, writer = _simulation(args, root)
         subjects = simulation.subjects
@@ -409,8 +409,7 @@ def _preload() -> None:
     from aceval.methods import registry
 
     registry.classes()  # every method's module
-    if _JOB["simulation"] is None or _JOB["dataset"] is not None:
-        import pyarrow.parquet  # noqa: F401  (recordings read from their files)
+    import pyarrow.parquet  # noqa: F401  (the recordings read, or simulated and written)
     import scipy.signal  # noqa: F401  (the walking tests' band-pass filter)
 
 
