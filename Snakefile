@@ -29,7 +29,6 @@ if config.get("directory") and workflow.is_main_process:
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/datasets.smk"
-include: "workflow/rules/calibration.smk"
 include: "workflow/rules/peers.smk"
 include: "workflow/rules/results.smk"
 

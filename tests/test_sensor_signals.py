@@ -15,7 +15,6 @@ from aceval.evaluation.methods_comparison import with_truth
 from aceval.evaluation.truth_warnings import truth_warning
 from aceval.signals.checks import (
     GYRO_BIAS_LIMIT_DEG_S,
-    REST_GYRO_COLUMNS,
     acc_sign_agreement,
     agreement_moments,
     recording_signals,
@@ -80,12 +79,11 @@ def test_agreement_moments_summed_in_chunks_equal_one_pass(monkeypatch):
     assert all(np.isclose(whole[k], chunked[k], rtol=1e-12, atol=1e-12) for k in whole)
 
 
-def _rows(offset_deg_s: np.ndarray, z0: list) -> tuple[pd.DataFrame, pd.DataFrame]:
-    static = pd.DataFrame(
-        [{"flag": "", "z0_x": z[0], "z0_y": z[1], "z0_z": z[2]} for z in z0]
-    ).assign(**dict(zip(REST_GYRO_COLUMNS, np.radians(offset_deg_s))))
-    motion = pd.DataFrame([dict(zip(REST_GYRO_COLUMNS, np.radians(offset_deg_s)))] * 4)
-    return static, motion
+def _rows(offset_deg_s: np.ndarray, z0: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """An IMU's rest offsets (its static, then four motion recordings), static verticals and
+    vendor angles (none), as :func:`signal_verdict` takes them."""
+    offsets = np.tile(np.radians(offset_deg_s), (len(z0) + 4, 1))
+    return offsets, np.array(z0, dtype=float), np.full(len(z0), np.nan)
 
 
 def test_the_gyroscope_offset_and_static_trials_that_disagree_are_flagged():

@@ -6,7 +6,7 @@ import os
 import yaml
 
 from aceval.methods import registry
-from aceval.workflow_plan import Configuration, HashCache, read_sheet
+from aceval.workflow_plan import Configuration, HashCache, read_sheet, tree_digest
 
 from .runner import REPO
 
@@ -104,7 +104,49 @@ def test_a_simulated_dataset_is_named_after_its_key(tmp_path):
         tmp_path,
         {"kong_powered": {"simulate": {"protocol": "kong", "subjects": 93}, "analyses": ["kong"]}},
     )
-    assert plan.simulate_options("kong_powered") == ["--name=kong_powered", "--subjects=93"]
+    assert plan.simulate_options("kong_powered") == [
+        "--simulate",
+        "kong",
+        "--seed=0",
+        "--name=kong_powered",
+        "--subjects=93",
+    ]
+
+
+def test_each_dataset_job_gets_a_worker_per_batch_up_to_the_cores(tmp_path):
+    lab = tmp_path / "lab"
+    lab.mkdir()
+    (lab / "subjects.tsv").write_text("subject\n" + "".join(f"S{k}\n" for k in range(7)))
+    plan = _plan(
+        tmp_path,
+        {
+            "kong": {"simulate": {"protocol": "kong"}, "subjects_per_job": 3},
+            "box": {"simulate": {"protocol": "box"}},
+            "lab": {"path": str(lab), "subjects_per_job": 4},
+            "qmt": {"import": {"format": "qmt", "source": "q", "subject": "S1"}},
+        },
+    )
+    assert plan.dataset_threads("kong", 2) == 2  # five subjects: batches of 3 and 2
+    assert plan.dataset_threads("kong", 1) == 1
+    assert plan.dataset_threads("box", 2) == 1  # one box
+    assert plan.dataset_threads("lab", 8) == 2  # seven subjects in batches of 4
+    assert plan.dataset_threads("qmt", 2) == 1  # one subject imported
+
+
+def test_an_edit_of_the_package_changes_the_code_digest_every_rule_reads(tmp_path):
+    """A constant changed in aceval's source reruns the jobs (the digest is a param of every
+    rule); its compiled cache does not count."""
+    package = tmp_path / "aceval"
+    (package / "data").mkdir(parents=True)
+    (package / "data" / "contract.py").write_text("GRAVITY = 9.81\n")
+    before = tree_digest(str(package))
+    (package / "__pycache__").mkdir()
+    (package / "__pycache__" / "x.cpython-311.pyc").write_bytes(b"\0")
+    assert tree_digest(str(package)) == before
+    (package / "data" / "contract.py").write_text("GRAVITY = 9.80665\n")
+    assert tree_digest(str(package)) != before
+    plan = _plan(tmp_path, {"sim": {"simulate": {"protocol": "kong"}}})
+    assert plan.code_digest() == tree_digest(os.path.join(REPO, "src", "aceval"))
 
 
 def test_simulate_writes_the_name_it_is_given(tmp_path):

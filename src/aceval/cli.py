@@ -1,5 +1,5 @@
-"""Command line: ``aceval simulate|import|validate|right-axis|calibrate|apply|angles|table|figure|
-outputs``
+"""Command line: ``aceval simulate|import|validate|right-axis|calibrate|batches|apply|angles|table|
+figure|outputs``
 (also ``python -m aceval``). The workflow's rules are thin calls of these commands.
 """
 
@@ -261,6 +261,56 @@ def _add_pair_options(calibrate) -> None:
     )
 
 
+def _add_batches(commands) -> None:
+    """The ``batches`` command's arguments (the workflow's job per dataset)."""
+    batches = commands.add_parser(
+        "batches",
+        help="the workflow's job per dataset: simulate or import it (or read it where it lies), "
+        "validate it and calibrate its subjects in batches, each in a worker process, into a "
+        "results folder's calibrations/ and validation/sheets.tsv",
+    )
+    batches.add_argument(
+        "dataset", help="the dataset folder: read, or written (with --simulate or --import)"
+    )
+    batches.add_argument("--results", required=True, help="the dataset's results folder")
+    made = batches.add_mutually_exclusive_group()
+    made.add_argument("--simulate", choices=["kong", "ricci", "box"], help="simulate it first")
+    made.add_argument(
+        "--import",
+        dest="import_format",
+        choices=["hugadb", "xsens", "qmt", "gaitmap"],
+        help="import it first from --source (as `aceval import`)",
+    )
+    batches.add_argument("--seed", type=int, default=0, help="--simulate: the seed (0)")
+    batches.add_argument("--subjects", type=int, help="--simulate: subjects (the paper's)")
+    batches.add_argument(
+        "--repetitions", type=int, default=5, help="--simulate: repetitions of each motion test"
+    )
+    batches.add_argument("--name", help="--simulate, --import: the dataset's name")
+    batches.add_argument("--source", help="--import: the foreign recordings")
+    batches.add_argument("--sensors", help="--import: sensor sheet (as `aceval import`)")
+    batches.add_argument("--vicon", help="--import xsens: Vicon .mat of the same trial")
+    batches.add_argument(
+        "--import-subject", default="S01", help="--import xsens, one trial: subject name (S01)"
+    )
+    batches.add_argument(
+        "--subjects-per-job", type=int, default=1, help="subjects per batch (1: one per subject)"
+    )
+    batches.add_argument("--jobs", type=int, default=1, help="batches calibrated side by side (1)")
+    batches.add_argument(
+        "--retest-k",
+        type=int,
+        default=3,
+        help="the axis methods (and the plan) also from every subset of this many repetitions",
+    )
+    batches.add_argument(
+        "--force", action="store_true", help="replace output folders aceval wrote before"
+    )
+    _add_pair_options(batches)
+    _add_trim_options(batches)
+    batches.set_defaults(run=work.batches)
+
+
 def _add_apply(commands) -> None:
     """The ``apply`` command's arguments."""
     apply = commands.add_parser(
@@ -413,6 +463,7 @@ def main(argv: list[str] | None = None) -> int:
     _add_validate(commands)
     _add_right_axis(commands)
     _add_calibrate(commands)
+    _add_batches(commands)
     _add_apply(commands)
     _add_angles(commands)
     _add_table_and_figure(commands)
@@ -487,6 +538,7 @@ OUTPUT_OPTIONS = {
 INPUT_OPTIONS = {
     "dataset": "dataset",
     "src": "source",
+    "source": "--source",
     "sensors": "--sensors",
     "trials": "--trials",
     "vicon": "--vicon",
@@ -514,6 +566,11 @@ def _outputs_and_inputs(args) -> tuple[dict, dict, tuple]:
         value = getattr(args, name, None)
         for k, path in enumerate(value if isinstance(value, list) else [value] if value else []):
             inputs[f"{label}[{k}]" if isinstance(value, list) else label] = path
+    if args.command == "batches":  # a results folder; the dataset an input, or an output folder
+        made = args.simulate or args.import_format
+        inputs = {k: v for k, v in inputs.items() if not (made and k == "dataset")}
+        outputs |= {"dataset": args.dataset} if made else {}
+        return outputs, inputs, ("--results", "dataset") if made else ("--results",)
     if args.command == "outputs":  # a results folder, written file by file: it holds its own
         # intermediates (calibrations/, correlations/), and must not hold or sit in the dataset
         return outputs, {"dataset": args.dataset}, ("--results",)

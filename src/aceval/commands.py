@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from aceval.data.safety import FileSet, UnsafeOutputError
+from aceval.jobs import findings_table, progress, trim_params
 
 if (
     TYPE_CHECKING
@@ -88,7 +89,7 @@ def validate(args) -> int:
             if args.out:
                 files.write(args.out, lambda tmp: Path(tmp).write_text(report.format() + "\n"))
             if args.findings_out:
-                table = _findings_table(report)
+                table = findings_table(report)
                 files.write(args.findings_out, lambda tmp: table.to_csv(tmp, sep="\t", index=False))
     return 0 if report.ok else 1
 
@@ -108,7 +109,7 @@ def right_axis(args) -> int:
     except DatasetError as exc:
         print(f"aceval right-axis: {args.dataset} is not a valid dataset:\n{exc}", file=sys.stderr)
         return 1
-    table = pd.DataFrame(dataset_right_axes(dataset, _trim(args)))
+    table = pd.DataFrame(dataset_right_axes(dataset, trim_params(args)))
     columns = ["sensor_set", "imu", "segment", "side", "declared", "proposed", "verdict"]
     columns += ["agrees", "sign_from", "cell", "evidence"]
     table = table[columns] if len(table) else pd.DataFrame(columns=columns)
@@ -158,29 +159,11 @@ def method_choices() -> dict[str, str]:
     return own | {"all": "every method (default)"}
 
 
-def chosen_methods(choice: str) -> list[str]:
-    """The ``method`` values of the calibrations table that ``--method choice`` keeps."""
-    from aceval.methods import registry
-
-    return registry.own() if choice == "all" else [choice]
-
-
-def _progress(done: int, total: int, what: str) -> None:
-    """A one-line progress bar on stderr (only on a terminal: logs stay clean)."""
-    if sys.stderr.isatty():
-        filled = int(30 * done / total)
-        print(
-            f"\r[{'#' * filled}{'.' * (30 - filled)}] {done}/{total} {what}",
-            end="" if done < total else "\n",
-            file=sys.stderr,
-            flush=True,
-        )
-
-
 def calibrate(args) -> int:
     """`aceval calibrate`: every calibration of a dataset, with the pass's other tables on request."""
     from aceval.data.contract import DatasetError
     from aceval.data.dataset import load_dataset
+    from aceval.jobs import calibrate_unit
 
     try:  # the sheets here; each recording file is checked in the pass that reads it
         dataset = load_dataset(args.dataset)
@@ -220,194 +203,14 @@ def calibrate(args) -> int:
         print(f"aceval calibrate: {exc}", file=sys.stderr)
         return 2
     with files:
-        return _calibrate_into(args, dataset, files)
+        return calibrate_unit(args, dataset, files)
 
 
-def _calibrate_into(args, dataset, files) -> int:
-    """The work of `aceval calibrate` once its inputs and outputs are checked: its outputs are
-    written into ``files`` (a :class:`aceval.data.safety.FileSet`).
-    """
-    import json
+def batches(args) -> int:
+    """`aceval batches`: the workflow's job per dataset (:func:`aceval.jobs.dataset_job`)."""
+    from aceval.jobs import dataset_job
 
-    import pandas as pd
-
-    from aceval.calibrate.pipeline import calibrate
-    from aceval.calibrate.plan import imu_checks
-    from aceval.calibrate.table import AXES_COLUMNS, CALIBRATION_COLUMNS
-    from aceval.evaluation.correlations import correlations
-    from aceval.report.summary import calibration_screen
-
-    segment_pairs = json.loads(args.pairs)
-    summaries, pairs, report = _read_subjects(args, dataset, segment_pairs)
-    if not report.ok:
-        print(
-            f"aceval calibrate: {args.dataset}: recording files that cannot be used; no file "
-            f"written:\n{report.format()}",
-            file=sys.stderr,
-        )
-        return 1
-    unusable = summaries[summaries["flag"] != ""] if len(summaries) else summaries
-    for message in unusable.get("message", []):
-        print(f"aceval calibrate: left out {message}", file=sys.stderr)
-    sensors = imu_checks(dataset, summaries, pairs) if len(summaries) else {}
-    calibrations, axes = (
-        calibrate(dataset, summaries, args.subsets, retest_k=args.retest_k, sensors=sensors)
-        if len(summaries)
-        else (pd.DataFrame(columns=CALIBRATION_COLUMNS), pd.DataFrame(columns=AXES_COLUMNS))
-    )
-    calibrations = _for_the_user(calibrations, dataset, args.method)
-    if calibrations.empty and not args.allow_empty:
-        print(
-            f"aceval calibrate: nothing to calibrate in {args.dataset}: "
-            f"{_why_nothing(unusable, summaries)}; no file written",
-            file=sys.stderr,
-        )
-        return 1
-    tables = {"out": calibrations, "recordings_out": summaries, "axes_out": axes}
-    tables["pairs_out"] = pairs
-    if args.correlations_out:
-        tables["correlations_out"] = correlations(
-            dataset, calibrations, pairs, args.mode, segment_pairs
-        )
-    _write_calibrate_outputs(args, files, tables, report, dataset)
-    _say_findings(report, sensors)
-    screen = calibration_screen(calibrations, len(unusable), args.out, dataset.ground_truth)
-    print(screen, file=sys.stderr)
-    return 0
-
-
-def _read_subjects(args, dataset, segment_pairs: dict):
-    """The one pass over the chosen subjects' recordings: ``(summaries, pairs, report)``."""
-    from aceval.data.contract import ValidationReport
-    from aceval.signals.reduction import reduce_recordings
-
-    trim = _trim(args)
-    subjects = args.subject if args.subject is not None else list(dataset.subjects.index)
-    summaries, pairs, report = [], [], ValidationReport(dataset.name)
-    for done, subject in enumerate(subjects, start=1):
-        reduced = reduce_recordings(
-            dataset, subject, trim, args.tests, segment_pairs, args.max_lag_s
-        )
-        summaries.append(reduced.summaries)
-        pairs.append(reduced.pairs)
-        report.findings += reduced.report.findings
-        _progress(done, len(subjects), "subjects read")
-    return _concat_tables(summaries), _concat_tables(pairs), report
-
-
-def _for_the_user(calibrations, dataset, method: str):
-    """The calibrations of the chosen ``--method``, each with its error to the dataset's ground
-    truth (evaluation's join: the command reports both) and the fingerprint of the recordings it
-    was made from (what ``aceval apply`` checks).
-    """
-    if not len(calibrations):
-        return calibrations
-    from aceval.apply import FINGERPRINT, recordings_fingerprint
-    from aceval.evaluation.methods_comparison import with_truth
-
-    calibrations = with_truth(calibrations, dataset.ground_truth)
-    calibrations = calibrations[calibrations["method"].isin(chosen_methods(method))]
-    calibrations = calibrations.reset_index(drop=True)
-    fingerprints = {s: recordings_fingerprint(dataset, s) for s in calibrations["subject"].unique()}
-    calibrations[FINGERPRINT] = calibrations["subject"].map(fingerprints)
-    return calibrations
-
-
-def _why_nothing(unusable, summaries) -> str:
-    """Why a dataset gave no calibration."""
-    if len(unusable):
-        return f"{len(unusable)} recording(s) were left out (listed above) and none remained"
-    if len(summaries):
-        return (
-            "no subject has a static test and a motion test that calibrates one of its IMUs "
-            "(calibrates.tsv)"
-        )
-    return "no recording of a test that calibrates an IMU"
-
-
-def _say_findings(report, sensors: dict) -> None:
-    """The files' warnings and what the checks found about each sensor (``sensors``:
-    :func:`aceval.calibrate.plan.imu_checks`; its calibrations are flagged), on stderr.
-    """
-    if report.warnings:
-        print(f"aceval calibrate: {len(report.warnings)} file warning(s):", file=sys.stderr)
-        print("\n".join(map(str, report.warnings)), file=sys.stderr)
-    for verdict in sensors.values():
-        if verdict["message"]:
-            print(f"aceval calibrate: flagged {verdict['message']}", file=sys.stderr)
-
-
-def _write_calibrate_outputs(args, files, tables: dict, report, dataset) -> None:
-    """Stage every output `aceval calibrate` was asked for in ``files``: the ``tables`` (by the
-    option that names each file), the findings, the Obj 3-5 angles and test-retest units, and
-    the peers' plan.
-    """
-    import json
-
-    for option, table in tables.items():
-        if getattr(args, option):
-            files.write(getattr(args, option), lambda tmp, t=table: t.to_csv(tmp, index=False))
-    if args.findings_out:
-        findings = _findings_table(report)
-        files.write(args.findings_out, lambda tmp: findings.to_csv(tmp, sep="\t", index=False))
-    if args.angles_out or args.retest_out:
-        _write_angles(args, files, tables["out"])
-    if args.plan_out:
-        from aceval.calibrate.peer_plan import calibration_plan
-
-        plan = json.dumps(
-            calibration_plan(dataset, tables["recordings_out"], args.retest_k), indent=1
-        )
-        files.write(args.plan_out, lambda tmp: Path(tmp).write_text(plan + "\n"))
-
-
-def _write_angles(args, files, calibrations) -> None:
-    """Kong's Obj 3-5 angles (--angles-out) and every method's test-retest units (--retest-out)
-    of this job's subjects, from its ``calibrations``: the only tables that need the calibrations
-    from subsets of repetitions, so the results jobs read only those from all repetitions.
-    """
-    from aceval.evaluation.methods_comparison import retest_units
-    from aceval.evaluation.objectives import all_angles
-
-    if args.angles_out:
-        table = all_angles(calibrations, args.retest_k)
-        files.write(args.angles_out, lambda tmp: table.to_csv(tmp, index=False))
-    if args.retest_out:
-        table = retest_units(calibrations, args.retest_k)
-        files.write(args.retest_out, lambda tmp: table.to_csv(tmp, index=False))
-
-
-def _concat_tables(parts: list) -> pd.DataFrame:
-    import pandas as pd
-
-    non_empty = [p for p in parts if len(p)]
-    return (
-        pd.concat(non_empty, ignore_index=True)
-        if non_empty
-        else (parts[0] if parts else pd.DataFrame())
-    )
-
-
-def _findings_table(report) -> pd.DataFrame:
-    """The file findings of a pass as a table (level, where, cause)."""
-    import pandas as pd
-
-    return pd.DataFrame(
-        [(f.level, f.where, f.cause) for f in report.findings], columns=["level", "where", "cause"]
-    )
-
-
-def _trim(args):
-    import numpy as np
-
-    from aceval.signals.segmentation import TrimParams
-
-    return TrimParams(
-        threshold=args.trim_threshold,
-        closing_s=args.closing_s,
-        window_s=args.window_s,
-        min_peak_rad_s=np.radians(args.min_peak_deg_s),
-    )
+    return dataset_job(args)
 
 
 def apply(args) -> int:
@@ -440,7 +243,7 @@ def apply(args) -> int:
     def write(folder):
         checked = None if args.other_dataset else source
         for line in said + apply_calibrations(
-            dataset, chosen, folder, args.method, _progress, checked
+            dataset, chosen, folder, args.method, progress, checked
         ):
             print(
                 line if line.startswith("aceval") else f"aceval apply: warning: {line}",

@@ -18,6 +18,7 @@ import os
 from dataclasses import dataclass, field
 
 from aceval.data.safety import path_problem
+from aceval.data.units import SIMULATED_SUBJECTS, subject_batches
 from aceval.methods import registry
 from aceval.report.outputs import Output, outputs_of
 
@@ -84,6 +85,22 @@ def duplicate_keys(path: str) -> list[str]:
             first.setdefault(key.value, line)
             stack.append((value, name))
     return sorted(found)
+
+
+def tree_digest(folder: str) -> str:
+    """SHA-1 of the relative paths and bytes of every file under ``folder`` (compiled caches
+    left out), in path order.
+    """
+    digest = hashlib.sha1()
+    for base, folders, files in os.walk(folder):
+        folders[:] = sorted(f for f in folders if f != "__pycache__")
+        for name in sorted(files):
+            if not name.endswith((".pyc", ".pyo")):
+                path = os.path.join(base, name)
+                digest.update(os.path.relpath(path, folder).encode() + b"\0")
+                with open(path, "rb") as handle:
+                    digest.update(handle.read())
+    return digest.hexdigest()
 
 
 @dataclass
@@ -156,8 +173,9 @@ class Configuration:
         self.datasets = {name: self.config["datasets"][name] for name in chosen}
         self.simulated = [n for n, spec in self.datasets.items() if "simulate" in spec]
         self.imported = [n for n, spec in self.datasets.items() if "import" in spec]
-        #: written by the workflow into resources/{dataset}
+        #: written by the workflow into resources/{dataset}; the others are read where they lie
         self.generated = self.simulated + self.imported
+        self.on_disk = [n for n in self.datasets if n not in self.generated]
         self.data_root = self.config.get("data_root", "../shared/data")
         self.peers = registry.peers()
         asked = self.config.get("peers", list(self.peers))
@@ -196,21 +214,43 @@ class Configuration:
         return [p for p in found if p]
 
     def import_options(self, dataset: str) -> list[str]:
-        """--name, --sensors, --vicon and --subject of `aceval import` (quoted by the rule)."""
+        """--import, --source, --name, --sensors, --vicon and --import-subject of `aceval
+        batches` (quoted by the rule).
+        """
         spec = self.datasets[dataset]["import"]
-        options = ["--name", dataset]
+        options = ["--import", spec["format"], "--source", self.import_source(dataset)]
+        options += ["--name", dataset]
         for key in ("sensors", "vicon"):
             if key in spec:
                 options += [f"--{key}", self.import_source(dataset, key)]
-        return options + (["--subject", spec["subject"]] if "subject" in spec else [])
+        return options + (["--import-subject", spec["subject"]] if "subject" in spec else [])
 
     def simulate_options(self, dataset: str) -> list[str]:
-        """--name (the dataset's key: its SUMMARY.md and tables are titled by it), and --subjects
-        and --repetitions of `aceval simulate` where the configuration sets them.
+        """--simulate, --seed, --name (the dataset's key: its SUMMARY.md and tables are titled by
+        it), and --subjects and --repetitions where the configuration sets them, of `aceval
+        batches`.
         """
         spec = self.datasets[dataset]["simulate"]
         counts = [f"--{key}={spec[key]}" for key in ("subjects", "repetitions") if key in spec]
-        return [f"--name={dataset}", *counts]
+        options = ["--simulate", spec["protocol"], f"--seed={spec.get('seed', 0)}"]
+        return [*options, f"--name={dataset}", *counts]
+
+    def dataset_threads(self, dataset: str, cores: int) -> int:
+        """The workers of a dataset's job: one per batch of subjects (known before the job for a
+        simulated dataset and one on disk; all ``cores`` for an imported one), at most ``cores``.
+        """
+        size = self.datasets[dataset].get("subjects_per_job", 1)
+        if dataset in self.simulated:
+            spec = self.datasets[dataset]["simulate"]
+            count = spec.get("subjects", SIMULATED_SUBJECTS[spec["protocol"]])
+        elif dataset in self.imported:
+            count = 1 if "subject" in self.datasets[dataset]["import"] else cores * size
+        else:
+            try:
+                count = len(read_sheet(os.path.join(self.dataset_dir(dataset), "subjects.tsv")))
+            except (OSError, UnicodeDecodeError, csv.Error):
+                count = 1  # the validation says why
+        return max(1, min(cores, -(-count // size)))
 
     def dataset_files(self, dataset: str) -> str | list[str]:
         """The dataset as a job's input: the generated folder, or a lab dataset's sheets (its
@@ -247,18 +287,20 @@ class Configuration:
                 digest.update(f"{path}\0{self.hashes.content_hash(path)}\n".encode())
         return digest.hexdigest()
 
+    def code_digest(self) -> str:
+        """A digest of aceval's own source (every file of the package the jobs run): a param of
+        every rule, so that an edit of the code reruns the jobs it may change (Snakemake's params
+        rerun trigger) instead of leaving their results stale.
+        """
+        return tree_digest(os.path.dirname(os.path.abspath(__file__)))
+
     # --- what each dataset gets ---------------------------------------------------------------
 
     def subject_batches(self, dataset: str, subjects: list[str]) -> dict[str, list[str]]:
         """``{unit: [subject, ...]}``: the subjects of each calibration job (config
         ``subjects_per_job``, in subjects.tsv order); a job of one subject is named after it.
         """
-        size = self.datasets[dataset].get("subjects_per_job", 1)
-        if size == 1:
-            return {name: [name] for name in subjects}
-        chunks = [subjects[k : k + size] for k in range(0, len(subjects), size)]
-        width = len(str(len(chunks)))
-        return {f"_batch{k:0{width}d}": chunk for k, chunk in enumerate(chunks, start=1)}
+        return subject_batches(subjects, self.datasets[dataset].get("subjects_per_job", 1))
 
     def has_truth_method(self, dataset: str) -> bool:
         """An imported dataset whose ground truth comes from markers (ground_truth_method.tsv)."""
@@ -355,12 +397,14 @@ class Configuration:
 
     # --- options of the jobs ------------------------------------------------------------------
 
-    def calibrate_options(self) -> list[str]:
-        """The trimmer's parameters (config ``calibration.trim``), Obj 1-2's options and Obj 4's
-        k (config ``objectives``) as options of `aceval calibrate`.
+    def batch_options(self, dataset: str) -> list[str]:
+        """--subjects-per-job of `aceval batches` (config ``subjects_per_job``), the trimmer's
+        parameters (config ``calibration.trim``), Obj 1-2's options and Obj 4's k (config
+        ``objectives``).
         """
         trim, objectives = self.config["calibration"]["trim"], self.config["objectives"]
         return [
+            f"--subjects-per-job={self.datasets[dataset].get('subjects_per_job', 1)}",
             f"--trim-threshold={trim['threshold']}",
             f"--closing-s={trim['closing_s']}",
             f"--window-s={trim['window_s']}",

@@ -4,14 +4,17 @@
 # the sheets are validated).
 import os
 
-from aceval.workflow_plan import Configuration, duplicate_keys, read_sheet
+from aceval.workflow_plan import Configuration, duplicate_keys, read_sheet, tree_digest
 from snakemake.logging import logger
 
 for _problem in (p for f in workflow.configfiles for p in duplicate_keys(str(f))):
     raise WorkflowError(f"aceval: a configuration file: {_problem}")
 PLAN = Configuration(config, workflow.basedir)
 DATASETS = PLAN.datasets
+#: aceval's source, a param of every rule: an edit of the code reruns the jobs (not a stale result)
+CODE = PLAN.code_digest()
 PEERS_DIR = os.path.join(workflow.basedir, "workflow", "peers")
+PEERS_CODE = tree_digest(PEERS_DIR)
 if PLAN.peers_absent:
     logger.warning(
         f"aceval: peers left out by the configuration (peers): {', '.join(PLAN.peers_absent)}. "
@@ -39,20 +42,23 @@ def only(names):
 
 
 def subjects(dataset):
-    """Subjects of a dataset, known once its sheets are validated (checkpoint)."""
-    checkpoints.validate.get(dataset=dataset)
+    """Subjects of a dataset, known once its job has made and validated it (checkpoint)."""
+    job = "simulate" if dataset in PLAN.simulated else "import_dataset"
+    getattr(checkpoints, job if dataset in PLAN.generated else "calibrate").get(dataset=dataset)
     sheet = os.path.join(PLAN.dataset_dir(dataset), "subjects.tsv")
     return [row["subject"] for row in read_sheet(sheet)]
 
 
 def subject_batches(dataset):
-    """The subjects of each calibration job of the dataset (config ``subjects_per_job``)."""
+    """The subjects of each batch of the dataset's job (config ``subjects_per_job``)."""
     return PLAN.subject_batches(dataset, subjects(dataset))
 
 
 def unit_files(dataset, pattern):
-    """``pattern`` (e.g. 'calibrations/{unit}_axes.csv') for each calibration job of the dataset."""
-    return [f"results/{dataset}/{pattern.format(unit=u)}" for u in subject_batches(dataset)]
+    """``pattern`` (e.g. '{unit}_axes.csv') of each batch of the dataset's job, in its
+    calibrations folder (known once the job has run: checkpoint)."""
+    folder = f"results/{dataset}/calibrations"
+    return [f"{folder}/{pattern.format(unit=u)}" for u in subject_batches(dataset)]
 
 
 def all_outputs(wildcards):
@@ -70,20 +76,18 @@ def all_outputs(wildcards):
 
 
 def results_inputs(wildcards):
-    """Every calibration job's tables, findings and recordings' summaries (the peers' direction
-    vote reads them), the sheets gate's findings, the peers' calibrations and the dataset itself (its ground truth and reference sheets: a re-import that
-    changes only them reruns the results)."""
+    """The dataset job's calibrations folder and in it each batch's tables, findings and
+    recordings' summaries (the peers' direction vote reads them; known once the job has run:
+    checkpoint), its validation findings, the peers' calibrations and the dataset itself (its
+    ground truth and reference sheets: a re-import that changes only them reruns the results)."""
     dataset = wildcards.dataset
+    units = {kind: unit_files(dataset, pattern) for kind, pattern in UNIT_INPUTS.items()}
     return {
         "dataset": PLAN.dataset_files(dataset),
         "sheets": f"results/{dataset}/validation/sheets.tsv",
-        "calibrations": unit_files(dataset, "calibrations/{unit}.csv"),
-        "axes": unit_files(dataset, "calibrations/{unit}_axes.csv"),
-        "correlations": unit_files(dataset, "correlations/{unit}.csv"),
-        "angles": unit_files(dataset, "calibrations/{unit}_angles.csv"),
-        "retest_units": unit_files(dataset, "calibrations/{unit}_retest.csv"),
-        "findings": unit_files(dataset, "calibrations/{unit}_findings.tsv"),
-        "recordings": unit_files(dataset, "calibrations/{unit}_recordings.csv"),
+        "folder": f"results/{dataset}/calibrations",
+        **units,
+        "findings": unit_files(dataset, "{unit}_findings.tsv"),
         "peers": [
             f"results/{dataset}/peers/{peer}/{unit}.csv"
             for peer in PLAN.peers_of(dataset)
@@ -92,18 +96,21 @@ def results_inputs(wildcards):
     }
 
 
+#: the tables `aceval outputs` reads of each batch: its option's name -> the file
+UNIT_INPUTS = {
+    "calibrations": "{unit}.csv",
+    "axes": "{unit}_axes.csv",
+    "correlations": "{unit}_correlations.csv",
+    "angles": "{unit}_angles.csv",
+    "retest_units": "{unit}_retest.csv",
+    "recordings": "{unit}_recordings.csv",
+}
+
+
 def input_options(wildcards, input):
     """The inputs as options of `aceval outputs` (--calibrations, ..., --findings), of the inputs
-    known so far (before the checkpoint has run, only the sheets gate's)."""
-    kinds = (
-        "calibrations",
-        "axes",
-        "correlations",
-        "angles",
-        "retest_units",
-        "peers",
-        "recordings",
-    )
+    known so far (before the dataset's job has run, only its validation's findings)."""
+    kinds = [*UNIT_INPUTS, "peers"]
     known = [kind for kind in kinds if kind in input.keys() and len(input[kind])]
     options = [item for kind in known for item in (f"--{kind.replace('_', '-')}", *input[kind])]
     findings = [input[k] for k in ("sheets",) if k in input.keys()]

@@ -1,68 +1,88 @@
-# Stage 1: the datasets. Simulated ones are generated from a seed, real recordings imported; every
-# dataset's sheets are validated against the contract, and each recording file's presence and
-# header, before anything else runs (a failed validation stops the workflow; a file changed after a
-# good run validates again: the files' fingerprint is a param). The files' contents are checked in
-# the pass that reads them (stage 2).
+# Stages 1-2: one job per dataset (`aceval batches`). Simulated datasets are generated from a seed,
+# real recordings imported, a lab's dataset read where it lies; the dataset is validated (its
+# sheets, and of each recording file that it exists and its header; a failed validation stops
+# the workflow before any calibration; a file changed after a good run validates again: the
+# files' fingerprint is a param), then its subjects are calibrated in batches (config
+# `subjects_per_job`), each batch in a worker process forked from the job (its imports paid once),
+# a simulated batch from the recordings its worker has just simulated, in memory (the files are
+# written all the same: users and the peers read them). Each batch reads each recording once,
+# checks it (every problem named with its file and line; an error stops the workflow) and reduces
+# it to the statistics the dataset's methods read; from them every calibration (Kong for every
+# subset of repetitions, the axis methods, or Ricci's functional design), the correlations of
+# Kong's Obj 1-2, Kong's Obj 3-5 angles and every method's test-retest units. The job's outputs
+# are put in place together, or none. Every parameter reaches the shell quoted ({...:q}):
+# dataset folders may hold spaces, quotes or any letters.
 
 
-rule simulate:
+checkpoint simulate:
     output:
-        directory("resources/{dataset}"),
+        dataset=directory("resources/{dataset}"),
+        calibrations=directory("results/{dataset}/calibrations"),
+        sheets="results/{dataset}/validation/sheets.tsv",
     log:
         "logs/{dataset}/simulate.log",
-    benchmark:
-        "logs/{dataset}/benchmarks/simulate.tsv"
     wildcard_constraints:
         dataset=only(PLAN.simulated),
     priority: 10
     conda:
         "../envs/aceval.yaml"
-    threads: 2
+    threads: lambda w: PLAN.dataset_threads(w.dataset, workflow.cores)
     params:
-        protocol=lambda w: DATASETS[w.dataset]["simulate"]["protocol"],
-        seed=lambda w: DATASETS[w.dataset]["simulate"].get("seed", 0),
-        options=lambda w: PLAN.simulate_options(w.dataset),
+        source=lambda w: PLAN.simulate_options(w.dataset),
+        batches=lambda w: PLAN.batch_options(w.dataset),
+        results="results/{dataset}",
+        code=CODE,
     shell:
-        "python -m aceval simulate {params.protocol:q} --out {output:q} --seed {params.seed:q} {params.options:q} "
-        "--jobs {threads} --force 2> {log:q}"
+        "python -m aceval batches {output.dataset:q} {params.source:q} {params.batches:q} "
+        "--results {params.results:q} --jobs {threads} --force > {log:q} 2>&1 "
+        "|| (cat {log:q} >&2; exit 1)"
 
 
-rule import_dataset:
+checkpoint import_dataset:
     input:
         lambda w: PLAN.import_inputs(w.dataset),
     output:
-        directory("resources/{dataset}"),
+        dataset=directory("resources/{dataset}"),
+        calibrations=directory("results/{dataset}/calibrations"),
+        sheets="results/{dataset}/validation/sheets.tsv",
     log:
         "logs/{dataset}/import.log",
-    benchmark:
-        "logs/{dataset}/benchmarks/import.tsv"
     wildcard_constraints:
         dataset=only(PLAN.imported),
     conda:
         "../envs/aceval.yaml"
+    threads: lambda w: PLAN.dataset_threads(w.dataset, workflow.cores)
     params:
-        format=lambda w: DATASETS[w.dataset]["import"]["format"],
-        options=lambda w: PLAN.import_options(w.dataset),
-        source=lambda w: PLAN.import_source(w.dataset),
+        source=lambda w: PLAN.import_options(w.dataset),
+        batches=lambda w: PLAN.batch_options(w.dataset),
+        results="results/{dataset}",
+        code=CODE,
     shell:
-        "python -m aceval import {params.format:q} {params.source:q} --out {output:q} {params.options:q} "
-        "--force 2> {log:q}"
+        "python -m aceval batches {output.dataset:q} {params.source:q} {params.batches:q} "
+        "--results {params.results:q} --jobs {threads} --force > {log:q} 2>&1 "
+        "|| (cat {log:q} >&2; exit 1)"
 
 
-checkpoint validate:
+checkpoint calibrate:
     input:
         lambda w: PLAN.dataset_files(w.dataset),
     output:
-        "results/{dataset}/validation/sheets.tsv",
+        calibrations=directory("results/{dataset}/calibrations"),
+        sheets="results/{dataset}/validation/sheets.tsv",
     log:
-        "logs/{dataset}/validate.log",
-    benchmark:
-        "logs/{dataset}/benchmarks/validate.tsv"
+        "logs/{dataset}/calibrate.log",
+    wildcard_constraints:
+        dataset=only(PLAN.on_disk),
     conda:
         "../envs/aceval.yaml"
+    threads: lambda w: PLAN.dataset_threads(w.dataset, workflow.cores)
     params:
         root=lambda w: PLAN.dataset_dir(w.dataset),
         files=lambda w: PLAN.recording_files_digest(w.dataset),
+        batches=lambda w: PLAN.batch_options(w.dataset),
+        results="results/{dataset}",
+        code=CODE,
     shell:
-        "python -m aceval validate {params.root:q} --sheets-only --findings-out {output:q} > {log:q} 2>&1 "
+        "python -m aceval batches {params.root:q} {params.batches:q} "
+        "--results {params.results:q} --jobs {threads} --force > {log:q} 2>&1 "
         "|| (cat {log:q} >&2; exit 1)"

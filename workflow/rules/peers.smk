@@ -2,7 +2,8 @@
 # qmt's hinge joint axis, OpenSim's OpenSense IMUPlacer. None can share aceval's environment (nor
 # each other's), so each runs in its own (.venv-peers/<environment>, from the pinned
 # workflow/peers/<environment>.txt) behind a file interface: each calibration job's plan (which
-# recordings, right axes, subsets) in, rotations in aceval's convention out (peer_io.py).
+# recordings, right axes, subsets) in, rotations in aceval's convention out (peer_io.py). The
+# adapters' own source (workflow/peers/) is a param: an edit reruns their jobs.
 # The workflow builds each environment (from the package index; aceval's own environment is never
 # touched) the first time a peer job needs it, beside the simulations; later runs reuse it, and a
 # change of the pins rebuilds it. `--config peers=[]` leaves the peers out (said on screen).
@@ -34,14 +35,12 @@ rule peer_env:
 
 rule peer_calibrate:
     input:
-        plan="results/{dataset}/calibrations/{subject}_plan.json",
+        calibrations="results/{dataset}/calibrations",
         env=lambda w: PLAN.peer_env_stamp(PLAN.peers[w.peer].environment),
     output:
         "results/{dataset}/peers/{peer}/{subject}.csv",
     log:
         "logs/{dataset}/{peer}_{subject}.log",
-    benchmark:
-        "logs/{dataset}/benchmarks/peer_{peer}_{subject}.tsv"
     wildcard_constraints:
         peer="|".join(PLAN.peers),
     conda:
@@ -49,5 +48,7 @@ rule peer_calibrate:
     params:
         python=lambda w: PLAN.peer_python(w.peer),
         adapter=lambda w: os.path.join(PEERS_DIR, PLAN.peers[w.peer].adapter),
+        plan="results/{dataset}/calibrations/{subject}_plan.json",
+        code=PEERS_CODE,
     shell:
-        "{params.python:q} {params.adapter:q} {input.plan:q} {output:q} > {log:q} 2>&1"
+        "{params.python:q} {params.adapter:q} {params.plan:q} {output:q} > {log:q} 2>&1"

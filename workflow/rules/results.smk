@@ -3,8 +3,10 @@
 # declares them, SUMMARY.md with each claim of Kong et al. 2016 and Ricci et al. 2014 (holds / does
 # not hold / inconclusive / not testable), and validation.txt with the sheets' and every file's
 # findings. One process per dataset, not one per output: start-up (pandas, SciPy, statsmodels,
-# seaborn) costs more than most outputs. A dataset's analyses decide which tables and figures it
-# has, so the job's outputs are its tables/ and figures/ folders (each file in the report).
+# Matplotlib) costs more than most outputs; and one job per dataset, not one for the run, so that
+# a dataset's change reruns its results only and two datasets' results run side by side. A
+# dataset's analyses decide which tables and figures it has, so the job's outputs are its tables/
+# and figures/ folders (each file in the report).
 
 
 rule results:
@@ -38,8 +40,6 @@ rule results:
         ),
     log:
         "logs/{dataset}/results.log",
-    benchmark:
-        "logs/{dataset}/benchmarks/results.tsv"
     conda:
         "../envs/aceval.yaml"
     params:
@@ -48,6 +48,7 @@ rule results:
         inputs=input_options,
         options=lambda w: PLAN.results_options(w.dataset),
         data_label=lambda w: PLAN.data_label(w.dataset),
+        code=CODE,
     shell:
         "python -m aceval outputs --dataset {params.root:q} --results {params.results:q} "
         "{params.options:q} {params.inputs:q} 2> {log:q}"

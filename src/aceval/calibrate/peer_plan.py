@@ -5,6 +5,7 @@ the plan of aceval's own methods is :mod:`aceval.calibrate.plan`).
 from __future__ import annotations
 
 import itertools
+from pathlib import Path
 
 import pandas as pd
 
@@ -16,17 +17,21 @@ from aceval.data.dataset import Dataset
 from aceval.data.rotations import axis_vector
 
 
-def calibration_plan(dataset: Dataset, summaries: pd.DataFrame, retest_k: int | None = 3) -> dict:
+def calibration_plan(
+    dataset: Dataset, summaries: pd.DataFrame, retest_k: int | None = 3, root=None
+) -> dict:
     """What a peer tool calibrates, in the file interface of workflow/peers/peer_io.py: per (subject,
     set, IMU, motion test) that Kong's method calibrates, the static and motion recording files
     this pass found usable, the sample ranges of each motion file that aceval's methods read
     (``kept``: the trimmer's movement windows, clipped samples left out), the declared right axis
     as a vector, and the subsets of repetitions (all of them, then every subset of ``retest_k``);
     and (``static``) every IMU's quiet-standing files. Ricci's functional design has no
-    calibration here (the peers calibrate from a vertical and one movement axis).
+    calibration here (the peers calibrate from a vertical and one movement axis). ``root``: the
+    dataset's folder as the peers find it (default: where it is read; a job writing the
+    dataset reads it from its staging folder).
     """
     plan = {
-        "dataset": str(dataset.root.resolve()),
+        "dataset": str(Path(root or dataset.root).resolve()),
         "fs_hz": dataset.fs_hz,
         "acc_scale": dataset.acc_scale,
         "gyr_scale": dataset.gyr_scale,

@@ -28,14 +28,16 @@ from aceval.calibrate.table import (
     subset_label,
 )
 from aceval.data.dataset import Dataset
+from aceval.data.grouping import group_positions
 from aceval.data.rotations import axis_vector
 from aceval.methods import registry
-from aceval.methods.functional import pool, stable_seed
+from aceval.methods.functional import MOMENT_COLUMNS, pool_summed, stable_seed
 from aceval.methods.sufficient import Units
 from aceval.signals.checks import (
     AGREEMENT_COLUMNS,
     GYRO_THIRD,
     MAX_STATIC_ANGLE_DEG,
+    REST_GYRO_COLUMNS,
     STILL_COLUMNS,
     acc_sign_agreement,
     acc_sign_problem,
@@ -104,14 +106,23 @@ def static_axes(summaries: pd.DataFrame) -> tuple[pd.DataFrame, dict]:
     static = summaries[(summaries["kind"] == "static") & (summaries["flag"] == "")]
     z0 = static.groupby(KEY)[["z0_x", "z0_y", "z0_z"]].mean()
     z0 = z0.div(np.linalg.norm(z0.to_numpy(), axis=1), axis=0)
+    moments = static[MOMENT_COLUMNS].to_numpy(float).T  # as pandas sums them: NaN (phases) as 0
+    moments = np.ascontiguousarray(np.where(np.isnan(moments), 0.0, moments))
+    tests = static["test"].to_numpy(object)
     axes = {
-        key: (pool(group), ",".join(sorted(group["test"].unique())), len(group))
-        for key, group in static.groupby(KEY)
+        key: (
+            pool_summed(moments[:, at].sum(axis=1)),
+            ",".join(sorted(set(tests[at]))),
+            len(at),
+        )
+        for key, at in sorted(group_positions(static, KEY), key=lambda group: group[0])
     }
     return z0, axes
 
 
-def imu_checks(dataset: Dataset, summaries: pd.DataFrame, pairs=None) -> dict[tuple, dict]:
+def imu_checks(
+    dataset: Dataset, summaries: pd.DataFrame, pairs=None, z0: pd.DataFrame | None = None
+) -> dict[tuple, dict]:
     """Per (subject, set, IMU), what its motion recordings say about the sensor itself
     (:func:`aceval.signals.checks.sensor_problem`; walking recordings are left out of the
     agreement), about its static trial (:func:`aceval.signals.checks.static_posture`) and about
@@ -120,30 +131,30 @@ def imu_checks(dataset: Dataset, summaries: pd.DataFrame, pairs=None) -> dict[tu
     calibrations only) and the checks' evidence columns; also what its signals say
     (:func:`aceval.signals.checks.signal_verdict`) and, with the Obj 1 ``pairs``, whether the
     two sensors of its segment agree on the accelerometer's sign
-    (:func:`aceval.signals.checks.acc_sign_agreement`).
+    (:func:`aceval.signals.checks.acc_sign_agreement`). ``z0``: :func:`static_axes`' when the
+    caller has it. The tables are grouped once; each IMU's checks read NumPy slices of them.
     """
     motion = summaries[summaries["kind"] == "motion"]
     if motion.empty or AGREEMENT_COLUMNS[0] not in motion:
         return {}
-    gait = motion["test"].map(dataset.first_phase) == "gait"
-    z0, _ = static_axes(summaries)
+    z0 = static_axes(summaries)[0] if z0 is None else z0
     places = summaries[summaries["kind"].isin(["motion", "extra"])]
     signatures = signature_verdicts(places) if SIGNATURE_COLUMNS[0] in places else {}
-    static = summaries[summaries["kind"] == "static"]
-    statics = dict(list(static[~_linked(dataset, static)].groupby(KEY)))  # not re-placements
     signs = acc_sign_agreement(pairs)
+    agreements = _best_agreements(dataset, motion)
+    fastest = motion.groupby(KEY, sort=False)["gyro_p90_deg_s"].max().to_dict()
+    signals = _signal_verdicts(dataset, summaries, motion)
+    tests = motion["test"].to_numpy(object)
+    still = motion[STILL_COLUMNS].to_numpy(float) if STILL_COLUMNS[0] in motion else None
+    verticals_of = dict(zip(z0.index, z0.to_numpy(float)))
     out = {}
-    for key, group in motion.groupby(KEY, sort=False):
-        per_test = group.loc[~gait[group.index]].groupby("test")[AGREEMENT_COLUMNS].sum()
-        summed = best_test_agreement(per_test.to_numpy(float))
-        verdict = sensor_problem(
-            summed, float(group["gyro_p90_deg_s"].max()), dataset.meta["units"]["gyr"]
-        )
+    for key, at in group_positions(motion, KEY):
+        verdict = sensor_problem(agreements[key], fastest[key], dataset.meta["units"]["gyr"])
         messages = [verdict["message"]]
         standing = dataset.functional_axes is None  # Ricci's static posture is the sheet's
-        if standing and key in z0.index and STILL_COLUMNS[0] in group:
-            still = {t: g[STILL_COLUMNS].to_numpy(float) for t, g in group.groupby("test")}
-            posture = static_posture(z0.loc[key].to_numpy(float), still)
+        if standing and key in verticals_of and still is not None:
+            verticals = {t: still[at[tests[at] == t]] for t in sorted(set(tests[at]))}
+            posture = static_posture(verticals_of[key], verticals)
             verdict["static_vertical_angle_deg"] = posture["static_vertical_angle_deg"]
             verdict["static_check_tests"] = posture["static_check_tests"]
             verdict["flag"] = combine_flags(verdict["flag"], posture["flag"])
@@ -154,7 +165,7 @@ def imu_checks(dataset: Dataset, summaries: pd.DataFrame, pairs=None) -> dict[tu
                     f"{posture['static_check_tests']} motion tests with still portions (more than "
                     f"{MAX_STATIC_ANGLE_DEG:.0f}): taken seated or leaning, not standing?"
                 )
-        signal = signal_verdict(statics.get(key, summaries.iloc[:0]), group)
+        signal = signals[key]
         sign = signs.get(key, np.nan)
         flags = [signal["flag"], "acc_sign_mismatch" if acc_sign_problem(sign) else ""]
         verdict["flag"] = combine_flags(verdict["flag"], *flags)
@@ -167,6 +178,57 @@ def imu_checks(dataset: Dataset, summaries: pd.DataFrame, pairs=None) -> dict[tu
         message = "; ".join(m for m in messages if m)
         verdict["message"] = f"{' '.join(key)}: {message}" if message else ""
         out[key] = verdict
+    return out
+
+
+def _best_agreements(dataset: Dataset, motion: pd.DataFrame) -> dict[tuple, np.ndarray]:
+    """Per IMU of ``motion``, the summed ``AGREEMENT_COLUMNS`` of its best test
+    (:func:`aceval.signals.checks.best_test_agreement`; walking left out: zeros when only
+    walking is left). Each test's sum runs over its recordings in table order, whatever else
+    the table holds.
+    """
+    values = motion[AGREEMENT_COLUMNS].to_numpy(float)
+    gait = (motion["test"].map(dataset.first_phase) == "gait").to_numpy()
+    tests = motion["test"].to_numpy(object)
+    out = {}
+    for key, at in group_positions(motion, KEY):
+        at = at[~gait[at]]
+        per_test = [values[at[tests[at] == t]].sum(axis=0) for t in sorted(set(tests[at]))]
+        out[key] = best_test_agreement(np.array(per_test).reshape(-1, len(AGREEMENT_COLUMNS)))
+    return out
+
+
+def _signal_verdicts(dataset, summaries: pd.DataFrame, motion: pd.DataFrame) -> dict[tuple, dict]:
+    """:func:`aceval.signals.checks.signal_verdict` of each IMU of ``motion``, from the rest
+    offsets of its static, then its motion recordings, and its usable static recordings; the
+    static recordings verticals.tsv gives a repetition as its own (a re-placement) left out.
+    """
+    static = summaries[summaries["kind"] == "static"]
+    static = static[~_linked(dataset, static)]
+
+    def column_values(table, columns) -> np.ndarray:
+        present = columns[0] in table
+        return table[columns].to_numpy(float) if present else np.full((len(table), 3), np.nan)
+
+    offsets = {
+        kind: (table, column_values(table, REST_GYRO_COLUMNS))
+        for kind, table in (("static", static), ("motion", motion))
+    }
+    usable = static[static["flag"] == ""] if "flag" in static else static
+    z0 = column_values(usable, ["z0_x", "z0_y", "z0_z"])
+    vendor = (
+        usable["vendor_up_angle_deg"].to_numpy(float)
+        if "vendor_up_angle_deg" in usable
+        else np.full(len(usable), np.nan)
+    )
+    rows = {kind: dict(group_positions(t, KEY)) for kind, (t, _) in offsets.items()}
+    of_usable = dict(group_positions(usable, KEY))
+    none = np.zeros(0, dtype=int)
+    out = {}
+    for key in rows["motion"]:
+        rest = [values[rows[kind].get(key, none)] for kind, (_, values) in offsets.items()]
+        chosen = of_usable.get(key, none)
+        out[key] = signal_verdict(np.concatenate(rest), z0[chosen], vendor[chosen])
     return out
 
 
@@ -184,7 +246,7 @@ def build_plan(
     ``sensors``: :func:`imu_checks` when the caller has it already.
     """
     z0, statics = static_axes(summaries)
-    sensors = imu_checks(dataset, summaries) if sensors is None else sensors
+    sensors = imu_checks(dataset, summaries, z0=z0) if sensors is None else sensors
     motion = summaries[(summaries["kind"] == "motion") & (summaries["flag"] == "")]
     motion = motion[pd.MultiIndex.from_frame(motion[KEY]).isin(z0.index)]
     motion = motion.sort_values([*KEY, "test", "rep"], kind="stable")

@@ -158,14 +158,29 @@ class ValidationReport:
 _NUMBER = re.compile(r"(?<![\w.])-?\d+(?:\.\d+)?(?![\w.])")
 
 
+@dataclass(frozen=True)
+class SignalFaults:
+    """What the checks of a recording's signals found as it was read
+    (:func:`aceval.data.recording_checks.read_checked`), kept for the pass that summarises it (the
+    checks run once): ``stuck`` (name, share, value) of a stuck channel or None, and ``spikes``,
+    the (N,) mask of single-sample acceleration spikes.
+    """
+
+    stuck: tuple[str, float, float] | None
+    spikes: np.ndarray
+
+
 @dataclass
 class Recording:
-    """One recording in SI units: t (s), acc (N, 3) m/s^2, gyr (N, 3) rad/s."""
+    """One recording in SI units: t (s), acc (N, 3) m/s^2, gyr (N, 3) rad/s; ``faults``: what
+    the signal checks found when it was read (None when they have not run).
+    """
 
     t: np.ndarray
     acc: np.ndarray
     gyr: np.ndarray
     path: Path
+    faults: SignalFaults | None = None
 
 
 class RecordingError(ValueError):

@@ -8,6 +8,7 @@ config/README.md for the user-facing description.
 
 from __future__ import annotations
 
+import io
 import os
 from dataclasses import dataclass
 from functools import cached_property
@@ -201,9 +202,9 @@ class Dataset:
         return row[R_COLUMNS].to_numpy(dtype=float).reshape(3, 3)
 
 
-def _read_sheet(root: Path, name: str, required: list[str], report: ValidationReport):
-    path = root / name
-    if problem := file_problem(path):
+def _read_sheet(root: Path, name: str, required: list[str], report: ValidationReport, text=None):
+    path = root / name if text is None else io.StringIO(text)
+    if text is None and (problem := file_problem(path)):
         report.error(name, "sheet is missing" if problem == "file is missing" else problem)
         return None
     try:
@@ -310,18 +311,26 @@ def _expand_imus(
 
 
 def read_sheets(
-    root: str | Path, report: ValidationReport | None = None
+    root: str | Path, report: ValidationReport | None = None, texts: dict | None = None
 ) -> tuple[Dataset | None, ValidationReport]:
-    """Read and cross-check dataset.yaml and the sheets (not the recording files)."""
-    root = Path(root)
+    """Read and cross-check dataset.yaml and the sheets (not the recording files); ``texts``:
+    sheet name -> its text, read instead of the file (a process holding part of a dataset it is
+    writing: its own subjects' recordings.tsv and ground_truth.tsv rows).
+    """
+    root, texts = Path(root), texts or {}
     report = report or ValidationReport(str(root))
     if not root.is_dir():
         report.error(str(root), "dataset folder does not exist")
         return None, report
     meta = _check_meta(root, report)
-    sheets = {name: _read_sheet(root, name, cols, report) for name, cols in SHEETS.items()}
+    sheets = {
+        name: _read_sheet(root, name, cols, report, texts.get(name))
+        for name, cols in SHEETS.items()
+    }
     optional = {
-        name: _read_sheet(root, name, cols, report) if (root / name).exists() else None
+        name: _read_sheet(root, name, cols, report, texts.get(name))
+        if name in texts or (root / name).exists()
+        else None
         for name, cols in OPTIONAL_SHEETS.items()
     }
     ground_truth, functional_axes = optional["ground_truth.tsv"], optional["functional_axes.tsv"]

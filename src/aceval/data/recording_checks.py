@@ -21,6 +21,7 @@ from aceval.data.contract import (
     UNITS_GRAVITY_BAND,
     Recording,
     RecordingError,
+    SignalFaults,
     ValidationReport,
     file_problem,
     recording_columns,
@@ -36,25 +37,31 @@ def recording_where(row) -> str:
     return f"{row['path']} ({row['subject']} {row['sensor_set']} {row['test']} R{row['rep']} {row['imu']})"
 
 
-def read_checked(dataset, row, report: ValidationReport) -> Recording | None:
+def read_checked(dataset, row, report: ValidationReport, values=None) -> Recording | None:
     """Read one recording (a recordings.tsv row) and run every file-level check on it, adding
-    findings to ``report``: the recording in SI units, or None when it has an error.
+    findings to ``report``: the recording in SI units, with what the checks of its signals found
+    (``faults``: the pass that summarises it uses them, not a second run), or None when it has an
+    error. ``values``: the file's (N, 7) values when the caller holds them already (a recording
+    simulated in the same process, exactly as the file reads back); else the file is read.
     """
     where = recording_where(row)
     path = dataset.root / row["path"]
-    if problem := file_problem(path):
-        report.error(where, problem)
-        return None
-    try:
-        values = recording_values(path)
-    except RecordingError as exc:
-        report.error(where, exc.cause)
-        return None
+    if values is None:
+        if problem := file_problem(path):
+            report.error(where, problem)
+            return None
+        try:
+            values = recording_values(path)
+        except RecordingError as exc:
+            report.error(where, exc.cause)
+            return None
     errors = len(report.errors)
-    check_values(dataset, row, values, report)
+    faults = check_values(dataset, row, values, report)
     if len(report.errors) > errors:
         return None
-    return as_recording(values, dataset.acc_scale, dataset.gyr_scale, path)
+    recording = as_recording(values, dataset.acc_scale, dataset.gyr_scale, path)
+    recording.faults = faults
+    return recording
 
 
 def as_recording(values: np.ndarray, acc_scale: float, gyr_scale: float, path) -> Recording:
@@ -71,21 +78,20 @@ def check_recording(dataset, row, report: ValidationReport) -> None:
     read_checked(dataset, row, report)
 
 
-def check_values(dataset, row, values: np.ndarray, report: ValidationReport) -> None:
+def check_values(dataset, row, values: np.ndarray, report: ValidationReport):
     """File-level checks of one recording's (N, 7) values (file units), adding findings to
-    ``report``: sample count, NaN, time, sampling rate, units at rest, saturation and clipping.
+    ``report``: sample count, NaN, time, sampling rate, units at rest, saturation, clipping and
+    the signals' faults (:func:`check_signals`: returned; None when a format check stops first).
     """
     where = recording_where(row)
     if len(values) < 2:
         report.error(where, f"{len(values)} samples: a recording needs at least 2")
         return
-    bad = ~np.isfinite(values)
+    bad = ~np.isfinite(values).all(axis=1)
     if bad.any():
-        first = position(row["path"], int(np.flatnonzero(bad.any(axis=1))[0]))
-        report.error(
-            where,
-            f"{int(bad.any(axis=1).sum())} rows with NaN, inf or non-numeric values (first at {first})",
-        )
+        first = position(row["path"], int(np.flatnonzero(bad)[0]))
+        cause = f"{int(bad.sum())} rows with NaN, inf or non-numeric values (first at {first})"
+        report.error(where, cause)
         return
     t = values[:, 0]
     dt = np.diff(t)
@@ -135,7 +141,7 @@ def check_values(dataset, row, values: np.ndarray, report: ValidationReport) -> 
             )
     calibrating = (row["test"], row["imu"]) in dataset.calibrated
     suspect = calibrating and gyro_units_suspect(values, dataset, where, report)
-    check_signals(dataset, row, values, report, spikes=not suspect)
+    faults = check_signals(dataset, row, values, report, spikes=not suspect)
     gyr_range = dataset.meta.get("gyr_range_dps")
     if gyr_range:
         limit = SATURATION_FRACTION * np.radians(float(gyr_range)) / dataset.gyr_scale
@@ -144,6 +150,7 @@ def check_values(dataset, row, values: np.ndarray, report: ValidationReport) -> 
             report.warning(
                 where, f"{n_sat} samples at the gyroscope range +-{gyr_range} deg/s (saturated)"
             )
+    return faults
 
 
 def check_time(dataset, row, t: np.ndarray, dt: np.ndarray, report: ValidationReport) -> None:
@@ -298,12 +305,13 @@ def vendor_up(path: Path) -> np.ndarray | None:
 
 def check_signals(
     dataset, row, values: np.ndarray, report: ValidationReport, spikes: bool = True
-) -> None:
-    """The checks of a recording's signals (file units) beyond its format: a stuck channel
+) -> SignalFaults:
+    """The checks of a recording's signals beyond its format, on its (N, 7) values (file units),
+    each a warning naming the file and what aceval does about it: a stuck channel
     (:func:`stuck_channel`; of a static recording the accelerometer's only: a still gyroscope may
-    hold its value) and, with ``spikes``, spikes (:func:`acc_spikes`: not where the gyroscope's
-    units are in doubt, since they judge its jolt), each a warning naming the file and what
-    aceval does about it.
+    hold its value) and, with ``spikes``, spikes (:func:`acc_spikes`, in SI: the acceleration
+    the summary leaves them out of; not where the gyroscope's units are in doubt, since they
+    judge its jolt). Returns what they found, for the pass that summarises the recording.
     """
     where = recording_where(row)
     static = dataset.test_kinds[row["test"]] == "static"
@@ -317,16 +325,19 @@ def check_signals(
             f"{name} is stuck at {value:g} for {share:.0%} of the recording (one value in a row): "
             "a dead or frozen axis; aceval leaves the recording out",
         )
-    if not spikes:
-        return
-    found = acc_spikes(values[:, 1:4], values[:, 4:7], dataset.acc_scale, dataset.gyr_scale)
-    if found.any():
-        first = position(row["path"], int(np.flatnonzero(found)[0]))
+    spiky = (
+        acc_spikes(values[:, 1:4] * dataset.acc_scale, values[:, 4:7] * dataset.gyr_scale)
+        if spikes
+        else np.zeros(len(values), dtype=bool)
+    )
+    if spiky.any():
+        first = position(row["path"], int(np.flatnonzero(spiky)[0]))
         report.warning(
             where,
-            f"{int(found.sum())} single-sample acceleration spike(s) of more than {SPIKE_G:g} g "
+            f"{int(spiky.sum())} single-sample acceleration spike(s) of more than {SPIKE_G:g} g "
             f"(first at {first}): beyond what a body segment does; aceval leaves them out",
         )
+    return SignalFaults(found, spiky)
 
 
 #: a recording of a test that calibrates its IMU whose gyroscope peaks below the movement

@@ -217,12 +217,17 @@ def staged_folder(out: str | Path, force: bool, write) -> None:
     try:
         with naming(out):
             write(staging)
-        (staging / MARKER).write_text("written by aceval; `--force` may replace this folder\n")
-        if out.exists():
-            shutil.rmtree(out)
-        staging.rename(out)
+        _place_folder(staging, out)
     finally:
         release(staging)
+
+
+def _place_folder(staging: Path, out: Path) -> None:
+    """Mark a complete staging folder as aceval's (:data:`MARKER`) and move it to ``out``."""
+    (staging / MARKER).write_text("written by aceval; `--force` may replace this folder\n")
+    if out.exists():
+        shutil.rmtree(out)
+    staging.rename(out)
 
 
 def check_folder_output(out: Path, force: bool) -> None:
@@ -385,13 +390,14 @@ def claim(path: str | Path) -> None:
 
 
 class FileSet:
-    """The output files of one command, committed together or not at all: each is written to a
-    hidden temporary beside it (:meth:`write`), and all are renamed into place when the ``with``
-    block ends without error; an error, or SIGTERM (:func:`exit_cleanly_on_sigterm`), removes
-    them. When the set is made, before the work: the folders (and ``folders``) are checked for
-    writing, a killed run's leftovers removed, and each output reserved by an empty temporary, so
-    that a second aceval writing the same output while this one works is refused
-    (UnsafeOutputError naming the output and the other process).
+    """The outputs of one command, committed together or not at all: each file is written to a
+    hidden temporary beside it (:meth:`write`), each folder output into a hidden staging folder
+    (:meth:`folder`), and all are moved into place when the ``with`` block ends without error
+    (a folder marked with :data:`MARKER`); an error, or SIGTERM
+    (:func:`exit_cleanly_on_sigterm`), removes them. When the set is made, before the work: the
+    folders (and ``folders``) are checked for writing, a killed run's leftovers removed, and each
+    output reserved by an empty temporary, so that a second aceval writing the same output while
+    this one works is refused (UnsafeOutputError naming the output and the other process).
     """
 
     def __init__(self, paths, folders=()):
@@ -401,6 +407,7 @@ class FileSet:
             claim(path)
         self.staged: dict[Path, Path] = {}
         self.reserved: dict[Path, Path] = {}
+        self.staged_folders: set[Path] = set()
         for path in self.paths:
             path.parent.mkdir(parents=True, exist_ok=True)
             self.reserved[path] = new_temporary(path)
@@ -422,6 +429,19 @@ class FileSet:
         with naming(path):
             write(self.staged[path])
 
+    def folder(self, path: str | Path, force: bool = False) -> Path:
+        """The staging folder of the folder output ``path`` (checked first, as
+        :func:`staged_folder` does: absent, empty, or with ``force`` a folder aceval wrote),
+        moved into place with the set's other outputs.
+        """
+        path = Path(path)
+        check_folder_output(path, force)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        claim(path)
+        self.reserved[path] = self.staged[path] = new_temporary(path, folder=True)
+        self.staged_folders.add(path)
+        return self.staged[path]
+
     def __enter__(self) -> FileSet:
         return self
 
@@ -429,7 +449,10 @@ class FileSet:
         try:
             if kind is None:
                 for path, tmp in self.staged.items():
-                    tmp.replace(path)
+                    if path in self.staged_folders:
+                        _place_folder(tmp, path)
+                    else:
+                        tmp.replace(path)
         finally:
             for tmp in self.reserved.values():
                 release(tmp)

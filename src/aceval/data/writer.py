@@ -33,7 +33,7 @@ def _write_subject(k: int) -> tuple[str, list]:
     write_subject, root, meta, file_format = _TASK
     writer = DatasetWriter(root, meta, sheets=False, file_format=file_format)
     write_subject(k, writer)
-    return writer._recordings.getvalue(), writer._ground_truth
+    return writer.collected()
 
 
 def progress(label: str, done: int, total: int) -> None:
@@ -49,10 +49,16 @@ def progress(label: str, done: int, total: int) -> None:
 
 def write_sheet(path: Path, columns: list[str], rows: list) -> None:
     """Write a tab-separated sheet with a header line."""
-    with open(path, "w", newline="") as handle:
-        writer = csv.writer(handle, delimiter="\t", lineterminator="\n")
-        writer.writerow(columns)
-        writer.writerows(rows)
+    Path(path).write_text(sheet_text(columns, rows), newline="")
+
+
+def sheet_text(columns: list[str], rows: list) -> str:
+    """The text of a tab-separated sheet with a header line (:func:`write_sheet`)."""
+    handle = io.StringIO(newline="")
+    writer = csv.writer(handle, delimiter="\t", lineterminator="\n")
+    writer.writerow(columns)
+    writer.writerows(rows)
+    return handle.getvalue()
 
 
 def simulated_meta(
@@ -82,6 +88,19 @@ def simulated_meta(
     }
 
 
+#: the first line of recordings.tsv, and the columns of ground_truth.tsv, as DatasetWriter writes them
+RECORDINGS_HEADER = "subject\tsensor_set\ttest\trep\timu\tpath\n"
+TRUTH_COLUMNS = ["subject", "sensor_set", "imu", *R_COLUMNS]
+
+
+def sheet_texts(rows: str, truth: list) -> dict[str, str]:
+    """The recordings.tsv and ground_truth.tsv a writer's :meth:`DatasetWriter.collected` rows
+    make, as text (:func:`aceval.data.dataset.read_sheets` reads them so).
+    """
+    texts = {"recordings.tsv": RECORDINGS_HEADER + rows}
+    return texts | ({"ground_truth.tsv": sheet_text(TRUTH_COLUMNS, truth)} if truth else {})
+
+
 #: the file formats DatasetWriter writes a recording in: a CSV of 6 significant digits (what a
 #: lab's export looks like), or Parquet, time in float64 and the signals in float32 (7 significant
 #: digits; half the bytes of the CSV, written 2x and read 2-3x faster: benchmarks/README.md)
@@ -97,7 +116,14 @@ class DatasetWriter:
     byte for byte whatever the number of processes.
     """
 
-    def __init__(self, root: Path, meta: dict, sheets: bool = True, file_format: str = "csv"):
+    def __init__(
+        self,
+        root: Path,
+        meta: dict,
+        sheets: bool = True,
+        file_format: str = "csv",
+        keep: bool = False,
+    ):
         if file_format not in FILE_FORMATS:
             raise ValueError(f"file_format {file_format!r} is not one of {', '.join(FILE_FORMATS)}")
         self.root = Path(root)
@@ -107,13 +133,17 @@ class DatasetWriter:
         self.acc_scale = acc_factor(meta)
         self.gyr_scale = GYR_UNITS[meta["units"]["gyr"]]
         self._ground_truth: list = []
+        #: with ``keep`` (Parquet only): recordings.tsv path -> the file's (N, 7) values exactly as
+        #: they read back, for a process that calibrates what it has just simulated
+        self.kept: dict[str, np.ndarray] = {}
+        self._keep = keep and file_format == "parquet"
         if not sheets:  # a worker of each_subject: its rows go back to the parent
             self._recordings = io.StringIO()
             return
         with open(self.root / "dataset.yaml", "w") as handle:
             yaml.safe_dump(meta, handle, sort_keys=False)
         self._recordings = open(self.root / "recordings.tsv", "w", newline="")
-        self._recordings.write("subject\tsensor_set\ttest\trep\timu\tpath\n")
+        self._recordings.write(RECORDINGS_HEADER)
 
     def recording(self, subject, sensor_set, test, rep, imu, gyr, acc, quat=None) -> str:
         """Write one recording (SI in, dataset.yaml's units out); returns its path in the dataset.
@@ -133,6 +163,10 @@ class DatasetWriter:
         table = np.column_stack(parts)
         if self.file_format == "parquet":
             _write_parquet(path, columns, table)
+            if self._keep:  # as the file reads back: the signals through float32
+                values = table[:, : len(RECORDING_COLUMNS)].copy()
+                values[:, 1:] = values[:, 1:].astype(np.float32)
+                self.kept[rel.as_posix()] = values
         else:
             row_format = ",".join(["%.6g"] * table.shape[1]) + "\n"
             # one %-format over the whole table: the same text as np.savetxt, several times faster
@@ -140,6 +174,17 @@ class DatasetWriter:
             path.write_text(",".join(columns) + "\n" + text)
         self.reference(subject, sensor_set, test, rep, imu, rel.as_posix())
         return rel.as_posix()
+
+    def collected(self) -> tuple[str, list]:
+        """What a writer without its own sheets (``sheets=False``) collected for the dataset's:
+        its recordings.tsv rows (text) and ground_truth.tsv rows.
+        """
+        return self._recordings.getvalue(), self._ground_truth
+
+    def append(self, rows: str, truth: list) -> None:
+        """Add another writer's :meth:`collected` rows (in the dataset's subject order)."""
+        self._recordings.write(rows)
+        self._ground_truth += truth
 
     def reference(self, subject, sensor_set, test, rep, imu, path: str) -> None:
         """A recordings.tsv row for a file already written (one file serving two tests)."""
@@ -159,8 +204,7 @@ class DatasetWriter:
         pool = ProcessPoolExecutor(min(jobs, n), mp_context=multiprocessing.get_context("fork"))
         try:
             for k, (rows, truth) in enumerate(pool.map(_write_subject, range(n))):
-                self._recordings.write(rows)
-                self._ground_truth += truth
+                self.append(rows, truth)
                 progress(label, k + 1, n)
         finally:  # on an error or SIGTERM: no worker may still write once the caller cleans up
             pool.shutdown(wait=True, cancel_futures=True)
@@ -199,11 +243,7 @@ class DatasetWriter:
         """Finish recordings.tsv and write ground_truth.tsv."""
         self._recordings.close()
         if self._ground_truth:
-            write_sheet(
-                self.root / "ground_truth.tsv",
-                ["subject", "sensor_set", "imu", *R_COLUMNS],
-                self._ground_truth,
-            )
+            write_sheet(self.root / "ground_truth.tsv", TRUTH_COLUMNS, self._ground_truth)
 
 
 def _write_parquet(path: Path, columns: list[str], table: np.ndarray) -> None:

@@ -232,12 +232,13 @@ def fit_order(methods: dict[str, type]) -> list[str]:
     return order
 
 
-def statistics() -> list:
-    """Every statistic aceval's methods declare, each once, in the registry's order: what the
-    one pass computes (:mod:`aceval.signals.reduction`).
+def statistics(chosen=None) -> list:
+    """Every statistic aceval's methods declare (``chosen``: these methods and those they need),
+    each once, in the registry's order: what the one pass computes
+    (:mod:`aceval.signals.reduction`).
     """
     found = {}
-    for cls in classes().values():
+    for cls in classes(chosen).values():
         for statistic in cls.statistics:
             found.setdefault(statistic.name, statistic)
     return list(found.values())

@@ -1,6 +1,8 @@
-"""The figures, drawn with seaborn: Kong et al. 2016 Figures 6, 8, 9 and 10 "in spirit" (what
-they plot, not their look), Ricci et al. 2014 Figures 4-5, and the figures beyond the papers.
-Captions are in :mod:`aceval.report.outputs`.
+"""The figures, drawn with Matplotlib in seaborn's look (its "whitegrid" style in the "paper"
+context, :data:`STYLE`; seaborn itself is not imported: its categorical plots cost a pandas
+aggregation per point): Kong et al. 2016 Figures 6, 8, 9 and 10 "in spirit" (what they plot, not
+their look), Ricci et al. 2014 Figures 4-5, and the figures beyond the papers. Captions are in
+:mod:`aceval.report.outputs`.
 """
 
 from __future__ import annotations
@@ -11,12 +13,64 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
-import seaborn as sns  # noqa: E402
 
 from aceval.calibrate.table import unflagged
 from aceval.evaluation.objectives import SEGMENT_ORDER  # noqa: E402
 from aceval.report.kong2016 import rename_tests  # noqa: E402
+
+#: seaborn 0.13's ``set_theme(style="whitegrid", context="paper")``, the Matplotlib settings it
+#: changes (the look the figures had when seaborn drew them)
+STYLE = {
+    "axes.axisbelow": True,
+    "axes.edgecolor": ".8",
+    "axes.grid": True,
+    "axes.labelcolor": ".15",
+    "axes.labelsize": 9.6,
+    "axes.linewidth": 1.0,
+    "axes.titlesize": 9.6,
+    "font.sans-serif": [
+        "Arial",
+        "DejaVu Sans",
+        "Liberation Sans",
+        "Bitstream Vera Sans",
+        "sans-serif",
+    ],
+    "font.size": 9.6,
+    "grid.color": ".8",
+    "legend.fontsize": 8.8,
+    "legend.title_fontsize": 9.6,
+    "lines.linewidth": 1.2,
+    "lines.markersize": 4.8,
+    "lines.solid_capstyle": "round",
+    "patch.edgecolor": "w",
+    "patch.force_edgecolor": True,
+    "patch.linewidth": 0.8,
+    "text.color": ".15",
+    "xtick.bottom": False,
+    "xtick.color": ".15",
+    "xtick.labelsize": 8.8,
+    "xtick.major.size": 4.8,
+    "xtick.major.width": 1.0,
+    "xtick.minor.size": 3.2,
+    "xtick.minor.width": 0.8,
+    "ytick.color": ".15",
+    "ytick.labelsize": 8.8,
+    "ytick.left": False,
+    "ytick.major.size": 4.8,
+    "ytick.major.width": 1.0,
+    "ytick.minor.size": 3.2,
+    "ytick.minor.width": 0.8,
+}
+#: seaborn's "deep" palette, cycled for more levels
+PALETTE = ["#4c72b0", "#dd8452", "#55a868", "#c44e52", "#8172b3", "#937860", "#da8bc3", "#8c8c8c"]
+PALETTE += ["#ccb974", "#64b5cd"]
+
+
+def _set_style() -> None:
+    matplotlib.rcParams.update(STYLE)
+    matplotlib.rcParams["axes.prop_cycle"] = matplotlib.cycler(color=PALETTE)
 
 
 def _segments(values) -> list:
@@ -36,7 +90,7 @@ def plot(
 ) -> None:
     """Draw Kong Figure ``number`` to ``out`` (PNG). ``title`` names the dataset (and says SIMULATED)."""
     names = paper_names or {}
-    sns.set_theme(style="whitegrid", context="paper")
+    _set_style()
     if number in (6, 8):
         objective = "frontal_lateral" if number == 6 else "segment_pair"
         panel = "segment" if number == 6 else "pair"
@@ -117,13 +171,14 @@ def _facets(
     height=2.6,
     aspect=1.15,
     sharex=True,
-    **estimate,
+    estimator="mean",
+    errorbar="sd",
 ) -> plt.Figure:
-    """One panel per ``col`` value (three to a row), each seaborn's ``pointplot`` or ``barplot``
-    (``kind``) of ``y`` over ``x`` by ``hue`` with the ``estimate`` options (estimator, errorbar),
-    the y axis (and with ``sharex`` the x axis) shared, one legend beside them: what
-    ``sns.catplot`` draws, in one layout pass (catplot's grid lays the figure out three times:
-    45 % of a figure's time).
+    """One panel per ``col`` value (three to a row), each the ``estimator`` of ``y`` per ``x``
+    category (``order``; None: the panel's own, in order of appearance) and ``hue`` level, with
+    its ``errorbar`` ('sd': the mean's SD; ('pi', 50): the middle half), as points joined by lines
+    (``kind`` 'point', the levels dodged) or bars side by side ('bar'), the y axis (and with
+    ``sharex`` the x axis) shared, one legend beside them: what seaborn's ``catplot`` draws.
     """
     ncols = min(3, len(col_order))
     nrows = -(-len(col_order) // ncols)
@@ -135,33 +190,24 @@ def _facets(
         sharey=True,
         squeeze=False,
     )
-    colors = dict(zip(hue_order, sns.color_palette(n_colors=len(hue_order))))
-    draw = sns.pointplot if kind == "point" else sns.barplot
-    style = (
-        {"markersize": 4, "linewidth": 1, "dodge": 0.3 if len(hue_order) > 1 else False}
-        if kind == "point"
-        else {}
-    )  # seaborn's point dodge is divided by the levels - 1
+    colors = {level: PALETTE[k % len(PALETTE)] for k, level in enumerate(hue_order)}
+    summary = _estimates(data, [col, hue, x], y, estimator, errorbar)
     for k, (panel, name) in enumerate(zip(axes.flat, col_order)):
-        draw(
-            data=data[data[col] == name],
-            x=x,
-            y=y,
-            hue=hue,
-            hue_order=hue_order,
-            order=order,
-            palette=colors,
-            legend=False,
-            ax=panel,
-            **style,
-            **estimate,
-        )
+        rows = summary.loc[summary[col] == name]
+        categories = order or list(dict.fromkeys(data.loc[data[col] == name, x]))
+        draw = _points if kind == "point" else _bars
+        draw(panel, rows, x, hue, categories, colors)
+        panel.xaxis.grid(False)
+        panel.set_xticks(range(len(categories)), [str(c) for c in categories])
+        panel.set_xlim(-0.5, len(categories) - 0.5)
         panel.set_title(str(name))
         panel.set_xlabel(xlabel if k // ncols == nrows - 1 or k + ncols >= len(col_order) else "")
+        _labels_with_ticks(panel)
         panel.set_ylabel(ylabel if k % ncols == 0 else "")
     for panel in axes.flat[len(col_order) :]:
         panel.set_visible(False)
-    sns.despine(figure)
+    for panel in axes.flat:
+        panel.spines[["top", "right"]].set_visible(False)
     if len(hue_order) > 1:  # as catplot: no legend for a single level
         marker = {"marker": "o", "markersize": 4} if kind == "point" else {"linewidth": 6}
         handles = [plt.Line2D([], [], color=c, **marker) for c in colors.values()]
@@ -175,6 +221,71 @@ def _facets(
         )
     figure.tight_layout()
     return figure
+
+
+def _labels_with_ticks(panel) -> None:
+    """As seaborn: an axis's label is shown only where its tick labels are (a shared axis shows
+    them on the outer panels only).
+    """
+    for axis in (panel.xaxis, panel.yaxis):
+        axis.label.set_visible(any(label.get_visible() for label in axis.get_ticklabels()))
+
+
+def _estimates(data, by: list, y: str, estimator: str, errorbar) -> pd.DataFrame:
+    """Per group of ``by``: ``y`` (the ``estimator``, 'mean' or 'median'), ``low`` and ``high``
+    (the mean -+ the SD for ``errorbar`` 'sd'; for ('pi', w) the middle w percent), in one
+    grouping of the table.
+    """
+    grouped = data.groupby(by, sort=False)[y]
+    out = grouped.agg(estimator).rename("estimate").to_frame()
+    if errorbar == "sd":
+        spread = grouped.std()
+        out["low"], out["high"] = out["estimate"] - spread, out["estimate"] + spread
+    else:
+        share = errorbar[1]
+        out["low"] = grouped.quantile((50 - share / 2) / 100)
+        out["high"] = grouped.quantile((50 + share / 2) / 100)
+    return out.reset_index()
+
+
+def _points(panel, rows, x, hue, categories, colors) -> None:
+    """Each hue level's estimates as points joined by a line, with their error bars, the levels
+    dodged across 0.3 of a category (seaborn's ``pointplot``).
+    """
+    position = {c: k for k, c in enumerate(categories)}
+    dodge = 0.3 if len(colors) > 1 else 0.0
+    for k, (level, color) in enumerate(colors.items()):
+        mine = rows.loc[rows[hue] == level].set_index(x).reindex(categories)
+        offset = -dodge / 2 + (dodge / (len(colors) - 1) * k if len(colors) > 1 else 0.0)
+        at = np.array([position[c] for c in categories], float) + offset
+        estimate = mine["estimate"].to_numpy(float)
+        panel.plot(at, estimate, marker="o", color=color, lw=1, markersize=4, markeredgewidth=0.75)
+        bars = np.full((len(at), 3), np.nan)
+        low, high = mine["low"].to_numpy(float), mine["high"].to_numpy(float)
+        bars[:, 0], bars[:, 1] = low, high
+        panel.plot(np.repeat(at, 3), bars.ravel(), color=color, linewidth=1)
+
+
+def _bars(panel, rows, x, hue, categories, colors) -> None:
+    """Each hue level's estimates as bars side by side within 0.8 of a category, in its colour
+    desaturated to 0.75 (seaborn's default), with their error bars (seaborn's ``barplot``).
+    """
+    import colorsys
+
+    position = {c: k for k, c in enumerate(categories)}
+    width = 0.8 / len(colors)
+    offsets = np.linspace(0, 0.8 - width, len(colors))
+    offsets -= offsets.mean()
+    for offset, (level, color) in zip(offsets, colors.items()):
+        mine = rows.loc[rows[hue] == level]
+        mine = mine.loc[mine[x].isin(position)]
+        at = mine[x].map(position).to_numpy(float) + offset
+        hue_, light, saturation = colorsys.rgb_to_hls(*matplotlib.colors.to_rgb(color))
+        face = colorsys.hls_to_rgb(hue_, light, 0.75 * saturation)
+        panel.bar(at - width / 2, mine["estimate"], width=width, align="edge", color=face)
+        bars = np.full((len(at), 3), np.nan)
+        bars[:, 0], bars[:, 1] = mine["low"].to_numpy(float), mine["high"].to_numpy(float)
+        panel.plot(np.repeat(at, 3), bars.ravel(), color=".26", linewidth=1.8)
 
 
 def _not_testable(out: Path, text: str) -> None:
@@ -248,7 +359,7 @@ def plot_named(name: str, data: dict, out: Path, title: str) -> None:
     """Draw a figure beyond Kong's numbered ones (:mod:`aceval.report.outputs`) from the tidy tables
     in ``data``.
     """
-    sns.set_theme(style="whitegrid", context="paper")
+    _set_style()
     if name == "ricci_figure4":
         return _lm_example(data["axes"], title, out)
     drawers = {
@@ -336,21 +447,27 @@ def _reliability(data: dict, out: Path, title: str) -> None:
     if units.empty:
         return _not_testable(out, f"Reliability vs test-retest, {title}: no test-retest angles")
     figure, panels = plt.subplots(1, 2, figsize=(9, 3.6), sharey=True)
+    levels = sorted(units["test"].unique())
+    colors = {level: PALETTE[k % len(PALETTE)] for k, level in enumerate(levels)}
     for panel, (column, label) in zip(
         panels,
         [("rho", "rho of the gyroscope axis (Ricci)"), ("planarity", "Kong planarity (0 = plane)")],
     ):
-        sns.scatterplot(
-            data=units,
-            x=column,
-            y="test_retest_deg",
-            hue="test",
-            hue_order=sorted(units["test"].unique()),
+        panel.scatter(
+            units[column],
+            units["test_retest_deg"],
             s=14,
-            ax=panel,
-            legend=panel is panels[-1],
-        )
+            c=units["test"].map(colors).tolist(),
+            edgecolor="w",
+            linewidth=0.08 * np.sqrt(14),
+        )  # one call, in the table's order (which point lies on top), as seaborn's scatterplot
         panel.set(xlabel=label, ylabel="test-retest angle (deg)", yscale="log")
+        _labels_with_ticks(panel)
+    handles = [
+        plt.Line2D([], [], marker="o", linestyle="", color=c, markersize=np.sqrt(14), mec="w")
+        for c in colors.values()
+    ]
+    panels[-1].legend(handles, levels, title="test")
     figure.suptitle(f"Reliability index vs Obj 4 test-retest angle, {title}", fontsize=9)
     figure.tight_layout()
     return _save(figure, out)

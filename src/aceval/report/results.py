@@ -2,7 +2,7 @@
 analyses (:mod:`aceval.report.outputs`), SUMMARY.md and validation.txt.
 
 One process per dataset, not one per output: starting Python with pandas, SciPy, statsmodels and
-seaborn costs seconds, far more than most tables take to build (benchmarks/README.md).
+Matplotlib costs seconds, far more than most tables take to build (benchmarks/README.md).
 """
 
 from __future__ import annotations

@@ -56,7 +56,8 @@ import numpy as np
 import pandas as pd
 from scipy.ndimage import maximum_filter1d
 
-from aceval.data.contract import GRAVITY
+from aceval.data.contract import GRAVITY, SignalFaults
+from aceval.data.grouping import group_positions
 from aceval.data.rotations import vector_angle_deg
 from aceval.methods.sufficient import Part, Statistic
 
@@ -408,29 +409,35 @@ ACC_SIGN_LIMIT_DEG = 90.0
 _SIGNAL_NAMES = ["acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z"]
 
 
-def recording_signals(acc: np.ndarray, gyr: np.ndarray, rest: np.ndarray | None) -> tuple:
+def recording_signals(
+    acc: np.ndarray, gyr: np.ndarray, rest: np.ndarray | None, faults: SignalFaults | None = None
+) -> tuple:
     """The signal checks of one recording (SI, (N, 3) each): ``(statistics, spikes)``, the
     summary columns ``n_spikes`` and :data:`REST_GYRO_COLUMNS` (each axis's median angular
     velocity over the ``rest`` samples, rad/s; NaN when there are none or the sensor is not at
     rest there, :data:`REST_MAX_SD_DEG_S`), and the (N,) spike mask
     (:func:`aceval.data.recording_checks.acc_spikes`). StuckChannelError when a channel is stuck
     (:func:`aceval.data.recording_checks.stuck_channel`; ``rest`` None: a static recording,
-    whose accelerometer only is judged: a still gyroscope may hold its value).
+    whose accelerometer only is judged: a still gyroscope may hold its value). ``faults``: what
+    the checks found when the file was read (:class:`aceval.data.contract.SignalFaults`), used
+    as it is; without it they run here.
     """
     from aceval.data.errors import StuckChannelError
     from aceval.data.recording_checks import NOISY_SHARE, acc_spikes, stuck_channel
 
     static = rest is None
-    found = stuck_channel(acc, _SIGNAL_NAMES[:3])
-    if not static and not found:
-        found = stuck_channel(gyr, _SIGNAL_NAMES[3:])
-    if found:
+    if faults is None:
+        found = stuck_channel(acc, _SIGNAL_NAMES[:3])
+        if not static and not found:
+            found = stuck_channel(gyr, _SIGNAL_NAMES[3:])
+        faults = SignalFaults(found, None if found else acc_spikes(acc, gyr))
+    if faults.stuck:
         raise StuckChannelError(
-            f"{found[0]} holds one value for {found[1]:.0%} of the recording while the "
-            f"sensor's other two channels are noisy (new values at {NOISY_SHARE:.0%} of the "
+            f"{faults.stuck[0]} holds one value for {faults.stuck[1]:.0%} of the recording while "
+            f"the sensor's other two channels are noisy (new values at {NOISY_SHARE:.0%} of the "
             "samples): a dead or frozen axis"
         )
-    spikes = acc_spikes(acc, gyr)
+    spikes = faults.spikes
     still, still_acc = (gyr, acc) if static else (gyr[rest], acc[rest])
     at_rest = (
         len(still) >= 10
@@ -443,23 +450,22 @@ def recording_signals(acc: np.ndarray, gyr: np.ndarray, rest: np.ndarray | None)
     return {"n_spikes": int(spikes.sum()), **dict(zip(REST_GYRO_COLUMNS, offset))}, spikes
 
 
-def signal_verdict(static: pd.DataFrame, motion: pd.DataFrame) -> dict:
-    """What one IMU's per-recording statistics (its static and motion summary rows) say about
-    its signals: ``flag`` ('gyro_bias', 'static_disagree', 'acc_sign_mismatch', ';'-joined, or
-    ''), ``messages`` and the evidence ``gyro_bias_deg_s`` (the offset at rest, median over its
-    still recordings), ``static_spread_deg`` (the largest angle between its static recordings'
-    verticals) and ``vendor_up_angle_deg`` (the vendor's up from the accelerometer's at rest).
+def signal_verdict(offsets: np.ndarray, z0: np.ndarray, vendor: np.ndarray) -> dict:
+    """What one IMU's per-recording statistics say about its signals, from its rest offsets
+    ``offsets`` ((m, 3), :data:`REST_GYRO_COLUMNS` of its static, then its motion recordings;
+    NaN rows: none), and its usable static recordings' verticals ``z0`` ((k, 3)) and vendor's up
+    angles ``vendor`` ((k,), NaN: none): ``flag`` ('gyro_bias', 'static_disagree',
+    'acc_sign_mismatch', ';'-joined, or ''), ``messages`` and the evidence ``gyro_bias_deg_s``
+    (the offset at rest, median over its still recordings), ``static_spread_deg`` (the largest
+    angle between its static recordings' verticals) and ``vendor_up_angle_deg`` (the vendor's up
+    from the accelerometer's at rest).
     """
-    rest = pd.concat([t for t in (static, motion) if REST_GYRO_COLUMNS[0] in t])
-    offsets = rest[REST_GYRO_COLUMNS].to_numpy(float) if len(rest) else np.zeros((0, 3))
     offsets = offsets[np.isfinite(offsets).all(axis=1)]
     bias = float(np.degrees(np.linalg.norm(np.median(offsets, axis=0)))) if len(offsets) else np.nan
-    usable = static[static["flag"] == ""] if "flag" in static else static
-    z0 = usable[["z0_x", "z0_y", "z0_z"]].to_numpy(float) if "z0_x" in usable else np.zeros((0, 3))
     z0 = z0[np.isfinite(z0).all(axis=1)]
     spread = float(np.nanmax(vector_angle_deg(z0[:, None], z0[None]))) if len(z0) > 1 else np.nan
-    vendor = usable["vendor_up_angle_deg"] if "vendor_up_angle_deg" in usable else pd.Series()
-    vendor = float(vendor.max()) if vendor.notna().any() else np.nan
+    vendor = vendor[~np.isnan(vendor)]
+    vendor = float(vendor.max()) if len(vendor) else np.nan
     found = []
     if bias > GYRO_BIAS_LIMIT_DEG_S:
         cause = (
@@ -522,17 +528,20 @@ def acc_sign_agreement(pairs: pd.DataFrame) -> dict[tuple[str, str, str], float]
         & (pairs["flag"].fillna("") == "")
         & (pairs["n"] > 0)
     ]
+    n = rows["n"].to_numpy(float)[:, None, None]
+    ma, mb = rows[MEAN_A].to_numpy(float), rows[MEAN_B].to_numpy(float)
+    centred = {c[0]: rows[c].to_numpy(float) for c in (C_AA, C_BB, C_AB)}
+    signals = rows["signal"].to_numpy(object)
     out = {}
-    for (subject, sets, imu), group in rows.groupby(["subject", "sensor_set", "imu"], sort=False):
+    for (subject, sets, imu), at in group_positions(rows, ["subject", "sensor_set", "imu"]):
         moments = {}
-        for signal, part in group.groupby("signal"):
-            n = part["n"].to_numpy(float)[:, None, None]
-            ma, mb = part[MEAN_A].to_numpy(float), part[MEAN_B].to_numpy(float)
-
+        for signal in sorted(set(signals[at])):
+            part = at[signals[at] == signal]
             aa, bb, ab = (
-                (part[c].to_numpy(float).reshape(-1, 3, 3) + n * x[:, :, None] * y[:, None, :]).sum(
-                    axis=0
-                )
+                (
+                    centred[c[0]][part].reshape(-1, 3, 3)
+                    + n[part] * x[part][:, :, None] * y[part][:, None, :]
+                ).sum(axis=0)
                 for c, x, y in ((C_AA, ma, ma), (C_BB, mb, mb), (C_AB, ma, mb))
             )  # uncentred: the centred moments plus n times the product of the means
             moments[signal] = ab / np.sqrt(np.trace(aa) * np.trace(bb))

@@ -103,11 +103,14 @@ def reduce_recordings(
     tests: list[str] | None = None,
     segment_pairs: dict | None = None,
     max_lag_s: float = 0.5,
+    memory: dict | None = None,
 ) -> Reduction:
     """Read every recording of ``subject`` (all subjects if None) once: check it, summarise it
     and reduce the Obj 1-2 pairs it belongs to. ``tests``: only these motion tests (static tests
     always); ``segment_pairs`` as in config ``objectives.segment_pairs``; ``max_lag_s``: the
-    window of the time alignment of a pair (Kong Sec. 2.3).
+    window of the time alignment of a pair (Kong Sec. 2.3); ``memory``: recordings.tsv path ->
+    the file's (N, 7) values, for recordings the caller holds already (simulated in the same
+    process: exactly what the file reads back); each is taken out of it as it is used.
     """
     recordings = known_recordings(dataset)
     if subject is not None:
@@ -134,7 +137,9 @@ def reduce_recordings(
             report = ValidationReport(dataset.name)
             is_static = rec["test"] in static
             needed = is_static or (rec["test"], rec["imu"]) in allowed
-            data, moving, summary = _read(dataset, rec, report, is_static, needed, trim, statistics)
+            values = memory.pop(rec["path"], None) if memory else None
+            kind = (is_static, needed)
+            data, moving, summary = _read(dataset, rec, report, kind, trim, statistics, values)
             findings[index] = report.findings
             if summary is not None:
                 summaries[index] = summary
@@ -169,13 +174,15 @@ def reduce_recordings(
     return Reduction(pd.DataFrame(ordered), pd.DataFrame(pairs, columns=PAIR_COLUMNS), report)
 
 
-def _read(dataset, rec, report, is_static, needed, trim, statistics) -> tuple:
-    """``(recording, moving mask, summary)`` of one recording: read and checked (its problems in
+def _read(dataset, rec, report, kind, trim, statistics, values) -> tuple:
+    """``(recording, moving mask, summary)`` of one recording (``kind``: (static, needed)):
+    read (``values``: the file's, when the caller holds them) and checked (its problems in
     ``report``), its movement found (motion tests; None where the trimmer finds none) and, where
     an analysis ``needed`` it, its summary row (:func:`summarise`; an unreadable file's row says
     why). The recording is None where it cannot be read, the summary where it is not needed.
     """
-    data = read_checked(dataset, rec, report)
+    is_static, needed = kind
+    data = read_checked(dataset, rec, report, values)
     if data is None:
         cause = {"flag": "unreadable", "message": f"{rec['path']}: {report.errors[0].cause}"}
         return None, None, _row(rec, is_static) | cause if needed else None
@@ -278,7 +285,7 @@ def summarise(
     row = _row(rec, is_static)
     try:
         if is_static:
-            row.update(recording_signals(data.acc, data.gyr, None)[0])
+            row.update(recording_signals(data.acc, data.gyr, None, data.faults)[0])
             row.update(zip(["z0_x", "z0_y", "z0_z"], vertical_axis(data.acc)))
             up = vendor_up(data.path)  # the vendor's orientation, when the file has one
             row["vendor_up_angle_deg"] = (
@@ -296,12 +303,8 @@ def summarise(
                 "repetition, not a whole one (a cut file?)"
             )
         mask = moving if moving is not None else movement_mask(data.gyr, dataset.fs_hz, trim)
-        still = ~mask  # standing before, between and after the movements: the vertical again
-        enough = still.sum() >= MIN_STILL_S * dataset.fs_hz
-        row.update(
-            zip(STILL_COLUMNS, vertical_axis(data.acc[still]) if enough else np.full(3, np.nan))
-        )
-        signals, spikes = recording_signals(data.acc, data.gyr, still if enough else still & False)
+        rest = _still(dataset, data, mask, row)
+        signals, spikes = recording_signals(data.acc, data.gyr, rest, data.faults)
         row.update(signals)
         limit = dataset.acc_limit(rec["sensor_set"], rec["imu"])
         if limit is None and (plateau := plateau_limit(data.acc)) is not None:
@@ -329,6 +332,18 @@ def summarise(
             doubt = gyro_units_doubt(peak, data.acc, dataset.fs_hz, units)
         row.update(flag=exc.code, message=f"{rec['path']}: {exc}" + (f"; {doubt}" if doubt else ""))
     return row
+
+
+def _still(dataset: Dataset, data: Recording, mask: np.ndarray, row: dict) -> np.ndarray:
+    """The vertical of a motion recording's still portions (the samples outside the movement
+    ``mask``: standing before, between and after the movements), added to its summary ``row``
+    (NaN where they are too short); returns those samples where they are enough to tell the
+    gyroscope's offset at rest (none else).
+    """
+    still = ~mask
+    enough = still.sum() >= MIN_STILL_S * dataset.fs_hz
+    row.update(zip(STILL_COLUMNS, vertical_axis(data.acc[still]) if enough else np.full(3, np.nan)))
+    return still if enough else still & False
 
 
 def _pair_rows(

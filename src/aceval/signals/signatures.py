@@ -178,56 +178,69 @@ def signature_verdicts(motion: pd.DataFrame) -> dict[tuple, dict]:
     judged = speed["size"] >= 2  # a median of one sensor is that sensor itself
     moves = judged & ~speed["calibrates"] & (speed["ratio"] > MAX_OTHER_SPEED_RATIO)
     calibrated = motion[motion["calibrates"]]
-    timing = calibrated.groupby(key + ["test"])["timing_r"].median()
+    timing: dict[tuple, list] = {}
+    for (*k, test), r in calibrated.groupby(key + ["test"])["timing_r"].median().items():
+        timing.setdefault(tuple(k), []).append((test, r))
     voted = [c for c in SIGNATURE_COLUMNS[1:] if c in motion]
     side = motion.groupby(key)[voted].sum(min_count=1).reindex(columns=SIGNATURE_COLUMNS[1:])
+    side = dict(zip(side.index, side.to_numpy(float)))
+    moving: dict[tuple, list] = {}
+    for row in speed[moves].itertuples(index=False):
+        moving.setdefault((row.subject, row.sensor_set, row.imu), []).append(row)
     out = {}
-    for k, group in speed.groupby(key, sort=False):
-        messages, flags = [], []
-        for row in group[moves[group.index]].itertuples():
-            messages.append(
-                f"moves in {row.test}, a test that does not calibrate it ({row.gyro_p90_deg_s:.0f} "
-                f"deg/s, {row.ratio:.2f} of the median of the sensors the test calibrates)"
-            )
-        if messages:
-            flags.append("unexpected_motion_pattern")
-            messages[-1] += ": on another segment than imus.tsv says (labels exchanged)?"
-        votes, evidence, speed_votes = side.loc[k] if k in side.index else (np.nan,) * 3
-        if evidence >= MIN_SIDE_EVIDENCE and votes < 0 and speed_votes > 0:
-            flags.append("swing_reversed")
-            messages.append(
-                f"in walking its swing runs against its side's segments ({votes:+.0f} over "
-                f"{evidence:.0f} comparisons) while its angular speed rises and falls with them "
-                f"({speed_votes:+.0f}): its swing's sign reversed rather than its side? (a "
-                "gyroscope axis negated: a left-handed gyroscope; or right_axis with the wrong sign)"
-            )
-        elif evidence >= MIN_SIDE_EVIDENCE and votes < 0:
-            flags.append("opposite_side_timing")
-            sure = speed_votes < 0  # its speed, which has no sign, votes for the other side too
-            messages.append(
-                f"in walking it swings with the other side's segments ({votes:+.0f} over "
-                f"{evidence:.0f} comparisons): on the other leg (left and right exchanged)?"
-                + (
-                    ""
-                    if sure
-                    else " Or its swing's sign reversed (a gyroscope axis negated, right_axis "
-                    "with the wrong sign): its angular speed does not tell"
-                )
-            )
-        test_flags = {}
-        if k in timing.index.droplevel("test"):
-            for test, r in timing.loc[k].items():
-                if r < MIN_TIMING_R:
-                    test_flags[test] = "not_moving_with_others"
-                    messages.append(
-                        f"in {test} its angular speed rises and falls with no other sensor the "
-                        f"test calibrates (best correlation {r:.2f} < {MIN_TIMING_R}): another "
-                        f"movement than the test's?"
-                    )
-        out[k] = {
-            "flag": ";".join(flags),
-            "message": "; ".join(messages),
-            "test_flags": test_flags,
-            "side_votes": votes,
-        }
+    for k in speed[key].drop_duplicates().itertuples(index=False, name=None):
+        out[k] = _verdict(moving.get(k, []), *side.get(k, (np.nan,) * 3), timing.get(k, []))
     return out
+
+
+def _verdict(moving: list, votes: float, evidence: float, speed_votes: float, timing: list) -> dict:
+    """:func:`signature_verdicts` of one IMU from its rows that move in a test that does not
+    calibrate it (``moving``), its side ``votes``, ``evidence`` and ``speed_votes`` (its angular
+    speed's), and its median timing correlation per test it is calibrated in (``timing``:
+    [(test, r), ...]).
+    """
+    messages, flags = [], []
+    for row in moving:
+        messages.append(
+            f"moves in {row.test}, a test that does not calibrate it ({row.gyro_p90_deg_s:.0f} "
+            f"deg/s, {row.ratio:.2f} of the median of the sensors the test calibrates)"
+        )
+    if messages:
+        flags.append("unexpected_motion_pattern")
+        messages[-1] += ": on another segment than imus.tsv says (labels exchanged)?"
+    if evidence >= MIN_SIDE_EVIDENCE and votes < 0 and speed_votes > 0:
+        flags.append("swing_reversed")
+        messages.append(
+            f"in walking its swing runs against its side's segments ({votes:+.0f} over "
+            f"{evidence:.0f} comparisons) while its angular speed rises and falls with them "
+            f"({speed_votes:+.0f}): its swing's sign reversed rather than its side? (a "
+            "gyroscope axis negated: a left-handed gyroscope; or right_axis with the wrong sign)"
+        )
+    elif evidence >= MIN_SIDE_EVIDENCE and votes < 0:
+        flags.append("opposite_side_timing")
+        sure = speed_votes < 0  # its speed, which has no sign, votes for the other side too
+        messages.append(
+            f"in walking it swings with the other side's segments ({votes:+.0f} over "
+            f"{evidence:.0f} comparisons): on the other leg (left and right exchanged)?"
+            + (
+                ""
+                if sure
+                else " Or its swing's sign reversed (a gyroscope axis negated, right_axis "
+                "with the wrong sign): its angular speed does not tell"
+            )
+        )
+    test_flags = {}
+    for test, r in timing:
+        if r < MIN_TIMING_R:
+            test_flags[test] = "not_moving_with_others"
+            messages.append(
+                f"in {test} its angular speed rises and falls with no other sensor the test "
+                f"calibrates (best correlation {r:.2f} < {MIN_TIMING_R}): another movement than "
+                "the test's?"
+            )
+    return {
+        "flag": ";".join(flags),
+        "message": "; ".join(messages),
+        "test_flags": test_flags,
+        "side_votes": votes,
+    }

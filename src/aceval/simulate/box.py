@@ -8,12 +8,20 @@ from pathlib import Path
 
 import numpy as np
 
+from aceval.data.units import SIMULATED_SUBJECTS
 from aceval.data.writer import DatasetWriter, simulated_meta, write_sheet
 from aceval.simulate.body import Placement, random_mount
-from aceval.simulate.engine import band_noise, euler_pitch_roll_yaw, fine_time, small_rotations
+from aceval.simulate.engine import (
+    band_noise,
+    each_times,
+    euler_pitch_roll_yaw,
+    fine_time,
+    small_rotations,
+)
 from aceval.simulate.kong_dataset import ACC_RANGE_G, GYR_RANGE_DPS, IMUS, SENSOR_SETS, UNITS
 from aceval.simulate.motion import bell
 from aceval.simulate.options import SimOptions, sensor_signals
+from aceval.simulate.simulation import Simulation, write_simulation
 
 #: box size (m): Kong does not give it; a hand-held aluminium box of this size is assumed
 BOX = np.array([0.30, 0.20, 0.15])
@@ -40,7 +48,7 @@ def _edge_rotation(rng, fs):
     pitch = np.radians(rng.normal(60, 6)) * bell(t, rest, duration)
     R = euler_pitch_roll_yaw(pitch)
     edge = np.array([-BOX[0] / 2, 0.0, BOX[2] / 2])  # the hinge, in the box frame
-    origin = -(R @ edge) + edge  # the edge stays where it is
+    origin = -each_times(R, edge) + edge  # the edge stays where it is
     return t, R, origin, bell(t, rest, duration)
 
 
@@ -78,12 +86,21 @@ TESTS = {
 def simulate_box(
     out: Path,
     seed: int,
-    n_subjects: int = 1,
+    n_subjects: int = SIMULATED_SUBJECTS["box"],
     options: SimOptions = SimOptions(),
     name: str = "box_sim",
 ) -> Path:
     """Write the SIMULATED rigid-box dataset (Kong Sec. 3) into ``out``, named ``name``; returns ``out``."""
-    out = Path(out)
+    return write_simulation(box_simulation(seed, n_subjects, options, name), out, options)
+
+
+def box_simulation(
+    seed: int,
+    n_subjects: int = SIMULATED_SUBJECTS["box"],
+    options: SimOptions = SimOptions(),
+    name: str = "box_sim",
+) -> Simulation:
+    """The SIMULATED rigid-box dataset (Kong Sec. 3) named ``name``, before it is written."""
     meta = simulated_meta(
         name,
         "the rigid aluminium box of Kong et al. 2016 Sec. 3",
@@ -95,29 +112,31 @@ def simulate_box(
         acc_range_g=ACC_RANGE_G,
         gyr_range_dps=GYR_RANGE_DPS,
     )
-    writer = DatasetWriter(out, meta, file_format=options.file_format)
     placements = _placements()
     subjects = [f"BOX{k + 1}" for k in range(n_subjects)]
-    write_sheet(
-        out / "subjects.tsv",
-        ["subject", "description"],
-        [[s, "rigid aluminium box"] for s in subjects],
-    )
     repetitions = {test: 1 if test == "T0" else options.repetitions for test in TESTS}
-    writer.protocol_sheets(
-        {test: (kind, text) for test, (_, kind, text) in TESTS.items()},
-        repetitions,
-        {"EDGE": [imu for imu, *_ in IMUS]},
-    )
-    write_sheet(
-        out / "imus.tsv",
-        ["imu", "sensor_set", "segment", "side", "region", "right_axis"],
-        [
-            [imu, sensor_set, "box", "center", region, placements[sensor_set][imu].right_axis()]
-            for sensor_set in meta["sensor_sets"]
-            for imu, _, _, region in IMUS
-        ],
-    )
+
+    def sheets(writer: DatasetWriter) -> None:
+        write_sheet(
+            writer.root / "subjects.tsv",
+            ["subject", "description"],
+            [[s, "rigid aluminium box"] for s in subjects],
+        )
+        writer.protocol_sheets(
+            {test: (kind, text) for test, (_, kind, text) in TESTS.items()},
+            repetitions,
+            {"EDGE": [imu for imu, *_ in IMUS]},
+        )
+        write_sheet(
+            writer.root / "imus.tsv",
+            ["imu", "sensor_set", "segment", "side", "region", "right_axis"],
+            [
+                [imu, sensor_set, "box", "center", region, placements[sensor_set][imu].right_axis()]
+                for sensor_set in meta["sensor_sets"]
+                for imu, _, _, region in IMUS
+            ],
+        )
+
     runs = [(test, rep) for test in TESTS for rep in range(1, repetitions[test] + 1)]
 
     def write_subject(k: int, writer: DatasetWriter) -> None:
@@ -148,6 +167,4 @@ def simulate_box(
                     )
                     writer.recording(subject, sensor_set, test, rep, imu, gyr, acc)
 
-    writer.each_subject(write_subject, len(subjects), options.jobs, f"box_sim {out}")
-    writer.close()
-    return out
+    return Simulation(meta, subjects, sheets, write_subject, "box_sim")

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from aceval.data.units import SIMULATED_SUBJECTS
 from aceval.data.writer import DatasetWriter, simulated_meta, write_sheet
 from aceval.simulate.body import Anthropometry, kong_placements, random_mount
 from aceval.simulate.engine import euler_pitch_roll_yaw
@@ -20,6 +21,7 @@ from aceval.simulate.options import (
     heel_strike_shaking,
     sensor_signals,
 )
+from aceval.simulate.simulation import Simulation, write_simulation
 
 IMUS = [  # Kong Sec. 2.3 and Fig. 4
     ("IMU1", "head", "center", "upper_body"),
@@ -92,12 +94,21 @@ def _stance_offsets(rng, offplane: float) -> dict[str, np.ndarray]:
 def simulate_kong(
     out: Path,
     seed: int,
-    n_subjects: int = 5,
+    n_subjects: int = SIMULATED_SUBJECTS["kong"],
     options: SimOptions = SimOptions(),
     name: str = "kong_sim",
 ) -> Path:
     """Write the SIMULATED Kong protocol dataset into ``out``, named ``name``; returns ``out``."""
-    out = Path(out)
+    return write_simulation(kong_simulation(seed, n_subjects, options, name), out, options)
+
+
+def kong_simulation(
+    seed: int,
+    n_subjects: int = SIMULATED_SUBJECTS["kong"],
+    options: SimOptions = SimOptions(),
+    name: str = "kong_sim",
+) -> Simulation:
+    """The SIMULATED Kong protocol dataset named ``name``, before it is written."""
     meta = simulated_meta(
         name,
         "Kong et al. 2016",
@@ -109,20 +120,22 @@ def simulate_kong(
         acc_range_g=ACC_RANGE_G,
         gyr_range_dps=GYR_RANGE_DPS,
     )
-    writer = DatasetWriter(out, meta, file_format=options.file_format)
-    subject_rng = np.random.default_rng([seed, 0])
-    subjects = _subjects(n_subjects, subject_rng)
-    write_sheet(out / "subjects.tsv", ["subject", "age", "height_cm", "weight_kg"], subjects)
+    subjects = _subjects(n_subjects, np.random.default_rng([seed, 0]))
     repetitions = {test: 1 if test == "T0" else options.repetitions for test in PROTOCOL}
-    writer.protocol_sheets(
-        {test: (kind, text) for test, (_, kind, text) in PROTOCOL.items()}, repetitions, CALIBRATES
-    )
-    _imus_sheet(out, meta)
+
+    def sheets(writer: DatasetWriter) -> None:
+        columns = ["subject", "age", "height_cm", "weight_kg"]
+        write_sheet(writer.root / "subjects.tsv", columns, subjects)
+        writer.protocol_sheets(
+            {test: (kind, text) for test, (_, kind, text) in PROTOCOL.items()},
+            repetitions,
+            CALIBRATES,
+        )
+        _imus_sheet(writer.root, meta)
+
     runs = [(test, rep) for test in PROTOCOL for rep in range(1, repetitions[test] + 1)]
     write_subject = partial(_write_subject, seed, subjects, runs, meta, options)
-    writer.each_subject(write_subject, len(subjects), options.jobs, f"kong_sim {out}")
-    writer.close()
-    return out
+    return Simulation(meta, [s[0] for s in subjects], sheets, write_subject, "kong_sim")
 
 
 def _imus_sheet(out: Path, meta: dict) -> None:

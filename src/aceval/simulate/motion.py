@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from aceval.simulate.body import SEGMENTS, Anthropometry
-from aceval.simulate.engine import euler_pitch_roll_yaw
+from aceval.simulate.engine import each_times, euler_pitch_roll_yaw
 
 
 def min_jerk(s: np.ndarray) -> np.ndarray:
@@ -78,19 +78,20 @@ def segment_poses(posture: Posture, body: Anthropometry, fixed_ankle: str | None
         ankle = np.array([0.0, lateral[s][1], -body.ankle_height])
         hip = (
             ankle
-            - R[f"shank_{s}"] @ (ez * body.shank)
-            - R[f"thigh_{s}"] @ (ez * body.thigh)
-            - R["waist"] @ lateral[s]
+            - each_times(R[f"shank_{s}"], ez * body.shank)
+            - each_times(R[f"thigh_{s}"], ez * body.thigh)
+            - each_times(R["waist"], lateral[s])
         )
     else:
         hip = np.broadcast_to(posture.hip, (n, 3))
     origins = {"waist": hip}
-    origins["chest"] = hip + R["waist"] @ (-ez * body.pelvis)
-    origins["head"] = origins["chest"] + R["chest"] @ (-ez * body.thorax)
+    origins["chest"] = hip + each_times(R["waist"], -ez * body.pelvis)
+    origins["head"] = origins["chest"] + each_times(R["chest"], -ez * body.thorax)
     for s in ("r", "l"):
-        origins[f"thigh_{s}"] = hip + R["waist"] @ lateral[s]
-        origins[f"shank_{s}"] = origins[f"thigh_{s}"] + R[f"thigh_{s}"] @ (ez * body.thigh)
-        origins[f"foot_{s}"] = origins[f"shank_{s}"] + R[f"shank_{s}"] @ (ez * body.shank)
+        origins[f"thigh_{s}"] = hip + each_times(R["waist"], lateral[s])
+        shank = origins[f"thigh_{s}"] + each_times(R[f"thigh_{s}"], ez * body.thigh)
+        origins[f"shank_{s}"] = shank
+        origins[f"foot_{s}"] = shank + each_times(R[f"shank_{s}"], ez * body.shank)
     return R, origins
 
 

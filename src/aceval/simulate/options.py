@@ -11,6 +11,7 @@ from aceval.simulate.engine import (
     PAD,
     ImuErrorModel,
     band_noise,
+    each_times,
     measure,
     small_rotations,
 )
@@ -64,14 +65,14 @@ def sensor_signals(
     displacement of the sensor on its soft tissue (m, world frame, on the fine grid), e.g.
     :func:`heel_strike_shaking`.
     """
-    R_ws = R_seg @ mount
+    R_ws = each_times(R_seg, mount)
     amplitude = np.radians(wobble_deg) * options.wobble
     if amplitude > 0:
         t = (np.arange(len(R_seg)) - PAD) / (options.fs_hz * OVERSAMPLE)  # as fine_time
         envelope = np.clip(np.broadcast_to(envelope, t.shape), 0.0, 1.0)
         rotvec = np.column_stack([band_noise(rng, t, 0.5, 3.0) for _ in range(3)]) / np.sqrt(3)
         R_ws = R_ws @ small_rotations(amplitude * envelope[:, None] * rotvec)
-    p_w = origin + R_seg @ np.asarray(position, dtype=float)
+    p_w = origin + each_times(R_seg, position)
     if shaking is not None:
         p_w = p_w + shaking
     gyr, acc = measure(R_ws, p_w, options.fs_hz)

@@ -14,17 +14,20 @@ from pathlib import Path
 
 import numpy as np
 
+from aceval.data.units import SIMULATED_SUBJECTS
 from aceval.data.writer import DatasetWriter, simulated_meta, write_sheet
 from aceval.simulate.body import Placement, random_mount
 from aceval.simulate.engine import (
     ImuErrorModel,
     band_noise,
+    each_times,
     euler_pitch_roll_yaw,
     fine_time,
     small_rotations,
 )
 from aceval.simulate.motion import bell
 from aceval.simulate.options import SimOptions, sensor_signals
+from aceval.simulate.simulation import Simulation, write_simulation
 
 SEGMENTS = ["thorax", "upper_arm_r", "upper_arm_l", "forearm_r", "forearm_l"]
 IMUS = [  # Ricci Fig. 2: 1 thorax, 2/3 right/left upper arm, 4/5 right/left forearm
@@ -109,7 +112,7 @@ def _compose(A, B):
 
 def _rotate(R, v: np.ndarray):
     """``R @ v`` for a stack ``R`` (``None``: the identity, ``v`` itself)."""
-    return v if R is None else R @ v
+    return v if R is None else each_times(R, v)
 
 
 def _poses(child: Child, relative: dict, base, n: int):
@@ -231,12 +234,21 @@ def functional_axes() -> list[list[str]]:
 def simulate_ricci(
     out: Path,
     seed: int,
-    n_subjects: int = 40,
+    n_subjects: int = SIMULATED_SUBJECTS["ricci"],
     options: SimOptions = SimOptions(),
     name: str = "ricci_sim",
 ) -> Path:
     """Write the SIMULATED Ricci et al. 2014 children into ``out``, named ``name``; returns ``out``."""
-    out = Path(out)
+    return write_simulation(ricci_simulation(seed, n_subjects, options, name), out, options)
+
+
+def ricci_simulation(
+    seed: int,
+    n_subjects: int = SIMULATED_SUBJECTS["ricci"],
+    options: SimOptions = SimOptions(),
+    name: str = "ricci_sim",
+) -> Simulation:
+    """The SIMULATED Ricci et al. 2014 children named ``name``, before they are written."""
     meta = simulated_meta(
         name,
         "Ricci et al. 2014",
@@ -248,7 +260,6 @@ def simulate_ricci(
         acc_range_g={"upper_body": ACC_RANGE_G},
         gyr_range_dps=GYR_RANGE_DPS,
     )
-    writer = DatasetWriter(out, meta, file_format=options.file_format)
     rng0 = np.random.default_rng([seed, 0])
     subjects = []
     for k in range(n_subjects):  # 6-8 years (Ricci Sec. 2.1); height ~122 +- 5 cm at age 7 (WHO)
@@ -259,20 +270,24 @@ def simulate_ricci(
                 round(float(rng0.normal(122, 5))),
             ]
         )
-    write_sheet(out / "subjects.tsv", ["subject", "age", "height_cm"], subjects)
     tests = {"S": ("static", "supine, arms alongside the body, palms down, 5 s")}
     tests.update({test: ("motion", m[0]) for test, m in MOVEMENTS.items()})
-    writer.protocol_sheets(tests, {test: TRIALS for test in tests}, CALIBRATES)
-    probe = Child(1.22).placements()
-    write_sheet(
-        out / "imus.tsv",
-        ["imu", "segment", "side", "region", "right_axis"],
-        [
-            [imu, segment, side, "upper_body", probe[imu].right_axis()]
-            for imu, segment, side in IMUS
-        ],
-    )
-    write_sheet(out / "functional_axes.tsv", ["test", "segment", "axis"], functional_axes())
+
+    def sheets(writer: DatasetWriter) -> None:
+        write_sheet(writer.root / "subjects.tsv", ["subject", "age", "height_cm"], subjects)
+        writer.protocol_sheets(tests, {test: TRIALS for test in tests}, CALIBRATES)
+        probe = Child(1.22).placements()
+        write_sheet(
+            writer.root / "imus.tsv",
+            ["imu", "segment", "side", "region", "right_axis"],
+            [
+                [imu, segment, side, "upper_body", probe[imu].right_axis()]
+                for imu, segment, side in IMUS
+            ],
+        )
+        columns = ["test", "segment", "axis"]
+        write_sheet(writer.root / "functional_axes.tsv", columns, functional_axes())
+
     error_model = ImuErrorModel(gyr_range_dps=GYR_RANGE_DPS)
     runs = [(test, trial) for test in tests for trial in range(1, TRIALS + 1)]
 
@@ -305,6 +320,4 @@ def simulate_ricci(
                 )
                 writer.recording(subject, "main", test, trial, imu, gyr, acc)
 
-    writer.each_subject(write_subject, len(subjects), options.jobs, f"ricci_sim {out}")
-    writer.close()
-    return out
+    return Simulation(meta, [s[0] for s in subjects], sheets, write_subject, "ricci_sim")
