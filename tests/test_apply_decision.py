@@ -194,6 +194,21 @@ def test_two_answers_for_one_imu_or_one_unit_are_refused_by_line(lab, tmp_path, 
     )
 
 
+def test_a_decision_made_from_other_recordings_is_refused(lab, tmp_path, capsys):
+    """A decision names its recordings (recordings_sha1): the lab's own applies without the
+    'not checked' warning; another dataset's decision (or one made before a file changed),
+    whose IMU names match, is refused by name."""
+    own = recordings_fingerprint(load_dataset(lab), "S1")
+    table = pd.read_csv(decision(tmp_path / "d.csv"))
+    table.assign(recordings_sha1=own).to_csv(tmp_path / "own.csv", index=False)
+    code, said = run(capsys, lab, "--decision", tmp_path / "own.csv", "--out", tmp_path / "a")
+    assert code == 0 and "not checked" not in said, said
+    table.assign(recordings_sha1="0" * 40).to_csv(tmp_path / "other.csv", index=False)
+    code, said = run(capsys, lab, "--decision", tmp_path / "other.csv", "--out", tmp_path / "b")
+    assert code == 1 and not (tmp_path / "b").exists()
+    assert "the calibrations of subject S1 were made from other recordings" in said
+
+
 def test_a_body_frame_copy_is_not_turned_a_second_time(lab, tmp_path, capsys):
     """Onto a copy apply wrote, with --other-dataset, the recordings were turned a second time
     without a word (the copy has applied_calibrations.tsv)."""

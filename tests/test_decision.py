@@ -218,6 +218,15 @@ def test_the_decision_carries_the_chosen_rotation_sensor_to_body():
     assert np.array_equal(row[R_COLUMNS].to_numpy(float), chosen[R_COLUMNS].to_numpy(float))
 
 
+def test_the_decision_names_the_recordings_its_calibrations_were_made_from():
+    """Each row carries its subject's recordings' fingerprint (what apply checks a decision
+    against), taken from a calibration that has one: a peer's row (none) does not blank it."""
+    rows = [_row("kong", 0, cone=3.0), _row("triad", 2.0, cone=2.0, test="T5")]
+    row = _decide(rows, recordings_sha1=["abc", np.nan])
+    assert row["recordings_sha1"] == "abc"
+    assert np.isnan(_decide(rows)["recordings_sha1"])
+
+
 def test_flags_that_take_a_calibration_out_and_the_verdict_type():
     flags = pd.Series(["", np.nan, "weight_switch", "weight_switch;low_rho", "backward"])
     assert removes(flags).tolist() == [False, False, False, True, True]

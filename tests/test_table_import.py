@@ -149,11 +149,28 @@ def test_a_rate_given_by_hand_that_does_not_fit_the_recordings_is_refused(tmp_pa
     refused = run(tmp_path)
     assert refused.code == 1 and not refused.out.exists()
     assert f"the rate given by hand, {declared} Hz, does not fit the recordings" in refused.err
+    assert "the gyroscope's units" not in refused.err  # a rate off by 2 or 1.7 is the rate
     (tmp_path / "mapping.yaml").write_text(mapping.replace(f"rate: {declared}", "rate: 100"))
     accepted = run(tmp_path)
     assert accepted.code == 0 and "the rate given by hand, 100 Hz, fits the recordings" in (
         accepted.err
     )
+
+
+def test_a_gyroscope_in_deg_s_declared_rad_s_is_named_as_a_unit_error(tmp_path, run):
+    """The rate given by hand is right (100 Hz); the exports hold deg/s where the mapping says
+    rad/s: the recordings then imply a rate 57.3 times off, which the refusal names as the
+    units' factor."""
+    in_deg_s = {s: (acc, np.degrees(gyr)) for s, (acc, gyr) in recorded(walking_s=20.0).items()}
+    vendor_txt(tmp_path / "exports" / "P1", "t1", in_deg_s, {})
+    mapping = MAPPINGS["vendor_txt"].replace(
+        "rate_line: 'Acquisition frequency: ([0-9.]+) ?Hz'", "rate: 100"
+    )
+    trials = "subject\ttrial\ttest\tstatic\tfirst_phase\nP1\tP1/t1\twalk\t2\tgait\n"
+    sheets(tmp_path, trials, mapping)
+    refused = run(tmp_path)
+    assert refused.code == 1 and not refused.out.exists()
+    assert "Or the gyroscope's units:" in refused.err and "57.3" in refused.err, refused.err
 
 
 def test_an_accelerometer_that_reads_gravity_is_turned_into_specific_force(tmp_path, run):

@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from aceval.calibrate.table import unflagged
-from aceval.data.contract import R_COLUMNS
+from aceval.data.contract import FINGERPRINT, R_COLUMNS
 from aceval.data.dataset import Dataset
 from aceval.evaluation.decision_rules import NONE, VERDICT_KINDS
 from aceval.methods import registry
@@ -231,7 +231,7 @@ def decided_calibrations(
             continue
         out.append(_decided(*rows[key], include_untrusted, source))
     columns = [*KEY, "test", "repetitions", "method", "verdict_kind", *CHOICE_COLUMNS, *R_COLUMNS]
-    return pd.DataFrame(out).reindex(columns=columns), warnings
+    return pd.DataFrame(out).reindex(columns=[*columns, FINGERPRINT]), warnings
 
 
 def _decided(index: int, row: pd.Series, include_untrusted: bool, source: str) -> dict:
@@ -240,6 +240,7 @@ def _decided(index: int, row: pd.Series, include_untrusted: bool, source: str) -
     R = pd.to_numeric(row[R_COLUMNS], errors="coerce").to_numpy(float)
     named = np.isfinite(R).all()
     out = row[[*KEY, "test", "repetitions", "method", "verdict_kind", *R_COLUMNS]].to_dict()
+    out[FINGERPRINT] = row.get(FINGERPRINT, np.nan)
     if kind != UNTRUSTED or (include_untrusted and named):
         if not named:
             raise ApplyError(

@@ -27,15 +27,13 @@ import pandas as pd
 from scipy.spatial.transform import Rotation
 
 from aceval.apply.choice import CHOICE_COLUMNS, KEY, VERDICT_KINDS, ApplyError
-from aceval.data.contract import QUAT_COLUMNS, R_COLUMNS, ValidationReport
+from aceval.data.contract import FINGERPRINT, QUAT_COLUMNS, R_COLUMNS, ValidationReport
 from aceval.data.dataset import Dataset
 from aceval.data.recording_checks import position, read_checked
 from aceval.data.safety import contained
 from aceval.data.writer import write_sheet
 from aceval.methods import registry
 
-#: the calibrations column that names the recordings a calibration was made from
-FINGERPRINT = "recordings_sha1"
 #: the sheets apply writes anew (the others are copied as they are)
 REWRITTEN = {"imus.tsv", "recordings.tsv", "ground_truth.tsv"}
 #: the sheet a body-frame copy carries (its recordings are already turned)

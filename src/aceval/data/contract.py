@@ -34,6 +34,9 @@ RECORDING_COLUMNS = ["t", "acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z"]
 #: vendor's z-up world); read only by the OpenSense peer (workflow/peers/)
 QUAT_COLUMNS = ["quat_w", "quat_x", "quat_y", "quat_z"]
 R_COLUMNS = [f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]
+#: the column of a calibration (and of a decision's row) naming the recordings it was made from: the
+#: SHA-1 of its subject's recordings (:func:`aceval.apply.copies.fingerprints`), which apply compares
+FINGERPRINT = "recordings_sha1"
 SHEETS = {
     "imus.tsv": ["imu", "segment", "side", "region", "right_axis"],
     "tests.tsv": ["test", "kind", "repetitions"],

@@ -36,7 +36,7 @@ from aceval.calibrate.table import (
     has_flag,
     matrices,
 )
-from aceval.data.contract import R_COLUMNS
+from aceval.data.contract import FINGERPRINT, R_COLUMNS
 from aceval.data.rotations import error_angle_deg
 from aceval.evaluation.decision_evidence import (
     EVIDENCE_COLUMNS,
@@ -89,6 +89,7 @@ DECISION_COLUMNS = [
     "note",
     "verdict",
     *R_COLUMNS,
+    FINGERPRINT,
 ]
 
 
@@ -202,6 +203,7 @@ def _decide(imu: pd.DataFrame, candidate, evidence, basis: str, tolerance: float
         "tolerance_deg": tolerance,
         "flags_elsewhere": _flag_counts(elsewhere),
         "cone_fit": _cone_fit(imu),
+        FINGERPRINT: _fingerprint(imu),
     }
     if chosen_from.empty:
         why = row["flags_elsewhere"] or "no calibration was made"
@@ -233,6 +235,14 @@ def _decide(imu: pd.DataFrame, candidate, evidence, basis: str, tolerance: float
         measured=bool(np.isfinite(row[CONE])) and chosen["method"] not in registry.peers(),
     )
     return row | _verdict_columns(verdict(judged, tolerance))
+
+
+def _fingerprint(imu: pd.DataFrame):
+    """The IMU's subject's recordings' fingerprint (:data:`FINGERPRINT`, what apply checks a
+    decision against), from its calibrations that carry one (a peer's do not); NaN if none does.
+    """
+    given = imu[FINGERPRINT].dropna() if FINGERPRINT in imu else ()
+    return given.iloc[0] if len(given) else np.nan
 
 
 def _agreement(chosen: pd.Series, chosen_from: pd.DataFrame, tolerance: float) -> dict:

@@ -215,6 +215,8 @@ def segment(trial: Trial, found: dict, fs_hz: float) -> dict:
 #: a rate given by hand is refused when the recordings imply one more than this factor away
 #: (measured false alarms and catches: config/README.md, the table of checks)
 RATE_MISMATCH = 1.25
+#: the factor between a gyroscope's deg/s and rad/s: an implied rate that far off is a unit error
+DEG_PER_RAD = float(np.degrees(1.0))
 
 
 def check_declared_rate(recordings: list[dict], fs_hz: float, report: ImportReport) -> None:
@@ -244,8 +246,17 @@ def check_declared_rate(recordings: list[dict], fs_hz: float, report: ImportRepo
         f"{fs_hz:g} Hz, {strides * implied / fs_hz:.2f} at {implied:.3g} Hz)"
     )
     if max(implied / fs_hz, fs_hz / implied) > RATE_MISMATCH:
+        factor = max(implied / fs_hz, fs_hz / implied)
+        units = (
+            f" Or the gyroscope's units: {factor:.3g} is near {DEG_PER_RAD:.1f}, the degrees in a "
+            "radian (rad/s read as deg/s, or the reverse: check the mapping's or the exports' "
+            "units)"
+            if abs(np.log(factor / DEG_PER_RAD)) < np.log(RATE_MISMATCH)
+            else ""
+        )
         raise FormatError(
             f"the rate given by hand, {fs_hz:g} Hz, does not fit the recordings: {found}. Check "
-            "the rate the exports were recorded at (the device's settings) and give that one"
+            "the rate the exports were recorded at (the device's settings) and give that one."
+            + units
         )
     report.note(f"the rate given by hand, {fs_hz:g} Hz, fits the recordings: {found}")

@@ -65,13 +65,16 @@ def _first_lines(table: pd.DataFrame) -> list[str]:
 
 
 def _ties(table: pd.DataFrame) -> str:
-    """'3 of 9 sensors chosen by the tie rule, 2 of them without any evidence'."""
+    """'3 of 9 sensors chosen by the tie rule, 2 of them with evidence from fewer than 2 other
+    sensors' (no standard error: every method ties there).
+    """
     chosen = table[table["method"].notna()]
     tied = chosen["n_tied"] > 1
-    none = tied & ~(chosen["evidence_n"] > 0)
+    unmeasured = tied & ~np.isfinite(chosen["evidence_uncertainty_deg"].astype(float))
     return (
-        f"{int(tied.sum())} of {len(chosen)} sensors chosen by the tie rule, {int(none.sum())} "
-        "of them without any evidence"
+        f"{int(tied.sum())} of {len(chosen)} sensors chosen by the tie rule, "
+        f"{int(unmeasured.sum())} of them with evidence from fewer than 2 other sensors (no "
+        "standard error: every method ties there)"
     )
 
 
@@ -99,8 +102,10 @@ def _choice_lines(table: pd.DataFrame) -> list[str]:
         "methods (Kong's first); beyond 2T to the smallest cone (the best available); then to "
         f"the test's name ({_ties(table)}). Uncertainty: `cone_deg`; spread: the largest angle to "
         "another method's calibration of the same test; within T: its calibrations within T of "
-        "it (its own included); runner-up: the next in that order, and its evidence minus the "
-        "chosen one's (table `decision`, every column, with the chosen rotation).",
+        "it (its own included); kept of N: its calibrations no flag takes out, of all it has; "
+        "runner-up: the next in that order, and its evidence minus the chosen one's (negative: "
+        "the runner-up's evidence was better, but within the tie) (table `decision`, every "
+        "column, with the chosen rotation).",
     ]
     fits = table["cone_fit"].dropna().astype(str).unique() if "cone_fit" in table else []
     left_out = [f for f in fits if f.startswith("left out")]
@@ -153,7 +158,7 @@ def _runner_up(r) -> str:
 def _listed(table: pd.DataFrame) -> list[str]:
     rows = [
         "| subject | set | IMU | segment | use | uncertainty (deg) | spread (deg) | within T | "
-        "unflagged of N | runner-up (margin, deg) | verdict |",
+        "kept of N | runner-up (margin, deg) | verdict |",
         "|:--|:--|:--|:--|:--|--:|--:|--:|:--|:--|:--|",
     ]
     for _, r in table.iterrows():
@@ -170,7 +175,7 @@ def _listed(table: pd.DataFrame) -> list[str]:
 def _by_place(table: pd.DataFrame) -> list[str]:
     rows = [
         "| set | IMU | segment | use (most often) | uncertainty, median (deg) | spread, median "
-        "(deg) | unflagged of N | verdicts |",
+        "(deg) | kept of N | verdicts |",
         "|:--|:--|:--|:--|--:|--:|:--|:--|",
     ]
     for (sensor_set, imu, segment), group in table.groupby(
