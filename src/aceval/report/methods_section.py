@@ -70,7 +70,11 @@ def _fully_flagged(methods: pd.DataFrame) -> list[str]:
         f"{r['method']} {r['segment']} {r['test']} {r['sensor_set']} ({r['flags']})"
         for _, r in fully.iterrows()
     )
-    return [f"Every calibration flagged (no number, the row kept in table `methods`): {cells}."]
+    return [
+        f"Every calibration flagged (no number, the row kept in table `methods`): {cells}. Here "
+        "any flag leaves a calibration out; the decision above keeps one whose flags are only "
+        "advisory (shown beside it there)."
+    ]
 
 
 def _ranking_lines(ranking: pd.DataFrame | None) -> list[str]:
