@@ -129,6 +129,7 @@ def _table(n: int) -> pd.DataFrame:
                 "runner_up": "triad T6",
                 "n_tied": 1 + k % 2,
                 "evidence_n": k % 3,
+                "evidence_uncertainty_deg": np.inf if k % 3 < 2 else 0.1 * k,
                 "margin_deg": 0.25 * k,
                 "note": "",
                 "verdict": kind + (": reason" if kind != USE else ""),
@@ -155,6 +156,22 @@ def test_the_summary_lists_each_sensor_as_the_table_says():
         assert int(cells[7]) == r["n_behind"]
         assert cells[8] == f"{r['n_unflagged']} of {r['n_calibrations']}"
         assert cells[9] == f"triad T6 ({r['margin_deg']:+.1f})" and cells[10] == r["verdict"]
+
+
+def test_the_summary_counts_the_ties_and_those_without_a_standard_error():
+    """'N of M sensors chosen by the tie rule, K of them with evidence from fewer than 2 other
+    sensors': K counts the ties whose evidence has no standard error (infinite), not those
+    with no evidence at all (the count said 0 beside infinite uncertainties)."""
+    table = _table(12)
+    text = " ".join(decision_section({"decision": table}))
+    chosen = table[table["method"].notna()]
+    tied = chosen["n_tied"] > 1
+    unmeasured = tied & ~np.isfinite(chosen["evidence_uncertainty_deg"])
+    assert 0 < unmeasured.sum() < tied.sum()
+    assert (
+        f"{tied.sum()} of {len(chosen)} sensors chosen by the tie rule, {unmeasured.sum()} of them "
+        "with evidence from fewer than 2 other sensors"
+    ) in text
 
 
 def test_the_summary_by_place_counts_every_subject():
