@@ -324,7 +324,8 @@ P_COLUMNS = ("p", "p_holm", "p_value")
 
 def rounded(table: pd.DataFrame) -> pd.DataFrame:
     """p-values (:data:`P_COLUMNS`) to 3 significant digits, other floats to 4 decimals (stable,
-    diff-friendly CSVs)."""
+    diff-friendly CSVs).
+    """
     for column in table.columns:
         if column in P_COLUMNS:
             table[column] = [float(f"{v:.3g}") if np.isfinite(v) else np.nan for v in table[column]]
@@ -345,7 +346,8 @@ def _fmt(value, digits=3) -> str:
 
 def _fmt_p(value) -> str:
     """A p-value as every Markdown table shows one: '<0.001' below 0.001 (3 decimals would print
-    0.000), else 3 decimals; 'n/a' without one."""
+    0.000), else 3 decimals; 'n/a' without one.
+    """
     if value is None or not np.isfinite(value):
         return "n/a"
     return "<0.001" if value < 0.001 else f"{value:.3f}"
