@@ -362,3 +362,23 @@ def test_the_evidences_spread_is_the_median_absolute_deviation_of_at_least_two_o
     assert got.loc[0, "evidence_uncertainty_deg"] == pytest.approx(se)
     # one other IMU: a median without a standard error
     assert got.loc[1, "evidence_n"] == 1 and got.loc[1, "evidence_uncertainty_deg"] == np.inf
+
+
+def test_without_a_truth_the_evidence_is_the_other_subjects_test_retest_angle():
+    # per subject and method: all 4 repetitions, and two distinct subsets of 2 (R1+R2, R3+R4)
+    # that many degrees apart: triad 0.5-0.7 (the other subjects'), kong 6.0-6.2; S1's own differ
+    apart = {"kong": [0.1, 6.0, 6.2], "triad": [9.0, 0.5, 0.7]}
+    rows = []
+    for k, subject in enumerate(["S1", "S2", "S3"]):
+        for method, angles in apart.items():
+            rows.append({**_row(method, 0.0, cone=3.0, n_reps=4), "subject": subject})
+            for label, heading in (("R1+R2", 0.0), ("R3+R4", angles[k])):
+                subset = _row(method, heading, cone=3.0, n_reps=2)
+                rows.append({**subset, "subject": subject, "repetitions": label})
+    table = decision_table(pd.DataFrame(rows), 2).set_index("subject")
+    s1 = table.loc["S1"]
+    assert s1["basis"] == "repeatability" and s1["method"] == "triad"
+    assert s1["evidence_median_deg"] == pytest.approx(0.6) and s1["evidence_n"] == 2
+    assert s1["runner_up"] == "kong T6" and s1["margin_deg"] == pytest.approx(5.5)
+    none = _decide([_row("kong", 0, cone=3.0)])  # no truth, no subsets: no evidence at all
+    assert none["basis"] == "repeatability" and none["evidence_n"] == 0

@@ -206,6 +206,17 @@ def test_the_summary_by_place_names_the_choice_made_most_often_of_its_subjects()
     )
 
 
+def test_the_summary_names_the_advisory_flags_and_the_note_beside_the_choice():
+    table = _table(2).assign(advisory_flags=["weight_switch;step_frequency_disagrees", ""])
+    table["note"] = ["outside its authors' design", ""]
+    rows = [line for line in decision_section({"decision": table}) if line.startswith("| S")]
+    use = [[c.strip() for c in line.strip("|").split("|")][4] for line in rows]
+    assert use == [
+        "kong T6 [weight_switch, step_frequency_disagrees] (outside its authors' design)",
+        "kong T6",
+    ]
+
+
 def _committed_with_decisions() -> list[str]:
     return sorted(p.parent.parent.name for p in (REPO / "results").glob("*/tables/decision.csv"))
 
