@@ -10,7 +10,9 @@ workers it takes tens of minutes (benchmarks/README.md, section Mutation testing
 
 The small packages (report/claims, evaluation/verdicts, evaluation/stats, data/rotations,
 data/safety: 2,191 mutants)
-are run whole; methods and signals (about 4,300 and 1,900, reached by slower tests) on a fixed
+are run whole; methods and signals (about 4,300 and 1,900, reached by slower tests), and the
+decision, apply and report modules (about 5,300: evaluation's decision modules, flag_value and
+peer_gates, apply, report's decisions, summary and kong2016) on a fixed
 sample of ``1 / --sample`` (default 1 in 20) of their mutants, chosen by a hash of the mutant's
 name: the same mutants each time, before and after a change of the tests, and a sample of 1 in
 20 is part of the sample of 1 in 10. Mutants with a result in
@@ -43,6 +45,15 @@ PACKAGES = {
     "aceval.data.safety": True,
     "aceval.methods": False,
     "aceval.signals": False,
+    "aceval.evaluation.decision": False,
+    "aceval.evaluation.decision_rules": False,
+    "aceval.evaluation.decision_evidence": False,
+    "aceval.evaluation.flag_value": False,
+    "aceval.evaluation.peer_gates": False,
+    "aceval.apply": False,
+    "aceval.report.decisions": False,
+    "aceval.report.summary": False,
+    "aceval.report.kong2016": False,
 }
 KILLED, SURVIVED, TIMEOUT, NO_TESTS = "killed", "survived", "timeout", "no tests"
 #: mutmut's exit codes (mutmut.stats.status_by_exit_code)

@@ -288,3 +288,62 @@ def test_options_of_the_other_source_and_a_foreign_decision_are_refused(lab, tmp
     assert (
         code == 1 and "k.csv line 2: verdict_kind 'fine' is not one of use, use with care" in said
     )
+
+
+def calibrations_file(path, rows) -> str:
+    """A calibrations.csv of `aceval calibrate` (kong's rows): (imu, test, repetitions, flag, R)."""
+    table = [
+        {
+            "subject": "S1",
+            "sensor_set": "frontal",
+            "imu": imu,
+            "segment": "thigh",
+            "side": "right",
+            "test": test,
+            "repetitions": reps,
+            "n_reps": reps.count("+") + 1,
+            "method": "kong",
+            "flag": flag,
+            **dict(zip(R_COLUMNS, R.ravel())),
+        }
+        for imu, test, reps, flag, R in rows
+    ]
+    pd.DataFrame(table).to_csv(path, index=False)
+    return str(path)
+
+
+def test_the_calibrations_choice_keeps_to_the_test_asked_and_the_largest_subset(
+    lab, tmp_path, capsys
+):
+    """IMU4's calibration from all repetitions of T1 is flagged: --allow-subset applies its largest
+    unflagged subset (R1+R2, the true mounting), not the smallest (R1, turned 30 deg); IMU5's
+    --test T1 is T1's (true), not T9's (turned)."""
+    turned = Rotation.from_euler("z", 30, degrees=True).as_matrix()
+    rows = [
+        ("IMU4", "T1", "R1+R2+R3", "not_planar", MOUNTS["IMU4"]),
+        ("IMU4", "T1", "R1", "", turned @ MOUNTS["IMU4"]),
+        ("IMU4", "T1", "R1+R2", "", MOUNTS["IMU4"]),
+        ("IMU5", "T9", "R1+R2+R3", "", turned @ MOUNTS["IMU5"]),
+        ("IMU5", "T1", "R1+R2+R3", "", MOUNTS["IMU5"]),
+    ]
+    path = calibrations_file(tmp_path / "c.csv", rows)
+    copy = tmp_path / "copy"
+    options = ["--calibrations", path, "--test", "T1", "--allow-subset", "--out", copy]
+    code, said = run(capsys, lab, *options)
+    assert code == 0, said
+    applied = pd.read_csv(copy / "applied_calibrations.tsv", sep="\t").set_index("imu")
+    assert applied.loc["IMU4", "repetitions"] == "R1+R2" and applied.loc["IMU5", "test"] == "T1"
+    for imu in ("IMU4", "IMU5"):
+        acc = body_frame(copy, imu)[["acc_x", "acc_y", "acc_z"]].to_numpy().mean(axis=0)
+        np.testing.assert_allclose(acc, [0.0, 0.0, -1.0], atol=0.003)
+
+
+def test_an_imu_the_decision_does_not_name_is_not_applied_and_says_why(lab, tmp_path, capsys):
+    named = decision(tmp_path / "d.csv")
+    table = pd.read_csv(named)
+    table[table["imu"] != "IMU5"].to_csv(named, index=False)
+    copy = tmp_path / "copy"
+    assert run(capsys, lab, "--decision", named, "--out", copy)[0] == 0
+    applied = pd.read_csv(copy / "applied_calibrations.tsv", sep="\t").set_index("imu")
+    assert applied.loc["IMU5", "calibration"] == "none"
+    assert applied.loc["IMU5", "why"] == f"not in {named}"

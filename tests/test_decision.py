@@ -281,3 +281,113 @@ def test_a_tie_goes_to_the_calibration_that_agrees_with_the_other_methods():
     row = _decide(rows, tolerance=10.0)
     assert row["disagreeing"] == "kong" and row["method"] == "triad"
     assert row["runner_up"] == "combined T6"
+
+
+def _chosen(errors: dict, cones: dict, flags: dict | None = None) -> pd.Series:
+    """S1's decision row from the other subjects' errors per method (:func:`_truth_rows`)."""
+    rows = _truth_rows(errors, cones)
+    for row in rows:
+        row["flag"] = (flags or {}).get(row["method"], "")
+    return decision_table(pd.DataFrame(rows), 2).set_index("subject").loc["S1"]
+
+
+def test_a_tie_is_within_the_two_standard_errors_in_quadrature_not_their_sum_nor_the_larger():
+    # triad's evidence 1.5 (0.5, 2.5), kong's from two values 2 apart too: each standard error
+    # sqrt(pi/2) * 1.4826 * 1 / sqrt(2) = 1.314; in quadrature 1.858, summed 2.628, larger 1.314
+    cones = {"kong": 3.0, "triad": 3.0}
+    apart = _chosen({"kong": [0, 2.7, 4.7], "triad": [0, 0.5, 2.5]}, cones)  # 2.2 apart
+    assert apart["method"] == "triad" and apart["n_tied"] == 1  # the sum would tie: kong
+    assert apart["margin_deg"] == pytest.approx(2.2)
+    close = _chosen({"kong": [0, 2.1, 4.1], "triad": [0, 0.5, 2.5]}, cones)  # 1.6 apart
+    assert close["method"] == "kong" and close["n_tied"] == 2  # the larger would not tie: triad
+
+
+def test_the_evidence_orders_before_the_cone_class_and_the_disagreement_flag():
+    # kong's evidence is the best by far, its cone within 2T only; triad (cone 7, flagged
+    # methods_disagree) is second by evidence, combined (cone 2) third: the order of the evidence
+    # outside a tie, whatever the cone or the flag
+    errors = {"kong": [0, 1.0, 1.2], "triad": [0, 6.0, 6.2], "combined": [0, 9.0, 9.2]}
+    row = _chosen(
+        errors, {"kong": 7.0, "triad": 7.0, "combined": 2.0}, {"triad": "methods_disagree"}
+    )
+    assert row["method"] == "kong" and row["n_tied"] == 1 and row["verdict_kind"] == CARE
+    assert row["runner_up"] == "triad T6" and row["margin_deg"] == pytest.approx(5.0)
+
+
+def test_a_peer_with_better_evidence_is_not_chosen_over_a_measured_cone():
+    errors = {"kong": [0, 3.0, 3.2], "gaitmap_pca": [0, 0.5, 0.7]}
+    row = _chosen(errors, {"kong": 3.0, "gaitmap_pca": np.nan})
+    assert row["method"] == "kong" and row["n_tied"] == 1 and not isinstance(row["runner_up"], str)
+
+
+def test_the_cone_classes_include_their_bounds_t_and_2t():
+    # no evidence: a tie; a cone of exactly T is within T, one of exactly 2T within 2T, and one
+    # of exactly MAX_CONE_DEG may be chosen (the registry's order: kong before triad)
+    assert _decide([_row("kong", 0, cone=5.0), _row("triad", 1.0, cone=4.0)])["method"] == "kong"
+    assert _decide([_row("kong", 0, cone=10.0), _row("triad", 1.0, cone=6.0)])["method"] == "kong"
+    from aceval.evaluation.decision import MAX_CONE_DEG
+
+    widest = _decide([_row("kong", 0, cone=MAX_CONE_DEG)])
+    assert widest["method"] == "kong" and widest["n_unflagged"] == 1
+
+
+def test_the_methods_range_and_the_calibrations_behind_count_as_documented():
+    # triad from another test, 8 deg away: not in the methods' range of kong's test (NaN), and not
+    # within T of it (n_behind 1, its own)
+    row = _decide([_row("kong", 0, cone=3.0), _row("triad", 8.0, cone=3.0, test="T5")])
+    assert row["method"] == "kong" and np.isnan(row["methods_range_deg"])
+    assert row["verdict"] == "use with care: no other calibration within T 5 of it"
+    # methods exactly T apart are not more than T apart
+    e = Evidence(cone=3.0, methods_range=5.0, disagreeing="kong and triad", n_behind=2)
+    assert verdict(e, 5.0).kind == USE
+
+
+def test_a_peer_is_allowed_the_widest_spread_of_acevals_methods_on_its_unit():
+    # kong's spread 4 and triad's 1: the peer 5 deg from both is allowed hypot(4, 4) = 5.66 from
+    # kong and hypot(4, 1) = 4.12 from triad: it disagrees with one of two, not flagged (given
+    # the narrowest, 1, it would disagree with both)
+    rows = [
+        _row("kong", 0, spread=4.0),
+        _row("triad", 0, spread=1.0),
+        _row("gaitmap_pca", 5.0, cone=np.nan, spread=np.nan),
+    ]
+    assert _flags(rows) == ["", "", ""]
+
+
+def test_the_evidences_spread_is_the_median_absolute_deviation_of_at_least_two_others():
+    cell = {"segment": "shank", "test": "T6", "method": "kong", "sensor_set": "s"}
+    values = {"S1": 1.0, "S2": 2.0, "S3": 30.0}
+    units = pd.DataFrame(
+        [{**cell, "subject": s, "imu": "A", "value": v} for s, v in values.items()]
+    )
+    lone = {**cell, "test": "T5"}
+    units = pd.concat([units, pd.DataFrame([{**lone, "subject": "S1", "imu": "A", "value": 4.0}])])
+    wanted = pd.DataFrame(
+        [{**cell, "subject": "S4", "imu": "A"}, {**lone, "subject": "S2", "imu": "A"}]
+    )
+    got = cross_fitted(units, wanted)
+    # 1, 2 and 30: median 2, absolute deviations 1, 0, 28: their median 1 (their mean 9.7)
+    se = np.sqrt(np.pi / 2) * 1.4826 * 1.0 / np.sqrt(3)
+    assert got.loc[0, "evidence_uncertainty_deg"] == pytest.approx(se)
+    # one other IMU: a median without a standard error
+    assert got.loc[1, "evidence_n"] == 1 and got.loc[1, "evidence_uncertainty_deg"] == np.inf
+
+
+def test_without_a_truth_the_evidence_is_the_other_subjects_test_retest_angle():
+    # per subject and method: all 4 repetitions, and two distinct subsets of 2 (R1+R2, R3+R4)
+    # that many degrees apart: triad 0.5-0.7 (the other subjects'), kong 6.0-6.2; S1's own differ
+    apart = {"kong": [0.1, 6.0, 6.2], "triad": [9.0, 0.5, 0.7]}
+    rows = []
+    for k, subject in enumerate(["S1", "S2", "S3"]):
+        for method, angles in apart.items():
+            rows.append({**_row(method, 0.0, cone=3.0, n_reps=4), "subject": subject})
+            for label, heading in (("R1+R2", 0.0), ("R3+R4", angles[k])):
+                subset = _row(method, heading, cone=3.0, n_reps=2)
+                rows.append({**subset, "subject": subject, "repetitions": label})
+    table = decision_table(pd.DataFrame(rows), 2).set_index("subject")
+    s1 = table.loc["S1"]
+    assert s1["basis"] == "repeatability" and s1["method"] == "triad"
+    assert s1["evidence_median_deg"] == pytest.approx(0.6) and s1["evidence_n"] == 2
+    assert s1["runner_up"] == "kong T6" and s1["margin_deg"] == pytest.approx(5.5)
+    none = _decide([_row("kong", 0, cone=3.0)])  # no truth, no subsets: no evidence at all
+    assert none["basis"] == "repeatability" and none["evidence_n"] == 0

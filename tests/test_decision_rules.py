@@ -190,23 +190,124 @@ def test_the_summary_by_place_counts_every_subject():
         assert cells[7] == ", ".join(f"{counts.get(k, 0)} {k}" for k in VERDICT_KINDS)
 
 
-@pytest.mark.parametrize("dataset", _committed_datasets())
+def test_the_summary_by_place_names_the_choice_made_most_often_of_its_subjects():
+    """Beyond MAX_LISTED IMUs, one row per place: the calibration chosen most often and for how
+    many of that place's subjects (not of all IMUs), the median cone (skewed: not the mean); up to
+    MAX_LISTED, every IMU; the tie rule's count says how many had no evidence."""
+    table = _table(MAX_LISTED + 5)  # 5 subjects of each IMU, one of them without a choice
+    triad = ((table.index % 4 == 1) | (table.index % 9 == 0)) & table["method"].notna()
+    table.loc[triad, "method"] = "triad"
+    table["cone_deg"] = (table.index % 9 + 1.0) ** (1 + table.index // 9)  # 1, 1, 1, 1, 1 ... 9**5
+    rows = {
+        cells[1]: cells
+        for line in decision_section({"decision": table})
+        if line.startswith("| s |")
+        for cells in [[c.strip() for c in line.strip("|").split("|")]]
+    }
+    assert rows["IMU0"][3] == "triad T6 (4 of 5 subjects)"  # one of the 5 has no calibration
+    assert rows["IMU8"][3] == "kong T6 (3 of 5 subjects)"  # triad 1, none 1
+    assert float(rows["IMU2"][4]) == pytest.approx(27.0)  # 3, 9, 27, 81, 243: the mean is 72.6
+    assert (
+        len(
+            [
+                line
+                for line in decision_section({"decision": _table(MAX_LISTED)})
+                if line.startswith("| S")
+            ]
+        )
+        == MAX_LISTED
+    )
+    # 9 IMUs: 7 chosen, 2 of them tied (k 1 and 5), both with evidence (evidence_n 1 and 2)
+    assert "(2 of 7 sensors chosen by the tie rule, 0 of them without any evidence)" in "\n".join(
+        decision_section({"decision": _table(9)})
+    )
+
+
+def test_the_summary_names_the_advisory_flags_and_the_note_beside_the_choice():
+    table = _table(2).assign(advisory_flags=["weight_switch;step_frequency_disagrees", ""])
+    table["note"] = ["outside its authors' design", ""]
+    rows = [line for line in decision_section({"decision": table}) if line.startswith("| S")]
+    use = [[c.strip() for c in line.strip("|").split("|")][4] for line in rows]
+    assert use == [
+        "kong T6 [weight_switch, step_frequency_disagrees] (outside its authors' design)",
+        "kong T6",
+    ]
+
+
+def _committed_with_decisions() -> list[str]:
+    return sorted(p.parent.parent.name for p in (REPO / "results").glob("*/tables/decision.csv"))
+
+
+def _section_rows(section: str) -> list[dict]:
+    """The decision section's table rows as {header: cell}."""
+    lines = [line for line in section.splitlines() if line.startswith("| ")]
+    cells = [[c.strip() for c in line.strip().strip("|").split("|")] for line in lines]
+    assert all(len(c) == len(cells[0]) for c in cells), "a row's cells do not match its header"
+    return [dict(zip(cells[0], row)) for row in cells[1:]]
+
+
+def _deg_cell(cell: str, value) -> bool:
+    """A '-' for NaN, else the number to its 1 decimal."""
+    value = float(value)
+    return cell == "-" if not np.isfinite(value) else float(cell) == pytest.approx(value, abs=0.051)
+
+
+def _listed_row_says(shown: dict, r: pd.Series) -> None:
+    assert [shown["subject"], shown["set"], shown["IMU"], shown["segment"]] == [
+        str(r["subject"]),
+        str(r["sensor_set"]),
+        str(r["imu"]),
+        str(r["segment"]),
+    ]
+    assert shown["verdict"] == r["verdict"]
+    chosen = isinstance(r["method"], str)
+    assert shown["use"].startswith(f"{r['method']} {r['test']}") if chosen else shown["use"] == "-"
+    assert _deg_cell(shown["uncertainty (deg)"], r["cone_deg"])
+    assert _deg_cell(shown["spread (deg)"], r["methods_spread_deg"])
+    behind = r["n_behind"]
+    assert shown["within T"] == ("-" if not np.isfinite(behind) else str(int(behind)))
+    assert shown["unflagged of N"] == f"{int(r['n_unflagged'])} of {int(r['n_calibrations'])}"
+    if isinstance(r["runner_up"], str):
+        margin = f"({r['margin_deg']:+.1f})" if np.isfinite(r["margin_deg"]) else "(-)"
+        assert shown["runner-up (margin, deg)"] == f"{r['runner_up']} {margin}"
+    else:
+        assert shown["runner-up (margin, deg)"] == "-"
+
+
+def _place_row_says(shown: dict, group: pd.DataFrame) -> None:
+    chosen = (group["method"].fillna("-") + " " + group["test"].fillna("")).str.strip()
+    use = re.fullmatch(r"(.+?) \((\d+) of (\d+) subjects\)( \(.*\))?", shown["use (most often)"])
+    assert use, shown["use (most often)"]
+    name, count, of = use.group(1), int(use.group(2)), int(use.group(3))
+    assert of == len(group) and count == (chosen == name).sum() == chosen.value_counts().max()
+    assert _deg_cell(shown["uncertainty, median (deg)"], group["cone_deg"].median())
+    assert _deg_cell(shown["spread, median (deg)"], group["methods_spread_deg"].median())
+    total = f"{group['n_unflagged'].sum()} of {group['n_calibrations'].sum()}"
+    assert shown["unflagged of N"] == total
+    counts = group["verdict_kind"].value_counts()
+    assert shown["verdicts"] == ", ".join(f"{counts.get(k, 0)} {k}" for k in VERDICT_KINDS)
+
+
+@pytest.mark.parametrize("dataset", _committed_with_decisions())
 def test_the_committed_summary_says_what_its_decision_table_says(dataset):
-    table = pd.read_csv(REPO / "results" / dataset / "tables" / "decision.csv", dtype=str)
+    """Every row of SUMMARY.md's decision section read back against decision.csv: per IMU up to
+    MAX_LISTED, else per place (the choice made most often and of how many subjects, the
+    medians, the sums, the verdicts' counts)."""
+    table = pd.read_csv(REPO / "results" / dataset / "tables" / "decision.csv")
     text = (REPO / "results" / dataset / "SUMMARY.md").read_text()
     section = text.split("## Which calibration to use, for each sensor")[1].split("\n## ")[0]
     met = (table["verdict_kind"] == USE).sum()
     t = float(table["tolerance_deg"].iloc[0])
     assert f"**Tolerance T = {t:g} deg**" in section
     assert f"**{met} of {len(table)} sensors meet it**" in section
-    if len(table) > MAX_LISTED:
+    rows = _section_rows(section)
+    if len(table) <= MAX_LISTED:
+        assert len(rows) == len(table)
+        for shown, (_, r) in zip(rows, table.iterrows()):
+            _listed_row_says(shown, r)
         return
-    rows = [line for line in section.splitlines() if line.startswith("| ") and "---" not in line]
-    assert len(rows) == len(table) + 1  # the header
-    for line, (_, r) in zip(rows[1:], table.iterrows()):
-        cells = [c.strip() for c in line.strip("|").split("|")]
-        assert cells[:3] == [r["subject"], r["sensor_set"], r["imu"]]
-        assert cells[-1] == r["verdict"]
-        if isinstance(r["method"], str):
-            assert cells[4].startswith(f"{r['method']} {r['test']}")
-            assert float(cells[5]) == pytest.approx(float(r["cone_deg"]), abs=0.05)
+    places = table.groupby(["sensor_set", "imu", "segment"], sort=True)
+    assert len(rows) == places.ngroups
+    for shown, ((sensor_set, imu, segment), group) in zip(rows, places):
+        assert [shown["set"], shown["IMU"], shown["segment"]] == [sensor_set, imu, segment]
+        _place_row_says(shown, group)

@@ -18,6 +18,9 @@ from .minidataset import make_dataset
 
 # --- HuGaDB: int16 counts at +-2 g and +-2000 deg/s ---------------------------------------------
 
+#: a left shank sensor mounted with its axes permuted (sensor -> body; not its own transpose)
+MOUNT_LEFT = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+
 HUGADB_SENSORS = ["rf", "rs", "rt", "lf", "ls", "lt"]
 
 
@@ -93,6 +96,53 @@ def test_xsens_export_values_pass_through_in_si(tmp_path):
     path.write_text(header.replace("Gyr_Z", "Mag_Z") + "\n" + "\n".join(lines) + "\n")
     with pytest.raises(FormatError, match=f"{path.name}: line 2.*missing column.*Gyr_Z"):
         xsens.read_mt_export(path)
+
+
+#: one trial's sensors: (sheet row, mounting sensor -> body): a mounting with no symmetry, so that
+#: a value read from another axis, sensor or unit shows
+XSENS_SHEET = {
+    "00B4A301": ("RS\tmain\tshank\tright\tlower_body\t+y", np.eye(3)),
+    "00B4A302": ("LS\tmain\tshank\tleft\tlower_body\t+y", MOUNT_LEFT),
+    "00B4A303": ("LB\tmain\twaist\tcenter\tupper_body\t+y", np.eye(3)),
+}
+
+
+def test_one_xsens_trial_imports_the_exported_values_and_the_sheet_as_written(tmp_path):
+    """`aceval import xsens` of one trial (standing, then walking) end to end: every recording is
+    a run of the export's own samples, unchanged (SI: m/s^2 and rad/s, not converted again),
+    under the IMU, side and region its sensor sheet gives."""
+    from .labexports import export
+    from .runner import aceval
+    from .test_xsens_lab import signals
+
+    exports = tmp_path / "exports"
+    exports.mkdir()
+    source = {}
+    for k, (sensor_id, (_, mount)) in enumerate(XSENS_SHEET.items()):
+        acc, gyr = signals(4.0, 6.0, mount=mount, seed=k)
+        export(exports / f"S02-000_{sensor_id}.txt", sensor_id, 100, acc, gyr, "comma")
+        source[sensor_id] = np.column_stack([acc, gyr]).round(6)  # as exported, 6 decimals
+    sheet = "sensor_id\timu\tsensor_set\tsegment\tside\tregion\tright_axis\n"
+    sheet += "".join(f"{s}\t{row}\n" for s, (row, _) in XSENS_SHEET.items())
+    (tmp_path / "sensors.tsv").write_text(sheet)
+    args = ["--sensors", tmp_path / "sensors.tsv", "--subject", "S02", "--out", tmp_path / "out"]
+    result = aceval("import", "xsens", exports, *args)
+    assert result.code == 0, result.err
+    dataset = load_dataset(tmp_path / "out", check_files=True)
+    imus = pd.read_csv(tmp_path / "out" / "imus.tsv", sep="\t", dtype=str).set_index("imu")
+    for sensor_id, (row, _) in XSENS_SHEET.items():
+        imu, sensor_set, segment, side, region, axis = row.split("\t")
+        columns = ["sensor_set", "segment", "side", "region", "right_axis"]
+        assert imus.loc[imu, columns].tolist() == [sensor_set, segment, side, region, axis]
+        recordings = dataset.recordings[dataset.recordings["imu"] == imu]
+        assert set(recordings["test"]) == {"T0", "T6"}
+        for path in recordings["path"]:
+            data = dataset.read_recording(path)
+            values = np.column_stack([data.acc, data.gyr])
+            at = int(np.argmin(np.abs(source[sensor_id] - values[0]).max(axis=1)))
+            written = source[sensor_id][at : at + len(values)]  # the dataset keeps 6 digits
+            np.testing.assert_allclose(values, written, rtol=1e-5, atol=1e-6, err_msg=path)
+    assert dataset.meta["units"] == {"acc": "m/s^2", "gyr": "rad/s"}
 
 
 # --- qmt's .mat (SI) and Vicon's markers (mm -> m) ------------------------------------------------

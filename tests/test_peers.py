@@ -306,3 +306,66 @@ def test_the_gates_read_the_body_axes_as_rows_of_the_sensor_to_body_rotation():
     assert gated["axis_vertical_angle_deg"].round(6).tolist() == [90.0]
     wrong = axis_gates(pd.DataFrame([row]), lambda sensor_set, imu: "+z")  # the column's axis
     assert wrong["flag"].tolist() == ["right_axis_mismatch"]
+
+
+def test_the_direction_vote_reads_the_body_y_row_of_an_asymmetric_calibration():
+    """body x = sensor z, body y = sensor x, body z = sensor y: the body's y is the sensor's x (the
+    rotation's row), not its z (the column). A repetition whose first phase about -y turns about
+    sensor -x agrees with it; one about sensor +x says it is backward; read as the column, neither
+    would vote."""
+    import numpy as np
+    import pandas as pd
+
+    from aceval.calibrate.table import SIGN_VERIFIED
+    from aceval.data.contract import R_COLUMNS
+    from aceval.evaluation.peer_gates import direction_gates
+    from aceval.methods.moments import PHASE_COLUMNS
+
+    R = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])  # sensor -> body
+    key = {"subject": "S1", "sensor_set": "s", "imu": "A", "segment": "thigh", "test": "T1"}
+    peer = {**key, "repetitions": "R1+R2", "n_reps": 2, "method": "qmt_hinge", "flag": ""}
+    peers = pd.DataFrame([{**peer, **dict(zip(R_COLUMNS, R.ravel()))}])
+
+    def voted(axis):
+        recordings = pd.DataFrame(
+            [
+                {**key, "rep": rep, "kind": "motion", "flag": "", **dict(zip(PHASE_COLUMNS, axis))}
+                for rep in (1, 2)
+            ]
+        )
+        return direction_gates(peers, recordings, lambda s, i: "+x", {"T1": "-y"}.get).iloc[0]
+
+    agrees = voted([-1.0, 0.0, 0.0])
+    assert agrees["flag"] == "" and agrees["first_phase_agreement"] == 1.0
+    assert bool(agrees[SIGN_VERIFIED])
+    backward = voted([1.0, 0.0, 0.0])
+    assert backward["flag"] == "backward" and backward["first_phase_agreement"] == 0.0
+
+
+def test_a_peers_full_calibration_is_unstable_when_most_of_its_retest_subsets_are_not_half():
+    import pandas as pd
+    from scipy.spatial.transform import Rotation
+
+    from aceval.data.contract import R_COLUMNS
+    from aceval.evaluation.peer_gates import unstable_gates
+
+    key = {"subject": "S1", "sensor_set": "s", "imu": "A", "test": "T5", "method": "qmt_hinge"}
+
+    def row(repetitions, deg):
+        R = Rotation.from_euler("z", deg, degrees=True).as_matrix()
+        n = repetitions.count("+") + 1
+        return {
+            **key,
+            "repetitions": repetitions,
+            "n_reps": n,
+            "flag": "",
+            **dict(zip(R_COLUMNS, R.ravel())),
+        }
+
+    def full_flag(*subsets):
+        peers = pd.DataFrame([row("R1+R2+R3+R4", 0.0), *(row(r, d) for r, d in subsets)])
+        return unstable_gates(peers, 2)["flag"].tolist()
+
+    # one of two subsets of 2 repetitions 12 deg away: half, not most
+    assert full_flag(("R1+R2", 12.0), ("R3+R4", 1.0)) == ["", "unstable", ""]
+    assert full_flag(("R1+R2", 12.0), ("R3+R4", 14.0), ("R1+R3", 1.0))[0] == "unstable"

@@ -356,3 +356,23 @@ def test_every_committed_set_test_is_recomputed_from_its_committed_cells():
 @pytest.mark.slow  # 14 mixed models of 93 subjects (1.5 CPU-s)
 def test_every_committed_set_test_of_the_powered_design_is_recomputed_from_its_cells():
     assert recomputed_set_tests([POWERED]) >= 10
+
+
+def test_every_p_value_column_is_written_by_one_rule_in_the_csvs_and_the_markdown():
+    """p, p_holm and flag_value's p_value: 3 significant digits in a CSV (4 decimals would write
+    1e-5 as 0.0, a p of exactly 0), '<0.001' below 0.001 in Markdown (not 0.000), 3 decimals
+    from 0.001 up, 'n/a' without one; any other float keeps 4 decimals / 3 decimals."""
+    p = [1.234e-5, 0.000996, 0.001, 0.01234, 0.5, np.nan]
+    table = pd.DataFrame({"p": p, "p_holm": p, "p_value": p, "median_deg": [1.23456, 1e-5] * 3})
+    csv = kong2016.rounded(table.copy())
+    for column in ("p", "p_holm", "p_value"):
+        assert csv[column].tolist()[:5] == [1.23e-5, 0.000996, 0.001, 0.0123, 0.5]
+        assert np.isnan(csv[column].iloc[5])
+    assert csv["median_deg"].tolist()[:2] == [1.2346, 0.0]
+    text = kong2016.named_markdown(table, "a table", "units", "lab", False)
+    rows = [line.split("|")[1:-1] for line in text.splitlines() if line.startswith("| ")][1:]
+    cells = [[c.strip() for c in row] for row in rows]
+    for k in range(3):
+        column = [row[k] for row in cells]
+        assert column == ["<0.001", "<0.001", "0.001", "0.012", "0.500", "n/a"]
+    assert [row[3] for row in cells][:2] == ["1.235", "0.000"]

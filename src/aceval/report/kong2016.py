@@ -317,10 +317,17 @@ def _tidy(table: pd.DataFrame, number: int) -> pd.DataFrame:
     return rounded(table)
 
 
+#: the columns that hold p-values: 3 significant digits in a CSV (:func:`rounded`: 4 decimals
+#: would write 1e-5 as 0.0), '<0.001' below 0.001 in Markdown (:func:`_fmt_p`)
+P_COLUMNS = ("p", "p_holm", "p_value")
+
+
 def rounded(table: pd.DataFrame) -> pd.DataFrame:
-    """p-values to 3 significant digits, other floats to 4 decimals (stable, diff-friendly CSVs)."""
+    """p-values (:data:`P_COLUMNS`) to 3 significant digits, other floats to 4 decimals (stable,
+    diff-friendly CSVs).
+    """
     for column in table.columns:
-        if column in ("p", "p_holm"):
+        if column in P_COLUMNS:
             table[column] = [float(f"{v:.3g}") if np.isfinite(v) else np.nan for v in table[column]]
         elif pd.api.types.is_float_dtype(table[column]):
             table[column] = table[column].round(4)
@@ -338,6 +345,9 @@ def _fmt(value, digits=3) -> str:
 
 
 def _fmt_p(value) -> str:
+    """A p-value as every Markdown table shows one: '<0.001' below 0.001 (3 decimals would print
+    0.000), else 3 decimals; 'n/a' without one.
+    """
     if value is None or not np.isfinite(value):
         return "n/a"
     return "<0.001" if value < 0.001 else f"{value:.3f}"
@@ -383,7 +393,7 @@ def named_markdown(
         return "\n".join(lines + ["No data in this dataset for this table.", ""])
     shown = table.copy()
     for column in shown.columns:
-        if column in ("p", "p_holm"):
+        if column in P_COLUMNS:
             shown[column] = [_fmt_p(v) for v in shown[column]]
         elif pd.api.types.is_float_dtype(shown[column]):
             shown[column] = [_fmt(v) for v in shown[column]]
