@@ -320,7 +320,7 @@ def import_xsens(
         "units": {"acc": "m/s^2", "gyr": "rad/s"},
         "acc_at_rest": "up",  # the importer writes specific force
         "sensor_sets": list(dict.fromkeys(sheet["sensor_set"])),
-        "acc_range_g": {"upper_body": ACC_RANGE_G, "lower_body": ACC_RANGE_G},
+        "acc_range_g": {region: ACC_RANGE_G for region in sorted(set(sheet["region"]))},
         "gyr_range_dps": GYR_RANGE_DPS,
     }
     writer = DatasetWriter(out, meta)
