@@ -120,6 +120,8 @@ class Combined(CalibrationMethod):
 
     statistics = (ACC_SCATTER, GYRO_MOMENTS)
     needs = ("kong", "triad")
+    diagnostics = ("weight_kong", "weight_gyro")
+    signal = "acc+gyr"
 
     def fit(self, pooled: Pooled, fitted: Mapping[str, CalibrationMethod]) -> Combined:
         """The combined heading of each row (class docstring)."""

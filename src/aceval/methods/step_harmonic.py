@@ -263,22 +263,20 @@ STEP_SCATTER = Statistic(
     derive=_pooled_steps,
 )
 
-#: why a walking test has no step-harmonic calibration
-TOO_SHORT = (
-    "needs walking of at least two cycles of the slowest step (3.3 s, all repetitions of the "
-    "test together) to find the step frequency; this test's recordings are shorter"
-)
-
 
 class StepHarmonic(CalibrationMethod):
     """The step-harmonic calibration of each walking row from its summed step-band scatter,
     flagged ``no_step_heading`` when no horizontal direction dominates (:data:`MAX_STEP_RATIO`),
     ``step_frequency_disagrees`` when the test's recordings disagree on the step frequency, and
     ``not_applicable`` (with a ``note``) when the test's walking is too short. Diagnostics:
-    ``step_ratio`` (middle / largest horizontal eigenvalue), ``step_hz`` (Hz), ``note``.
+    ``step_ratio`` (middle / largest horizontal eigenvalue), ``step_hz`` (Hz), ``note``. The
+    step's reference in the others' cones.
     """
 
     statistics = (STEP_SCATTER,)
+    diagnostics = ("step_ratio", "step_hz", "note")
+    signal = "step"
+    cone_reference = True
 
     def applies(self, pooled: Pooled) -> np.ndarray:
         """Walking rows: those with a step-band scatter, and (flagged ``not_applicable``) the
