@@ -4,8 +4,6 @@ of an aluminium box; rotation about one edge and random hand-held rotation, 5 re
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from aceval.data.units import SIMULATED_SUBJECTS
@@ -21,7 +19,7 @@ from aceval.simulate.engine import (
 from aceval.simulate.kong_dataset import ACC_RANGE_G, GYR_RANGE_DPS, IMUS, SENSOR_SETS, UNITS
 from aceval.simulate.motion import bell
 from aceval.simulate.options import SimOptions, sensor_signals
-from aceval.simulate.simulation import Simulation, write_simulation
+from aceval.simulate.simulation import Simulation, written
 
 #: box size (m): Kong does not give it; a hand-held aluminium box of this size is assumed
 BOX = np.array([0.30, 0.20, 0.15])
@@ -81,17 +79,6 @@ TESTS = {
     "EDGE": (_edge_rotation, "motion", "rotation about one edge"),
     "RANDOM": (_random_rotation, "motion", "random hand-held rotation"),
 }
-
-
-def simulate_box(
-    out: Path,
-    seed: int,
-    n_subjects: int = SIMULATED_SUBJECTS["box"],
-    options: SimOptions = SimOptions(),
-    name: str = "box_sim",
-) -> Path:
-    """Write the SIMULATED rigid-box dataset (Kong Sec. 3) into ``out``, named ``name``; returns ``out``."""
-    return write_simulation(box_simulation(seed, n_subjects, options, name), out, options)
 
 
 def box_simulation(
@@ -168,3 +155,7 @@ def box_simulation(
                     writer.recording(subject, sensor_set, test, rep, imu, gyr, acc)
 
     return Simulation(meta, subjects, sheets, write_subject, "box_sim")
+
+
+#: writes :func:`box_simulation` into a folder: ``simulate_box(out, seed, n_subjects, options, name)``
+simulate_box = written(box_simulation)

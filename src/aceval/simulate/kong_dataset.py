@@ -21,7 +21,7 @@ from aceval.simulate.options import (
     heel_strike_shaking,
     sensor_signals,
 )
-from aceval.simulate.simulation import Simulation, write_simulation
+from aceval.simulate.simulation import Simulation, written
 
 IMUS = [  # Kong Sec. 2.3 and Fig. 4
     ("IMU1", "head", "center", "upper_body"),
@@ -89,17 +89,6 @@ def _stance_offsets(rng, offplane: float) -> dict[str, np.ndarray]:
         offsets[f"thigh_{s}"] = offsets[f"shank_{s}"] = offplane * sign * leg
         offsets[f"foot_{s}"] = offplane * sign * foot
     return offsets
-
-
-def simulate_kong(
-    out: Path,
-    seed: int,
-    n_subjects: int = SIMULATED_SUBJECTS["kong"],
-    options: SimOptions = SimOptions(),
-    name: str = "kong_sim",
-) -> Path:
-    """Write the SIMULATED Kong protocol dataset into ``out``, named ``name``; returns ``out``."""
-    return write_simulation(kong_simulation(seed, n_subjects, options, name), out, options)
 
 
 def kong_simulation(
@@ -214,3 +203,7 @@ def _shaking(rng, posture, segment: str, scale: float):
     if scale <= 0 or kind not in SHAKING_PEAK_G or strikes is None or not len(strikes):
         return None
     return heel_strike_shaking(rng, posture.t, strikes, scale * SHAKING_PEAK_G[kind])
+
+
+#: writes :func:`kong_simulation` into a folder: ``simulate_kong(out, seed, n_subjects, options, name)``
+simulate_kong = written(kong_simulation)
