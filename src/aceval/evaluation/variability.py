@@ -1,5 +1,5 @@
 """How variable the motion is, measured the same way on real and on simulated recordings (beyond
-the papers; issue 30): what the simulator's variability is set from, and checked against.
+the papers): what the simulator's variability is set from, and checked against.
 
 Per subject, test and segment (:func:`variability_table`), each the median over the subject's
 units (IMU x sensor set) of:

@@ -43,8 +43,8 @@ LEG_SEGMENTS = ("thigh", "shank", "foot")
 #: the segments read at the stride (half the step frequency): the foot swings forward once per
 #: stride. The thigh and shank are read at the step, where their magnitude peaks: on kong_sim
 #: the stride gave them 4.3-7.9 deg median error against 1.4-4.1 deg at the step (the kong_sim of
-#: the assumed walking variability, measured
-#: 2026-11-24 with both rules; the trunk surges once per step, Zijlstra & Hof 2003)
+#: the assumed walking variability, measured with both rules; the trunk surges once per step,
+#: Zijlstra & Hof 2003)
 STRIDE_SEGMENTS = ("foot",)
 #: resolution (Hz) of the acceleration-magnitude spectra that are pooled over repetitions
 SPECTRUM_RESOLUTION_HZ = 0.005

@@ -101,7 +101,7 @@ def _axis_rotvec(axis: str, angle):
 
 def _compose(A, B):
     """``A @ B`` of two stacks of rotations, where ``None`` is the identity: its product is
-    skipped (a product with the identity gives the other factor's values; issue 43).
+    skipped (a product with the identity gives the other factor's values).
     """
     if A is None:
         return B
