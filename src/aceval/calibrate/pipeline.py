@@ -26,7 +26,7 @@ from aceval.calibrate.table import (
     combine_flags,
     full_set_rows,
     has_flag,
-    kong_rows,
+    rows_of_method,
     unflagged,
 )
 from aceval.data.contract import R_COLUMNS
@@ -270,7 +270,7 @@ def propagate_backward(calibrations: pd.DataFrame) -> pd.DataFrame:
     """
     if calibrations.empty or "first_phase_agreement" not in calibrations:
         return calibrations
-    full = full_set_rows(kong_rows(calibrations))
+    full = full_set_rows(rows_of_method(calibrations))
     flags = np.where(unflagged(calibrations), "", calibrations["flag"].astype(str)).astype(object)
     for _, imu in full.groupby(KEY, sort=False):
         backward = imu[has_flag(imu["flag"], "backward")]
@@ -301,7 +301,7 @@ def propagate_verified(calibrations: pd.DataFrame) -> pd.DataFrame:
     unjudged = calibrations["first_phase_agreement"].isna().to_numpy()
     matrices = calibrations[R_COLUMNS].to_numpy(float)
     finite = np.isfinite(matrices).all(axis=1)
-    full = full_set_rows(kong_rows(calibrations))
+    full = full_set_rows(rows_of_method(calibrations))
     rows_of = calibrations.groupby(KEY, sort=False).indices
     for key, imu in full.groupby(KEY, sort=False):
         sure = imu[imu[SIGN_VERIFIED].to_numpy(bool)]
