@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from aceval.calibrate.plan import SENSOR_COLUMNS, Plan, Subsets
+from aceval.calibrate.table import IDENTITY_COLUMNS
 from aceval.data.contract import R_COLUMNS
 from aceval.methods import registry
 from aceval.methods.interface import Fit, combine_flags
@@ -47,15 +48,7 @@ def method_rows(base: dict, fits: dict) -> list[dict]:
 #: the columns every calibration of the sagittal design has, in the table's order; each method's
 #: declared ``diagnostics`` follow (:func:`table_columns`)
 SHARED_COLUMNS = [
-    "subject",
-    "sensor_set",
-    "imu",
-    "segment",
-    "side",
-    "test",
-    "repetitions",
-    "n_reps",
-    "method",
+    *IDENTITY_COLUMNS,
     *R_COLUMNS,
     "n_samples",
     "rho_static",

@@ -22,18 +22,10 @@ CALIBRATION_KEY = ["subject", "sensor_set", "imu", "test"]
 #: :func:`aceval.calibrate.pipeline.propagate_verified`)
 SIGN_VERIFIED = "right_axis_sign_verified"
 KEY = ["subject", "sensor_set", "imu"]
+#: what a calibration is of: the sensor, the test, the repetitions and the method
+IDENTITY_COLUMNS = [*KEY, "segment", "side", "test", "repetitions", "n_reps", "method"]
 #: the columns every calibration table has (an empty table keeps them)
-CALIBRATION_COLUMNS = [
-    *KEY,
-    "segment",
-    "side",
-    "test",
-    "repetitions",
-    "n_reps",
-    "method",
-    *R_COLUMNS,
-    "flag",
-]
+CALIBRATION_COLUMNS = [*IDENTITY_COLUMNS, *R_COLUMNS, "flag"]
 
 
 def all_subsets(repetitions: list[int]) -> list[tuple[int, ...]]:

@@ -16,7 +16,7 @@ from aceval.simulate.engine import (
     fine_time,
     small_rotations,
 )
-from aceval.simulate.kong_dataset import ACC_RANGE_G, GYR_RANGE_DPS, IMUS, SENSOR_SETS, UNITS
+from aceval.simulate.kong_dataset import ACC_RANGE_G, IMUS, SENSOR_META
 from aceval.simulate.motion import bell
 from aceval.simulate.options import SimOptions, sensor_signals
 from aceval.simulate.simulation import Simulation, written
@@ -88,17 +88,8 @@ def box_simulation(
     name: str = "box_sim",
 ) -> Simulation:
     """The SIMULATED rigid-box dataset (Kong Sec. 3) named ``name``, before it is written."""
-    meta = simulated_meta(
-        name,
-        "the rigid aluminium box of Kong et al. 2016 Sec. 3",
-        "box",
-        seed,
-        options.fs_hz,
-        units=UNITS,
-        sensor_sets=SENSOR_SETS,
-        acc_range_g=ACC_RANGE_G,
-        gyr_range_dps=GYR_RANGE_DPS,
-    )
+    description = "the rigid aluminium box of Kong et al. 2016 Sec. 3"
+    meta = simulated_meta(name, description, "box", seed, options.fs_hz, **SENSOR_META)
     placements = _placements()
     subjects = [f"BOX{k + 1}" for k in range(n_subjects)]
     repetitions = {test: 1 if test == "T0" else options.repetitions for test in TESTS}

@@ -53,6 +53,10 @@ ACC_RANGE_G = {"upper_body": 4.0, "lower_body": 8.0}  # Kong Sec. 2.3
 GYR_RANGE_DPS = 400.0  # Kong Sec. 2.3
 UNITS = {"acc": "g", "gyr": "deg/s"}
 SENSOR_SETS = ["frontal", "lateral"]
+#: dataset.yaml's facts of Kong's sensors (the rigid box's too)
+SENSOR_META = dict(
+    units=UNITS, sensor_sets=SENSOR_SETS, acc_range_g=ACC_RANGE_G, gyr_range_dps=GYR_RANGE_DPS
+)
 #: soft-tissue wobble RMS (deg) by segment and set: stiffer over bone (head, shank front, foot
 #: dorsum), larger over fat and muscle (lateral waist, thighs); see docs/simulation.md
 WOBBLE_DEG = {
@@ -98,17 +102,7 @@ def kong_simulation(
     name: str = "kong_sim",
 ) -> Simulation:
     """The SIMULATED Kong protocol dataset named ``name``, before it is written."""
-    meta = simulated_meta(
-        name,
-        "Kong et al. 2016",
-        "kong",
-        seed,
-        options.fs_hz,
-        units=UNITS,
-        sensor_sets=SENSOR_SETS,
-        acc_range_g=ACC_RANGE_G,
-        gyr_range_dps=GYR_RANGE_DPS,
-    )
+    meta = simulated_meta(name, "Kong et al. 2016", "kong", seed, options.fs_hz, **SENSOR_META)
     subjects = _subjects(n_subjects, np.random.default_rng([seed, 0]))
     repetitions = {test: 1 if test == "T0" else options.repetitions for test in PROTOCOL}
 
