@@ -429,12 +429,11 @@ def _import(args, root: Path) -> None:
     from aceval.importers import FormatError
     from aceval.importers.run import run_import
 
-    lab = {"trials": None, "rate": None, "trim_to_shared": False}
     what = args.import_format
+    options = dict(format=what, src=args.source, sensors=args.sensors, name=args.name)
+    options |= dict(subject=args.import_subject, vicon=args.vicon)
     try:
-        report = run_import(
-            root, what, args.source, args.sensors, args.import_subject, args.vicon, args.name, lab
-        )
+        report = run_import(root, options)
     except (FormatError, CalibrationError, OSError) as exc:
         print(f"aceval import {what}: {exc}; nothing written", file=sys.stderr)
         raise _JobFailed(1) from None
