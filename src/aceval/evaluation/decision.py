@@ -36,6 +36,7 @@ from aceval.calibrate.table import (
     CALIBRATION_KEY,
     combine_flags,
     flag_sets,
+    flag_text,
     full_set_rows,
     has_flag,
     matrices,
@@ -114,8 +115,10 @@ def flag_disagreements(
     """
     if calibrations is None or calibrations.empty or "method" not in calibrations:
         return calibrations
-    flags = flag_sets(calibrations["flag"]).map(lambda names: names - {"methods_disagree"})
-    calibrations = calibrations.reset_index(drop=True).assign(flag=flags.map(";".join).values)
+    flags = flag_text(calibrations["flag"]).map(  # in their order: a set's order is the hash's
+        lambda text: combine_flags(*(n for n in text.split(";") if n != "methods_disagree"))
+    )
+    calibrations = calibrations.reset_index(drop=True).assign(flag=flags.values)
     full = full_set_rows(calibrations)
     full = full[_candidates(full)]
     spread = np.full(len(calibrations), np.nan)
