@@ -28,7 +28,7 @@ from aceval.calibrate.table import SPREAD_FLAGS
 from aceval.data.contract import RecordingError, recording_values
 from aceval.data.dataset import load_dataset
 from aceval.data.safety import MARKER
-from aceval.methods.functional import AXIS_METHODS
+from aceval.methods.registry import functional_design
 
 from .runner import aceval
 
@@ -1047,7 +1047,7 @@ def assert_flags(calibrations: pd.DataFrame, clean: pd.DataFrame, case: Case) ->
     for (imu, test, *methods), allowed in case.flags.items():
         rows = (calibrations["imu"] == imu) & ((calibrations["test"] == test) if test else True)
         if methods:  # ("axis methods",): the three axis methods only
-            rows &= calibrations["method"].isin(AXIS_METHODS)
+            rows &= calibrations["method"].isin(functional_design())
         shown = calibrations.loc[rows, ["test", "method", "flag"]].to_string()
         assert rows.any() and names[rows].map(allowed.intersection).map(bool).all(), shown
     untouched = ~calibrations["imu"].isin([imu for imu, *_ in case.flags]) | calibrations[

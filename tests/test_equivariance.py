@@ -6,7 +6,8 @@ read a sensor axis where it should read a body one, fails this whatever the data
 
 The methods are reached through one adapter, :func:`calibrations` (the registry's classes,
 fitted in their order), and the units are built and turned by :func:`sensor_unit` and
-:func:`rotated` (the sufficient statistics as :mod:`aceval.methods.sufficient` declares them)."""
+:func:`turned`: samples reduced by every statistic the registry declares, by its own ``reduce``
+(a new method's statistic reaches this test with no edit here)."""
 
 import numpy as np
 import pytest
@@ -16,10 +17,9 @@ from scipy.spatial.transform import Rotation
 
 from aceval.data.rotations import error_angle_deg
 from aceval.methods import registry
-from aceval.methods.step_harmonic import STEP_SCATTER
 from aceval.methods.sufficient import Units, pool
 
-from .synthetic import pitch_motion
+from .synthetic import G
 
 # --- the adapter: a unit's repetitions in, each method's rotation out ---------------------------
 
@@ -46,62 +46,67 @@ def expected_methods(resample: bool) -> set[str]:
 
 # --- a walking unit known in the body frame ---------------------------------------------------
 
+#: the samples' rate (Hz)
+FS = 100.0
 
-def body_unit(seed: int, n_reps: int = 3):
-    """Per repetition, in the body frame (x forward, y right, z down): Kong's acceleration scatter
-    of a sagittal movement with some out-of-plane motion, the unit gyroscope scatter about y with
-    some spread, and the step-band scatter mostly forward; all perturbed by ``seed`` so that no
-    method's answer is exactly the mounting."""
-    rng = np.random.default_rng(seed)
-    scatters, unit_scatters, steps = [], [], []
-    for rep in range(n_reps):
-        acc = pitch_motion(n=300, seed=seed + rep) + rng.normal(0, 0.3, (300, 3))
-        scatters.append(acc.T @ acc)
-        spin = rng.normal(0, 0.25, (200, 3)) + [0.0, 1.0, 0.0]
-        spin *= rng.choice([-1.0, 1.0], (200, 1))
-        spin /= np.linalg.norm(spin, axis=1, keepdims=True)
-        unit_scatters.append(spin.T @ spin)
-        band = rng.normal(0, 1, (200, 3)) * [1.0, 0.35, 0.3]
-        steps.append(band.T @ band)
+
+def walking_leg(n: int, step_hz: float, phase: float, rng=None) -> tuple[np.ndarray, np.ndarray]:
+    """One repetition of a leg walking, in the body frame (x forward, y right, z down): the
+    specific force (m/s^2) of a segment swinging about y at the stride frequency with a forward
+    surge and a vertical bounce at the step frequency, and its angular velocity (rad/s) about y;
+    with ``rng``, a sideways sway and noise on both (out-of-plane motion, a spread axis)."""
+    t = np.arange(n) / FS
+    stride, step = 2 * np.pi * step_hz / 2, 2 * np.pi * step_hz
+    theta = 0.5 * np.sin(stride * t + phase)
+    acc = np.column_stack(
+        [
+            G * np.sin(theta) + 2.0 * np.sin(step * t),
+            np.zeros(n),
+            -G * np.cos(theta) + 1.5 * np.sin(step * t),
+        ]
+    )
+    gyr = np.column_stack([np.zeros(n), 0.5 * stride * np.cos(stride * t + phase), np.zeros(n)])
+    if rng is not None:
+        acc[:, 1] += 0.4 * np.cos(stride * t + phase)  # in quadrature with the swing
+        acc += rng.normal(0, 0.3, (n, 3))
+        gyr += rng.normal(0, 0.3, (n, 3))
+    return acc, gyr
+
+
+def body_unit(seed: int, n_reps: int = 3, step_hz=(1.8, 1.85, 1.78)):
+    """Per repetition, in the body frame: the samples of :func:`walking_leg` (one step frequency
+    per repetition), perturbed by ``seed`` (None: noise-free) so that no method's answer is
+    exactly the mounting; the downward vertical and a declared right axis, roughly right."""
+    rng = None if seed is None else np.random.default_rng(seed)
+    samples = [walking_leg(400 + 37 * rep, step_hz[rep], 0.3 * rep, rng) for rep in range(n_reps)]
+    if rng is None:
+        return np.array([0.0, 0.0, 1.0]), np.array([0.1, 1.0, 0.0]), samples
     down = np.array([0.0, 0.0, 1.0]) + rng.normal(0, 0.02, 3)
     right = np.array([0.0, 1.0, 0.0]) + rng.normal(0, 0.2, 3)  # a declared axis, roughly right
-    return down / np.linalg.norm(down), right, scatters, unit_scatters, steps
+    return down / np.linalg.norm(down), right, samples
 
 
-def sensor_unit(body, mounting: np.ndarray, step_disagrees: bool = False) -> Units:
-    """The body-frame unit seen by a sensor mounted with ``mounting`` (sensor -> body), a walking
-    test (its step-band scatters too, at a step frequency of 1.8 Hz)."""
-    down, right, scatters, unit_scatters, steps = body
+def sensor_unit(body, mounting: np.ndarray) -> Units:
+    """The body-frame unit seen by a sensor mounted with ``mounting`` (sensor -> body) in a walking
+    test, reduced by every statistic the registry's methods declare (their own ``reduce``)."""
+    down, right, samples = body
     M = mounting
-    units = Units.of_repetitions(
+    return Units.of_samples(
         M.T @ down,
         M.T @ right,
-        [M.T @ S @ M for S in scatters],
-        [300] * len(scatters),
-        [M.T @ U @ M for U in unit_scatters],
+        [(acc @ M, gyr @ M) for acc, gyr in samples],
+        FS,
+        registry.statistics(),
         rho_static=0.95,
         first_phase="gait",
         segment="thigh",
     )
-    n = len(steps)
-    walking = {
-        "steps": np.stack([M.T @ H @ M for H in steps])[None],
-        "step_hz": np.full((1, n), 1.8),
-        "step_disagrees": np.full((1, n), float(step_disagrees)),
-    }
-    statistics = (*units.statistics, STEP_SCATTER)
-    return Units(**{**units.__dict__, "statistics": statistics, "values": units.values | walking})
 
 
-def rotated(units: Units, Q: np.ndarray) -> Units:
-    """The same unit after turning the sensor by Q: every sensor-frame statistic rotated (each
-    part by its declared shape: a vector Q v, a 3x3 scatter Q S Q^T)."""
-    shapes = {name: part.shape for s in units.statistics for name, part in s.parts.items()}
-    turn = {(3,): lambda v: v @ Q.T, (3, 3): lambda S: Q @ S @ Q.T}
-    values = {k: turn.get(shapes.get(k), lambda x: x)(v) for k, v in units.values.items()}
-    return Units(
-        **{**units.__dict__, "z0": units.z0 @ Q.T, "right": units.right @ Q.T, "values": values}
-    )
+def turned(body, mounting: np.ndarray, Q: np.ndarray) -> Units:
+    """The same unit after turning the sensor by Q (``d_sensor' = Q d_sensor``: the mounting
+    becomes ``M Q^T``), its samples reduced again."""
+    return sensor_unit(body, mounting @ Q.T)
 
 
 #: every row kind a method sees: all repetitions, single repetitions, a pair
@@ -130,20 +135,10 @@ def assert_equivariant(before: dict, after: dict, Q: np.ndarray) -> None:
 
 
 def test_the_adapter_reaches_every_method_and_each_recovers_a_known_mounting():
-    """Noise-free statistics of a known mounting: every method gives it back (a check of the
+    """Noise-free samples of a known mounting: every method gives it back (a check of the
     adapter and of the case; the equivariance below is the test)."""
     mounting = Rotation.from_euler("zyx", [30, -20, 110], degrees=True).as_matrix()
-    rng = np.random.default_rng(0)
-    spin = np.tile([0.0, 1.0, 0.0], (50, 1)) * rng.choice([-1.0, 1.0], (50, 1))
-    acc = pitch_motion(n=300)
-    body = (
-        np.array([0.0, 0.0, 1.0]),
-        np.array([0.1, 1.0, 0.0]),
-        [acc.T @ acc] * 3,
-        [spin.T @ spin + 1e-3 * np.eye(3)] * 3,
-        [np.diag([1.0, 0.1, 0.0])] * 3,
-    )
-    found = calibrations(sensor_unit(body, mounting), ROWS)
+    found = calibrations(sensor_unit(body_unit(None), mounting), ROWS)
     assert set(found) == set(registry.own())
     for name, (R, flag) in found.items():
         assert (flag == "").all(), (name, flag)
@@ -159,9 +154,9 @@ def test_every_method_turns_with_the_sensor(mounting, turn, seed):
 def turned_by(mounting, turn, seed, rows, resample: bool) -> None:
     """A unit of mounting and noise ``seed`` before and after the turn: R' = R Q^T."""
     Q = Rotation.from_quat(turn).as_matrix()
-    units = sensor_unit(body_unit(seed), Rotation.from_quat(mounting).as_matrix())
-    before = calibrations(units, rows, resample=resample)
-    assert_equivariant(before, calibrations(rotated(units, Q), rows, resample=resample), Q)
+    body, M = body_unit(seed), Rotation.from_quat(mounting).as_matrix()
+    before = calibrations(sensor_unit(body, M), rows, resample=resample)
+    assert_equivariant(before, calibrations(turned(body, M, Q), rows, resample=resample), Q)
 
 
 @settings(max_examples=10, deadline=None)
@@ -175,9 +170,9 @@ def test_a_method_reading_r_transposed_would_fail_this():
     """The property has teeth: R^T instead of R (a classic slip) breaks it for a generic turn."""
     M = Rotation.from_euler("zyx", [40, 10, -70], degrees=True).as_matrix()
     Q = Rotation.from_euler("xyz", [25, -60, 15], degrees=True).as_matrix()
-    units = sensor_unit(body_unit(3), M)
-    R = calibrations(units, ROWS)["kong"][0]
-    R_after = calibrations(rotated(units, Q), ROWS)["kong"][0]
+    body = body_unit(3)
+    R = calibrations(sensor_unit(body, M), ROWS)["kong"][0]
+    R_after = calibrations(turned(body, M, Q), ROWS)["kong"][0]
     assert error_angle_deg(R_after, R @ Q.T).max() < 1e-7
     assert error_angle_deg(np.swapaxes(R_after, 1, 2), np.swapaxes(R, 1, 2) @ Q.T).min() > 1.0
     assert error_angle_deg(R_after, Q @ R).min() > 1.0
@@ -188,8 +183,8 @@ def test_the_combined_heading_lies_between_kongs_and_the_gyroscopes():
     TRIAD (z0, then the gyroscope axis) and Kong disagree by 15 deg of heading, and the combined
     heading, a weighted mean of the two, lies strictly between them on the same great circle."""
     turn = Rotation.from_euler("z", 15, degrees=True).as_matrix()
-    down, right, scatters, unit_scatters, steps = body_unit(11)
-    body = (down, right, scatters, [turn @ U @ turn.T for U in unit_scatters], steps)
+    down, right, samples = body_unit(11)
+    body = (down, right, [(acc, gyr @ turn.T) for acc, gyr in samples])
     found = calibrations(sensor_unit(body, np.eye(3)), ROWS[:1])
     kong, triad, combined = (found[name][0][0] for name in ("kong", "triad", "combined"))
     apart = float(error_angle_deg(kong, triad))
@@ -217,14 +212,18 @@ def test_a_resample_of_every_repetition_once_is_the_calibration_itself():
 def test_a_flagged_kong_plane_leaves_the_combined_heading_to_the_gyroscope():
     """Accelerations in no plane (Kong flags not_planar): the combined heading is the
     gyroscope's alone, TRIAD's with z0 kept."""
-    down, right, scatters, unit_scatters, steps = body_unit(2)
-    body = (down, right, [np.eye(3) * np.trace(S) / 3 for S in scatters], unit_scatters, steps)
+    down, right, samples = body_unit(2)
+    rng = np.random.default_rng(2)
+    shaken = [(rng.normal(0, 5.0, acc.shape), gyr) for acc, gyr in samples]  # in no plane
+    body = (down, right, shaken)
     found = calibrations(sensor_unit(body, np.eye(3)), ROWS[:1])
     assert found["kong"][1][0] != ""
     assert error_angle_deg(found["combined"][0][0], found["triad"][0][0]) < 1e-9
 
 
 def test_the_step_harmonic_heading_says_when_the_recordings_disagree_on_the_step():
-    units = sensor_unit(body_unit(4), np.eye(3), step_disagrees=True)
+    """One repetition walked at another step frequency (2.9 Hz against 1.8): outside the pass
+    band of the test's, its recordings disagree on the step."""
+    units = sensor_unit(body_unit(4, step_hz=(1.8, 1.82, 2.9)), np.eye(3))
     flag = calibrations(units, ROWS[:1])["step_harmonic"][1][0]
     assert "step_frequency_disagrees" in flag.split(";")

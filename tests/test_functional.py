@@ -10,13 +10,15 @@ from aceval.calibrate.pipeline import calibrate
 from aceval.data.dataset import load_dataset, validate
 from aceval.data.rotations import error_angle_deg
 from aceval.evaluation.methods_comparison import with_truth
-from aceval.methods.functional import AXIS_METHODS, fit_axes, pool, sagittal_fits, triad_pair
+from aceval.methods.functional import axis_of_recordings, fit_axes, triad_pair
 from aceval.methods.moments import (
     MOMENT_COLUMNS,
     first_phase_sign,
     functional_axis,
     recording_moments,
 )
+from aceval.methods.registry import functional_design
+from aceval.methods.sagittal import sagittal_fits
 from aceval.methods.sufficient import gyroscope_axis
 from aceval.signals.reduction import summarise_recordings
 from aceval.simulate import SimOptions
@@ -29,7 +31,7 @@ def test_pooled_moments_equal_the_axis_of_the_joined_samples():
     rng = np.random.default_rng(0)
     first, second = rng.normal(size=(300, 3)) + [3, 0, 0], rng.normal(size=(200, 3)) + [2, 1, 0]
     rows = pd.DataFrame([recording_moments(x, 100.0, motion=False) for x in (first, second)])
-    pooled = pool(rows)
+    pooled = axis_of_recordings(rows)
     joined = functional_axis(np.vstack([first, second]))
     assert pooled.rho == pytest.approx(joined.rho, abs=1e-12)
     np.testing.assert_allclose(pooled.axis, joined.axis, atol=1e-12)
@@ -74,7 +76,7 @@ def test_every_method_fed_the_true_axes_has_zero_error():
         sagittal_fits(z0, 0.99, y, 0.6),
         fit_axes(np.eye(3), np.eye(3) @ TRUE, np.array([0.9, 0.5, 0.7]), (0, 1), random_starts=3),
     ):
-        for method in AXIS_METHODS:
+        for method in functional_design():
             assert error_angle_deg(fits[method]["R"], TRUE) == pytest.approx(0.0, abs=1e-5), method
     lm = fits["ricci_lm"]
     assert lm["converged"] and lm["random_starts_optimum"] == 3
@@ -87,7 +89,7 @@ def test_a_rotated_sensor_gives_a_correspondingly_rotated_calibration():
     y = TRUE.T @ [0, 1, 0] + rng.normal(0, 0.05, 3)
     Q = Rotation.from_rotvec([0.4, 0.1, -0.9]).as_matrix()  # the sensor turned on its segment
     plain, turned = sagittal_fits(z0, 0.99, y, 0.6), sagittal_fits(Q @ z0, 0.99, Q @ y, 0.6)
-    for method in AXIS_METHODS:
+    for method in functional_design():
         np.testing.assert_allclose(turned[method]["R"], plain[method]["R"] @ Q.T, atol=1e-6)
 
 
@@ -126,8 +128,8 @@ def test_functional_design_signs_axes_and_recovers_the_mountings(ricci_child):
     dataset = load_dataset(ricci_child)
     calibrations, axes = calibrate(dataset, summarise_recordings(dataset))
     calibrations = with_truth(calibrations, dataset.ground_truth)
-    assert set(calibrations["method"]) == set(AXIS_METHODS)
-    assert len(calibrations) == 5 * len(AXIS_METHODS)
+    assert set(calibrations["method"]) == set(functional_design())
+    assert len(calibrations) == 5 * len(functional_design())
     assert calibrations["error_deg"].max() < 3.0, calibrations[["imu", "method", "error_deg"]]
     used = axes[axes["reference"].fillna("") != ""]
     assert (
@@ -178,7 +180,9 @@ def test_the_axis_methods_fit_many_rows_as_the_single_problem_fits():
     spread = rng.uniform(0.0, 50.0, 40)  # some above max_spread_deg: flagged axes_disagree
     rows = [Pooled.of_axes(z0, 0.95, axes[k], rho[k], spread[k]) for k in range(40)]
     pooled = Pooled.concat(rows)
-    fits = {name: cls().fit(pooled, {}).result for name, cls in classes(AXIS_METHODS).items()}
+    fits = {
+        name: cls().fit(pooled, {}).result for name, cls in classes(functional_design()).items()
+    }
     limits = AxisLimits()
     flags = set()
     for k in range(40):
@@ -241,7 +245,7 @@ def test_the_lm_diagnostics_are_the_fixed_and_adaptive_fits_own():
 
 def test_a_failed_lm_is_an_entry_with_its_flag():
     fits = fit_axes(np.eye(3)[:1], np.eye(3)[:1], np.array([0.9]), (0, 0))
-    assert set(fits) == set(AXIS_METHODS)
+    assert set(fits) == set(functional_design())
     assert fits["ricci_lm"]["R"] is None and fits["ricci_lm"]["flag"]
 
 

@@ -63,7 +63,9 @@ def test_walking_verifies_the_declared_sign_of_feet_and_waist(calibrated):
     astray = declared["flag"].str.contains("right_axis_mismatch")
     assert (declared["right_axis_sign_verified"].astype(bool) == ~astray).all()
     assert (declared["flag"].str.contains("backward") == astray).all()
-    assert set(declared.loc[astray, "imu"]) == {"IMU3"} and (~astray).sum() == 33
+    # astray: the waist only, at most one calibration of each method (any method of the registry)
+    assert set(declared.loc[astray, "imu"]) == {"IMU3"}
+    assert astray.sum() <= declared["method"].nunique() and (~astray).sum() > 0
 
 
 def test_walking_catches_the_flipped_sign_of_feet_and_waist(calibrated):
@@ -73,8 +75,10 @@ def test_walking_catches_the_flipped_sign_of_feet_and_waist(calibrated):
     assert not flipped["right_axis_sign_verified"].astype(bool).any()
     key = ["imu", "method", "repetitions"]
     both = flipped.merge(declared, on=key, suffixes=("", "_declared"))
-    both = both[~both["flag_declared"].str.contains("right_axis_mismatch")]  # astray either way
-    assert len(both) == 33 and both["flag"].str.contains("backward").all()
+    astray = both["flag_declared"].str.contains("right_axis_mismatch")  # astray either way
+    assert len(both) == len(declared) == len(flipped)  # the same calibrations, turned
+    both = both[~astray]
+    assert len(both) and both["flag"].str.contains("backward").all()
     R = both[[f"r{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3)]].to_numpy(float)
     R0 = both[[f"r{i}{j}_declared" for i in (1, 2, 3) for j in (1, 2, 3)]].to_numpy(float)
     finite = np.isfinite(R).all(axis=1) & np.isfinite(R0).all(axis=1)

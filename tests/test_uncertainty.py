@@ -300,7 +300,7 @@ def test_an_undetermined_calibration_has_no_error_to_the_truth_rather_than_a_cra
 
 
 def test_the_axis_methods_cones_follow_the_spread_of_the_repetitions_gyroscope_axes():
-    from aceval.methods.functional import sagittal_fits
+    from aceval.methods.sagittal import sagittal_fits
     from aceval.methods.sufficient import gyroscope_axis
 
     z0, right = _in_sensor([0, 0, 1]), _in_sensor([0, 1, 0])

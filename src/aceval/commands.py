@@ -163,7 +163,7 @@ def calibrate(args) -> int:
     """`aceval calibrate`: every calibration of a dataset, with the pass's other tables on request."""
     from aceval.data.contract import DatasetError
     from aceval.data.dataset import load_dataset
-    from aceval.jobs import calibrate_unit
+    from aceval.jobs import CalibrationRequest, calibrate_unit
 
     try:  # the sheets here; each recording file is checked in the pass that reads it
         dataset = load_dataset(args.dataset)
@@ -195,15 +195,14 @@ def calibrate(args) -> int:
             file=sys.stderr,
         )
         return 2
-    outputs = [args.out, args.recordings_out, args.axes_out, args.pairs_out, args.correlations_out]
-    outputs += [args.findings_out, args.angles_out, args.retest_out, args.plan_out]
+    request = CalibrationRequest.of(args)
     try:  # every folder writable before the work; all outputs put in place together, or none
-        files = FileSet(outputs)
+        files = FileSet(list(request.outputs.values()))
     except UnsafeOutputError as exc:
         print(f"aceval calibrate: {exc}", file=sys.stderr)
         return 2
     with files:
-        return calibrate_unit(args, dataset, files)
+        return calibrate_unit(request, dataset, files)
 
 
 def batches(args) -> int:

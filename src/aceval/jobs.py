@@ -11,7 +11,7 @@ place together when everything is done, or none of them.
 from __future__ import annotations
 
 import contextlib
-import copy
+import dataclasses
 import io
 import json
 import sys
@@ -22,6 +22,8 @@ from aceval.data.safety import FileSet
 
 if TYPE_CHECKING:  # imported where used: `aceval --help` needs none of them
     import pandas as pd
+
+    from aceval.signals.segmentation import TrimParams
 
 #: a unit's files in a dataset job's calibrations folder: option of `aceval calibrate` -> name
 UNIT_FILES = {
@@ -34,6 +36,64 @@ UNIT_FILES = {
     "retest_out": "{unit}_retest.csv",
     "plan_out": "{unit}_plan.json",
 }
+
+
+#: every table `aceval calibrate` can write, by the option that names its file
+OUTPUTS = (
+    "out",
+    "recordings_out",
+    "axes_out",
+    "pairs_out",
+    "correlations_out",
+    "findings_out",
+    "angles_out",
+    "retest_out",
+    "plan_out",
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class CalibrationRequest:
+    """What a calibration job is asked (:func:`calibrate_unit`): the ``dataset`` as named (its
+    messages), the ``subjects`` (None: all) and motion ``tests`` (None: all) to read, the
+    trimmer's parameters ``trim`` and the Obj 1-2 ``segment_pairs``, ``max_lag_s`` and ``mode``
+    of the correlations, the ``subsets`` and ``retest_k`` of the calibrations and the ``method``
+    kept (``--method``), ``allow_empty`` (no calibration is no error) and ``outputs``: option of
+    :data:`OUTPUTS` -> the file to write (None: not asked for).
+    """
+
+    dataset: str
+    subjects: list[str] | None
+    tests: list[str] | None
+    trim: TrimParams
+    segment_pairs: dict
+    max_lag_s: float
+    mode: str
+    subsets: str
+    retest_k: int | None
+    method: str
+    allow_empty: bool
+    outputs: dict
+
+    @classmethod
+    def of(cls, args) -> CalibrationRequest:
+        """The request of `aceval calibrate`'s arguments, or of `aceval batches`' (which has no
+        choice of subjects, tests, subsets or methods, nor files of its own: all of them).
+        """
+        return cls(
+            dataset=str(args.dataset),
+            subjects=getattr(args, "subject", None),
+            tests=getattr(args, "tests", None),
+            trim=trim_params(args),
+            segment_pairs=json.loads(args.pairs),
+            max_lag_s=args.max_lag_s,
+            mode=args.mode,
+            subsets=getattr(args, "subsets", "all"),
+            retest_k=args.retest_k,
+            method=getattr(args, "method", "all"),
+            allow_empty=getattr(args, "allow_empty", True),
+            outputs={option: getattr(args, option, None) for option in OUTPUTS},
+        )
 
 
 def progress(done: int, total: int, what: str) -> None:
@@ -81,12 +141,14 @@ def chosen_methods(choice: str) -> list[str]:
 # --- one unit: `aceval calibrate` -----------------------------------------------------------
 
 
-def calibrate_unit(args, dataset, files, memory: dict | None = None, root=None) -> int:
-    """`aceval calibrate`'s work once its inputs and outputs are checked: the subjects
-    ``args.subject`` (all when None) of ``dataset`` read once (``memory``: recordings.tsv path
-    -> values held already, :func:`aceval.signals.reduction.reduce_recordings`), checked and
-    calibrated, and the tables asked for (``args.out``, ``args.recordings_out``, ...) written
-    through ``files`` (:class:`aceval.data.safety.FileSet`, or anything with its ``write``);
+def calibrate_unit(
+    request: CalibrationRequest, dataset, files, memory: dict | None = None, root=None
+) -> int:
+    """`aceval calibrate`'s work once its inputs and outputs are checked: the subjects of the
+    ``request`` of ``dataset`` read once (``memory``: recordings.tsv path -> values held already,
+    :func:`aceval.signals.reduction.reduce_recordings`), checked and calibrated, and the tables
+    it asks for written through ``files`` (:class:`aceval.data.safety.FileSet`, or anything
+    with its ``write``);
     ``root``: the dataset's folder as the peers' plan names it (default: where it is read).
     """
     import pandas as pd
@@ -97,11 +159,10 @@ def calibrate_unit(args, dataset, files, memory: dict | None = None, root=None) 
     from aceval.evaluation.correlations import correlations
     from aceval.report.summary import calibration_screen
 
-    segment_pairs = json.loads(args.pairs)
-    summaries, pairs, report = _read_subjects(args, dataset, segment_pairs, memory)
+    summaries, pairs, report = _read_subjects(request, dataset, memory)
     if not report.ok:
         print(
-            f"aceval calibrate: {args.dataset}: recording files that cannot be used; no file "
+            f"aceval calibrate: {request.dataset}: recording files that cannot be used; no file "
             f"written:\n{report.format()}",
             file=sys.stderr,
         )
@@ -111,42 +172,43 @@ def calibrate_unit(args, dataset, files, memory: dict | None = None, root=None) 
         print(f"aceval calibrate: left out {message}", file=sys.stderr)
     sensors = imu_checks(dataset, summaries, pairs) if len(summaries) else {}
     calibrations, axes = (
-        calibrate(dataset, summaries, args.subsets, retest_k=args.retest_k, sensors=sensors)
+        calibrate(dataset, summaries, request.subsets, request.retest_k, sensors=sensors)
         if len(summaries)
         else (pd.DataFrame(columns=CALIBRATION_COLUMNS), pd.DataFrame(columns=AXES_COLUMNS))
     )
-    calibrations = _for_the_user(calibrations, dataset, args.method)
-    if calibrations.empty and not args.allow_empty:
+    calibrations = _for_the_user(calibrations, dataset, request.method)
+    if calibrations.empty and not request.allow_empty:
         print(
-            f"aceval calibrate: nothing to calibrate in {args.dataset}: "
+            f"aceval calibrate: nothing to calibrate in {request.dataset}: "
             f"{_why_nothing(unusable, summaries)}; no file written",
             file=sys.stderr,
         )
         return 1
     tables = {"out": calibrations, "recordings_out": summaries, "axes_out": axes}
     tables["pairs_out"] = pairs
-    if args.correlations_out:
+    if request.outputs["correlations_out"]:
         tables["correlations_out"] = correlations(
-            dataset, calibrations, pairs, args.mode, segment_pairs
+            dataset, calibrations, pairs, request.mode, request.segment_pairs
         )
-    _write_tables(args, files, tables, report, dataset, root or dataset.root)
+    _write_tables(request, files, tables, report, dataset, root or dataset.root)
     _say_findings(report, sensors)
-    screen = calibration_screen(calibrations, len(unusable), args.out, dataset.ground_truth)
+    out = request.outputs["out"]
+    screen = calibration_screen(calibrations, len(unusable), out, dataset.ground_truth)
     print(screen, file=sys.stderr)
     return 0
 
 
-def _read_subjects(args, dataset, segment_pairs: dict, memory: dict | None):
+def _read_subjects(request: CalibrationRequest, dataset, memory: dict | None):
     """The one pass over the chosen subjects' recordings: ``(summaries, pairs, report)``."""
     from aceval.data.contract import ValidationReport
     from aceval.signals.reduction import reduce_recordings
 
-    trim = trim_params(args)
-    subjects = args.subject if args.subject is not None else list(dataset.subjects.index)
+    r = request
+    subjects = r.subjects if r.subjects is not None else list(dataset.subjects.index)
     summaries, pairs, report = [], [], ValidationReport(dataset.name)
     for done, subject in enumerate(subjects, start=1):
         reduced = reduce_recordings(
-            dataset, subject, trim, args.tests, segment_pairs, args.max_lag_s, memory
+            dataset, subject, r.trim, r.tests, r.segment_pairs, r.max_lag_s, memory
         )
         summaries.append(reduced.summaries)
         pairs.append(reduced.pairs)
@@ -197,28 +259,31 @@ def _say_findings(report, sensors: dict) -> None:
             print(f"aceval calibrate: flagged {verdict['message']}", file=sys.stderr)
 
 
-def _write_tables(args, files, tables: dict, report, dataset, root) -> None:
-    """Stage every output `aceval calibrate` was asked for in ``files``: the ``tables`` (by the
-    option that names each file), the findings, the Obj 3-5 angles and test-retest units, and
-    the peers' plan (naming the dataset's folder ``root``).
+def _write_tables(request: CalibrationRequest, files, tables: dict, report, dataset, root) -> None:
+    """Stage every output of the ``request`` in ``files``: the ``tables`` (by the option that
+    names each file), the findings, the Obj 3-5 angles and test-retest units, and the peers'
+    plan (naming the dataset's folder ``root``).
     """
+    outputs = request.outputs
     for option, table in tables.items():
-        if getattr(args, option):
-            files.write(getattr(args, option), lambda tmp, t=table: t.to_csv(tmp, index=False))
-    if args.findings_out:
+        if outputs[option]:
+            files.write(outputs[option], lambda tmp, t=table: t.to_csv(tmp, index=False))
+    if outputs["findings_out"]:
         findings = findings_table(report)
-        files.write(args.findings_out, lambda tmp: findings.to_csv(tmp, sep="\t", index=False))
-    if args.angles_out or args.retest_out:
-        _write_angles(args, files, tables["out"])
-    if args.plan_out:
+        files.write(
+            outputs["findings_out"], lambda tmp: findings.to_csv(tmp, sep="\t", index=False)
+        )
+    if outputs["angles_out"] or outputs["retest_out"]:
+        _write_angles(outputs, request.retest_k, files, tables["out"])
+    if outputs["plan_out"]:
         from aceval.calibrate.peer_plan import calibration_plan
 
-        plan = calibration_plan(dataset, tables["recordings_out"], args.retest_k, Path(root))
+        plan = calibration_plan(dataset, tables["recordings_out"], request.retest_k, Path(root))
         text = json.dumps(plan, indent=1)
-        files.write(args.plan_out, lambda tmp: Path(tmp).write_text(text + "\n"))
+        files.write(outputs["plan_out"], lambda tmp: Path(tmp).write_text(text + "\n"))
 
 
-def _write_angles(args, files, calibrations) -> None:
+def _write_angles(outputs: dict, retest_k: int | None, files, calibrations) -> None:
     """Kong's Obj 3-5 angles (--angles-out) and every method's test-retest units (--retest-out)
     of this job's subjects, from its ``calibrations``: the only tables that need the calibrations
     from subsets of repetitions, so the results jobs read only those from all repetitions.
@@ -226,12 +291,12 @@ def _write_angles(args, files, calibrations) -> None:
     from aceval.evaluation.methods_comparison import retest_units
     from aceval.evaluation.objectives import all_angles
 
-    if args.angles_out:
-        table = all_angles(calibrations, args.retest_k)
-        files.write(args.angles_out, lambda tmp: table.to_csv(tmp, index=False))
-    if args.retest_out:
-        table = retest_units(calibrations, args.retest_k)
-        files.write(args.retest_out, lambda tmp: table.to_csv(tmp, index=False))
+    if outputs["angles_out"]:
+        table = all_angles(calibrations, retest_k)
+        files.write(outputs["angles_out"], lambda tmp: table.to_csv(tmp, index=False))
+    if outputs["retest_out"]:
+        table = retest_units(calibrations, retest_k)
+        files.write(outputs["retest_out"], lambda tmp: table.to_csv(tmp, index=False))
 
 
 def _concat_tables(parts: list) -> pd.DataFrame:
@@ -308,7 +373,8 @@ def _make_and_calibrate(args, root: Path, folder: Path):
         dataset, report = _validated(root, "headers")
         subjects = list(dataset.subjects.index)
     units = subject_batches(subjects, args.subjects_per_job)
-    _JOB.update(args=args, units=units, root=root, folder=folder, dataset=dataset)
+    request = CalibrationRequest.of(args)
+    _JOB.update(request=request, units=units, root=root, folder=folder, dataset=dataset)
     _JOB.update(simulation=simulation)
     try:
         for code, text, rows, truth in _each_unit(list(units), args.jobs):
@@ -417,18 +483,25 @@ def _unit(name: str) -> tuple[int, str, str, list]:
     values kept) when the dataset is, then calibrated into the job's folder:
     ``(exit code, what it said on stderr, its recordings.tsv rows, its ground-truth rows)``.
     """
-    args, subjects = _JOB["args"], _JOB["units"][name]
+    request, subjects = _JOB["request"], _JOB["units"][name]
     dataset, memory, rows, truth = _JOB["dataset"], None, "", []
     said = io.StringIO()
     with contextlib.redirect_stderr(said):
         if _JOB["simulation"] is not None:
             dataset, memory, rows, truth = _simulated_unit(_JOB["simulation"], subjects)
-        unit = copy.copy(args)
-        unit.subject, unit.tests, unit.subsets, unit.method = subjects, None, "all", "all"
-        unit.allow_empty, unit.pairs_out = True, None
-        for option, pattern in UNIT_FILES.items():
-            setattr(unit, option, str(_JOB["folder"] / pattern.format(unit=name)))
-        code = calibrate_unit(unit, dataset, _Direct(), memory, root=Path(args.dataset))
+        files = {
+            option: str(_JOB["folder"] / p.format(unit=name)) for option, p in UNIT_FILES.items()
+        }
+        unit = dataclasses.replace(
+            request,
+            subjects=subjects,
+            tests=None,
+            subsets="all",
+            method="all",
+            allow_empty=True,
+            outputs=request.outputs | files | {"pairs_out": None},
+        )
+        code = calibrate_unit(unit, dataset, _Direct(), memory, root=Path(request.dataset))
     return code, said.getvalue(), rows, truth
 
 

@@ -26,7 +26,7 @@ from aceval.calibrate.table import (
     combine_flags,
     full_set_rows,
     has_flag,
-    kong_rows,
+    rows_of_method,
     unflagged,
 )
 from aceval.data.contract import R_COLUMNS
@@ -45,6 +45,9 @@ from aceval.signals.gait_sign import gait_right
 #: tests within "about 5 deg" (Table 11), so a subset of one test's repetitions farther from that
 #: test's own calibration disagrees with it more than whole tests do in the paper
 UNSTABLE_DEG = 5.0
+#: the ``cone_fit`` of a method whose cone factor no coverage study fitted (it has the largest
+#: fitted one, :class:`aceval.methods.uncertainty.ConeModel`): its cone's coverage is unknown
+NOT_VALIDATED = "not validated: no fitted cone factor (the largest used); run the coverage study"
 
 
 def calibrate(
@@ -142,7 +145,8 @@ def _cones(plan, checked: dict, pooled: dict, policy_of: dict, R_full: dict, dat
     """Every resampling method's cone of each unit and its terms
     (:func:`aceval.methods.uncertainty.calibration_cones`, with Kong's plane's conditioning), and
     ``cone_fit``: the fit of the cone model the ``dataset`` gets (the one fitted without its truth
-    where the cone was fitted on it: :func:`aceval.methods.uncertainty.cone_model`).
+    where the cone was fitted on it: :func:`aceval.methods.uncertainty.cone_model`), 'not
+    validated' for a method the model has no fitted factor of.
     """
     imu = plan.identity[["subject", "sensor_set", "imu"]].astype(str).agg("|".join, axis=1)
     kong = registry.paper_method("kong2016")  # Kong's plane: every heading's conditioning
@@ -153,8 +157,9 @@ def _cones(plan, checked: dict, pooled: dict, policy_of: dict, R_full: dict, dat
     cones = calibration_cones(
         plan.units, plan.identity["seed"].to_numpy(), R_full, imu.to_numpy(), normal_ratio, model
     )
-    for columns in cones.values():
-        columns["cone_fit"] = np.full(len(plan.units), fit, dtype=object)
+    for method, columns in cones.items():
+        said = fit if model.validated(method) else NOT_VALIDATED
+        columns["cone_fit"] = np.full(len(plan.units), said, dtype=object)
     return cones
 
 
@@ -265,7 +270,7 @@ def propagate_backward(calibrations: pd.DataFrame) -> pd.DataFrame:
     """
     if calibrations.empty or "first_phase_agreement" not in calibrations:
         return calibrations
-    full = full_set_rows(kong_rows(calibrations))
+    full = full_set_rows(rows_of_method(calibrations))
     flags = np.where(unflagged(calibrations), "", calibrations["flag"].astype(str)).astype(object)
     for _, imu in full.groupby(KEY, sort=False):
         backward = imu[has_flag(imu["flag"], "backward")]
@@ -296,7 +301,7 @@ def propagate_verified(calibrations: pd.DataFrame) -> pd.DataFrame:
     unjudged = calibrations["first_phase_agreement"].isna().to_numpy()
     matrices = calibrations[R_COLUMNS].to_numpy(float)
     finite = np.isfinite(matrices).all(axis=1)
-    full = full_set_rows(kong_rows(calibrations))
+    full = full_set_rows(rows_of_method(calibrations))
     rows_of = calibrations.groupby(KEY, sort=False).indices
     for key, imu in full.groupby(KEY, sort=False):
         sure = imu[imu[SIGN_VERIFIED].to_numpy(bool)]

@@ -31,7 +31,7 @@ from aceval.data.dataset import Dataset
 from aceval.data.grouping import group_positions
 from aceval.data.rotations import axis_vector
 from aceval.methods import registry
-from aceval.methods.functional import MOMENT_COLUMNS, pool_summed, stable_seed
+from aceval.methods.functional import MOMENT_COLUMNS, axis_of_sums, stable_seed
 from aceval.methods.sufficient import Units
 from aceval.signals.checks import (
     AGREEMENT_COLUMNS,
@@ -111,7 +111,7 @@ def static_axes(summaries: pd.DataFrame) -> tuple[pd.DataFrame, dict]:
     tests = static["test"].to_numpy(object)
     axes = {
         key: (
-            pool_summed(moments[:, at].sum(axis=1)),
+            axis_of_sums(moments[:, at].sum(axis=1)),
             ",".join(sorted(set(tests[at]))),
             len(at),
         )

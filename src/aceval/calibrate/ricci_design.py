@@ -22,8 +22,8 @@ from aceval.data.dataset import Dataset
 from aceval.methods import registry
 from aceval.methods.functional import (
     MOMENT_COLUMNS,
+    axis_of_sums,
     functional_fits,
-    pool_summed,
 )
 
 
@@ -56,7 +56,7 @@ def calibrate_functional(
         reference = references[(sensor_set, imu)]
         rows = []
         for (*_, test, kind), moments in zip(per_test.index, per_test.to_numpy(float)):
-            estimate = pool_summed(moments, orient="mean" if kind == "static" else "phase")
+            estimate = axis_of_sums(moments, orient="mean" if kind == "static" else "phase")
             rows.append(
                 axis_row(
                     identity,

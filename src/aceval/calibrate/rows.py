@@ -9,7 +9,9 @@ import numpy as np
 import pandas as pd
 
 from aceval.calibrate.plan import SENSOR_COLUMNS, Plan, Subsets
+from aceval.calibrate.table import IDENTITY_COLUMNS
 from aceval.data.contract import R_COLUMNS
+from aceval.methods import registry
 from aceval.methods.interface import Fit, combine_flags
 from aceval.methods.sufficient import Pooled
 from aceval.methods.uncertainty import undetermined
@@ -37,65 +39,21 @@ def method_rows(base: dict, fits: dict) -> list[dict]:
             "flag": fit.get("flag", ""),
             **{k: float(v) for k, v in error_placeholders(R).items()},
         }
-        row.update({k: v for k, v in fit.items() if k in FIT_COLUMNS})
+        declared = registry.method(method).load().diagnostics
+        row.update({k: v for k, v in fit.items() if k in declared})
         rows.append(row)
     return rows
 
 
-FIT_COLUMNS = [
-    "n_iterations",
-    "n_rejected",
-    "optimum_distance_deg",
-    "fixed_n_iterations",
-    "fixed_cost",
-    "fixed_optimum_distance_deg",
-    "fixed_converged",
-    "converged",
-    "cost",
-    "random_starts",
-    "random_starts_optimum",
-    "random_start_iterations_mean",
-    "random_start_iterations_max",
-    "first_phase_agreement",
-    "right_axis_angle_deg",
-    "weight_kong",
-    "weight_gyro",
-    "spread95_deg",
-    "spread_vertical_share",
-    "heading_signals_deg",
-    "heading_tests_deg",
-    "conditioning_deg",
-    "cone_deg",
-    "step_ratio",
-    "step_hz",
-    "full_set_angle_deg",
-    "note",
-]
-
-
-#: the calibrations table's columns, in order (those a dataset's methods never fill are left out)
-TABLE_COLUMNS = [
-    "subject",
-    "sensor_set",
-    "imu",
-    "segment",
-    "side",
-    "test",
-    "repetitions",
-    "n_reps",
-    "method",
+#: the columns every calibration of the sagittal design has, in the table's order; each method's
+#: declared ``diagnostics`` follow (:func:`table_columns`)
+SHARED_COLUMNS = [
+    *IDENTITY_COLUMNS,
     *R_COLUMNS,
     "n_samples",
-    "eig1",
-    "eig2",
-    "eig3",
-    "planarity",
-    "normal_ratio",
-    "normal_vertical_angle_deg",
     "rho_static",
     "rho_motion",
     "z0_tests",
-    "normal_gyro_angle_deg",
     "first_phase_agreement",
     "right_axis_angle_deg",
     "right_axis_sign_verified",
@@ -118,22 +76,16 @@ TABLE_COLUMNS = [
     "heading_tests_deg",
     "conditioning_deg",
     "axis_spread_deg",
-    *[
-        c
-        for c in FIT_COLUMNS
-        if c
-        not in (
-            "first_phase_agreement",
-            "right_axis_angle_deg",
-            "cone_deg",
-            "spread95_deg",
-            "spread_vertical_share",
-            "heading_signals_deg",
-            "heading_tests_deg",
-            "conditioning_deg",
-        )
-    ],
+    "full_set_angle_deg",
 ]
+
+
+def table_columns() -> list[str]:
+    """The calibrations table's columns, in order: :data:`SHARED_COLUMNS`, then every
+    method's declared diagnostics in the registry's order (those a dataset's methods never fill
+    are left out of its table).
+    """
+    return SHARED_COLUMNS + [c for c in registry.diagnostics() if c not in SHARED_COLUMNS]
 
 
 def calibration_rows(
@@ -200,10 +152,8 @@ def calibration_rows(
     }
     table = pd.DataFrame(columns)
     table = table if chosen is None else table[chosen]
-    ordered = [c for c in TABLE_COLUMNS if c in table] + [
-        c for c in table if c not in TABLE_COLUMNS
-    ]
-    return table[ordered]
+    known = table_columns()
+    return table[[c for c in known if c in table] + [c for c in table if c not in known]]
 
 
 def motion_axes(plan: Plan, pooled: Pooled, full: np.ndarray) -> pd.DataFrame:

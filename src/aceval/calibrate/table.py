@@ -22,18 +22,10 @@ CALIBRATION_KEY = ["subject", "sensor_set", "imu", "test"]
 #: :func:`aceval.calibrate.pipeline.propagate_verified`)
 SIGN_VERIFIED = "right_axis_sign_verified"
 KEY = ["subject", "sensor_set", "imu"]
+#: what a calibration is of: the sensor, the test, the repetitions and the method
+IDENTITY_COLUMNS = [*KEY, "segment", "side", "test", "repetitions", "n_reps", "method"]
 #: the columns every calibration table has (an empty table keeps them)
-CALIBRATION_COLUMNS = [
-    *KEY,
-    "segment",
-    "side",
-    "test",
-    "repetitions",
-    "n_reps",
-    "method",
-    *R_COLUMNS,
-    "flag",
-]
+CALIBRATION_COLUMNS = [*IDENTITY_COLUMNS, *R_COLUMNS, "flag"]
 
 
 def all_subsets(repetitions: list[int]) -> list[tuple[int, ...]]:
@@ -109,7 +101,7 @@ def usable(calibrations: pd.DataFrame, method: str | None = None) -> pd.DataFram
     about Kong's method; the other methods are compared in
     :mod:`aceval.evaluation.methods_comparison`).
     """
-    calibrations = kong_rows(calibrations, method)
+    calibrations = rows_of_method(calibrations, method)
     return calibrations[unflagged(calibrations)]
 
 
@@ -123,13 +115,13 @@ def spread_usable(calibrations: pd.DataFrame, method: str | None = None) -> pd.D
     the spread between subsets (Kong Obj 3-4, every method's test-retest) is measured on (leaving
     the unstable subsets out would hide the spread those objectives measure).
     """
-    calibrations = kong_rows(calibrations, method)
+    calibrations = rows_of_method(calibrations, method)
     return calibrations[only_flags(calibrations, SPREAD_FLAGS + COMPARISON_FLAGS)]
 
 
-def kong_rows(calibrations: pd.DataFrame, method: str | None = None) -> pd.DataFrame:
-    """The rows of Kong's method (the registry's method of Kong et al. 2016), or of ``method``
-    (all rows of a table without ``method``).
+def rows_of_method(calibrations: pd.DataFrame, method: str | None = None) -> pd.DataFrame:
+    """The rows of ``method``, by default Kong's (the registry's method of Kong et al. 2016; all
+    rows of a table without ``method``).
     """
     method = method or registry.paper_method("kong2016")
     return (
@@ -155,7 +147,7 @@ def full_sets(calibrations: pd.DataFrame) -> pd.DataFrame:
     """The calibration from all usable repetitions of each (subject, set, IMU, test); left out when
     that calibration itself is flagged.
     """
-    return usable(full_set_rows(kong_rows(calibrations)))
+    return usable(full_set_rows(rows_of_method(calibrations)))
 
 
 def imu_identity(dataset: Dataset, subject: str, sensor_set: str, imu: str) -> dict:

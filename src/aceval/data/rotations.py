@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:  # imported where used: SciPy costs 0.3-0.4 s at the start of the jobs that
-    # only need the axis vocabulary (`aceval validate`: the sheets' right axes; issue 43)
+    # only need the axis vocabulary (`aceval validate`: the sheets' right axes)
     from scipy.spatial.transform import Rotation
 
 #: unit vectors of the declared sensor axes (imus.tsv ``right_axis``)

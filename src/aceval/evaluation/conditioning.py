@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from aceval.calibrate.table import CALIBRATION_KEY, full_set_rows, full_sets, kong_rows
+from aceval.calibrate.table import CALIBRATION_KEY, full_set_rows, full_sets, rows_of_method
 from aceval.evaluation.stats import holm
 from aceval.methods.kong import KongLimits
 
@@ -87,7 +87,7 @@ def conditioning_table(calibrations: pd.DataFrame) -> pd.DataFrame:
         "heading",
         "flag",
     ]
-    kong = kong_rows(calibrations)
+    kong = rows_of_method(calibrations)
     if kong.empty or "normal_ratio" not in kong:
         return pd.DataFrame(columns=columns)
     full = full_set_rows(kong).copy()

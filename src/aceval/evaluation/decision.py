@@ -10,8 +10,12 @@ the lab's tolerance (beyond both papers).
   peer, which has none, is allowed the widest of aceval's on that unit), or further apart than the
   tolerance T, disagree; a calibration that disagrees with more than half of the others is flagged
   ``methods_disagree`` (two methods that disagree are both flagged; of many, the outliers). It is a
-  comparison flag: it takes no calibration out of any analysis, and the decision reads it.
-  ``methods_spread_deg``: its largest angle to another method's calibration.
+  comparison flag: it takes no calibration out of any analysis, and the decision reads it (its tie
+  order and ``disagreeing``). Being a vote among the methods compared, it is the one thing of
+  another method a new method of the registry can change: that method's calibrations, cones and
+  errors stay as they were (docs/architecture.md, "Add a method"), but which calibration of an IMU
+  to use is a comparison of the methods there are. ``methods_spread_deg``: its largest angle to
+  another method's calibration.
 * :func:`decision_table`: per IMU, the calibration to use, chosen among its calibrations from all
   repetitions (every method, every test that calibrates it) that no flag takes out
   (:func:`aceval.evaluation.decision_rules.removes`) with a finite uncertainty within
@@ -32,6 +36,7 @@ from aceval.calibrate.table import (
     CALIBRATION_KEY,
     combine_flags,
     flag_sets,
+    flag_text,
     full_set_rows,
     has_flag,
     matrices,
@@ -111,8 +116,10 @@ def flag_disagreements(
     """
     if calibrations is None or calibrations.empty or "method" not in calibrations:
         return calibrations
-    flags = flag_sets(calibrations["flag"]).map(lambda names: names - {"methods_disagree"})
-    calibrations = calibrations.reset_index(drop=True).assign(flag=flags.map(";".join).values)
+    flags = flag_text(calibrations["flag"]).map(  # in their order: a set's order is the hash's
+        lambda text: combine_flags(*(n for n in text.split(";") if n != "methods_disagree"))
+    )
+    calibrations = calibrations.reset_index(drop=True).assign(flag=flags.values)
     full = full_set_rows(calibrations)
     full = full[_candidates(full)]
     spread = np.full(len(calibrations), np.nan)

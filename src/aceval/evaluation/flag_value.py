@@ -1,4 +1,4 @@
-"""What each flag is worth (beyond the papers; issue 39): how many calibrations it removes, and
+"""What each flag is worth (beyond the papers): how many calibrations it removes, and
 whether the ones it removes are measurably worse than the ones it keeps.
 
 A flag takes a calibration out of every median and verdict, and out of the decision unless the

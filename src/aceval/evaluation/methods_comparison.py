@@ -383,11 +383,11 @@ def best_tests(calibrations: pd.DataFrame) -> pd.DataFrame:
 #: the heading correction the angular velocity of the segment's long axis asks of it
 #: (``marker_frame_long_axis_check_deg``, :func:`aceval.data.truth.long_axis_heading_deg`; where
 #: the segment has a long axis). The limits are a choice between what they read on the committed
-#: data (2026-11-24, issue 28): vertical checks of NeuRA's pelvis and thighs 1.7-2.7 deg, gaitmap's
+#: data: vertical checks of NeuRA's pelvis and thighs 1.7-2.7 deg, gaitmap's
 #: left foot 2.3 and NeuRA's left foot 4.98 (which passes) against NeuRA's shanks 8.7-18.5 and
 #: right foot 13.0, where the marker frame twists about the segment; gaitmap's right foot (5.9)
 #: fails it. Long-axis checks of the passing sensors 1.0-4.7 deg, but NeuRA's left thigh 14.4
-#: (issue 39: it sits 12.9 deg from the acceleration truth, which its own long-axis check puts
+#: (it sits 12.9 deg from the acceleration truth, which its own long-axis check puts
 #: within 1.5), which the long-axis limit leaves out
 MAX_MARKER_FRAME_VERTICAL_DEG = 5.0
 MAX_MARKER_FRAME_LONG_AXIS_DEG = 5.0

@@ -1,4 +1,4 @@
-"""The peers' calibrations through every gate aceval's own rows pass (issue 39): a peer runs in its
+"""The peers' calibrations through every gate aceval's own rows pass: a peer runs in its
 own environment on aceval's own recordings, so what aceval measured about those recordings joins
 its rows by key.
 

@@ -1,4 +1,4 @@
-"""The methods ranked against a ground truth with intervals over the subjects (issue 42): the
+"""The methods ranked against a ground truth with intervals over the subjects: the
 subject, not the calibration or the leg, is the independent unit.
 """
 

@@ -1,5 +1,5 @@
 """How variable the motion is, measured the same way on real and on simulated recordings (beyond
-the papers; issue 30): what the simulator's variability is set from, and checked against.
+the papers): what the simulator's variability is set from, and checked against.
 
 Per subject, test and segment (:func:`variability_table`), each the median over the subject's
 units (IMU x sensor set) of:
@@ -26,7 +26,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from aceval.calibrate.table import full_set_rows, kong_rows, unflagged
+from aceval.calibrate.table import full_set_rows, rows_of_method, unflagged
 
 STATISTICS = (
     "repetition_heading_deg",
@@ -60,7 +60,7 @@ def variability_table(
                 "error_angle_deg"
             ].mean()
             parts.append(_per_subject(units.rename("value").reset_index(), name))
-    kong = kong_rows(calibrations) if calibrations is not None and len(calibrations) else None
+    kong = rows_of_method(calibrations) if calibrations is not None and len(calibrations) else None
     if kong is not None and "normal_ratio" in kong:
         full = full_set_rows(kong)
         for name in ("normal_ratio", "planarity"):

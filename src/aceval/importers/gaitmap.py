@@ -35,6 +35,8 @@ from aceval.data.writer import DatasetWriter, write_sheet
 from aceval.importers.shared import (
     FormatError,
     ImportReport,
+    first_stretch,
+    read_sensor_sheet,
     straight_strides,
     stride_peaks,
     stride_spans,
@@ -81,10 +83,7 @@ def import_gaitmap(
     the truth table (:func:`aceval.importers.vicon.truth_rows`), which the caller writes.
     """
     src = Path(src)
-    sheet = pd.read_csv(sensors, sep="\t", dtype=str, comment="#").apply(lambda c: c.str.strip())
-    missing = [c for c in SHEET_COLUMNS if c not in sheet.columns]
-    if missing:
-        raise FormatError(f"{sensors}: missing column(s) {', '.join(missing)}")
+    sheet = read_sensor_sheet(sensors, SHEET_COLUMNS)
     signals, markers = _read(src, sheet)
     spans = _spans(signals, sheet, IMU_RATE_HZ)
     truth = _truth(sheet, signals, markers, spans)
@@ -208,11 +207,7 @@ def _spans(signals: dict, sheet: pd.DataFrame, fs_hz: float) -> dict:
     if not bouts:
         raise FormatError("no straight walking found")
     spans["T6"] = bouts
-    stretch = straight[:1]
-    for stride in straight[1:]:
-        if stride[0] != stretch[-1][1]:
-            break
-        stretch.append(stride)
+    stretch = first_stretch(straight)
     spans["first_straight"] = [(stretch[0][0], stretch[-1][1])]
     spans["strides"] = stretch  # the truth's per-stride uncertainty reads them
     return spans

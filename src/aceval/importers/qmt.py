@@ -46,6 +46,7 @@ from scipy.ndimage import uniform_filter1d
 from scipy.spatial.transform import Rotation
 
 from aceval.data.writer import DatasetWriter, write_sheet
+from aceval.importers import shared
 from aceval.importers.shared import (
     FormatError,
     ImportReport,
@@ -177,13 +178,7 @@ def loose_reference(
 
 def read_sensor_sheet(path: str | Path) -> pd.DataFrame:
     """The sensor sheet (``SHEET_COLUMNS``, tab-separated, ``#`` comments)."""
-    sheet = pd.read_csv(path, sep="\t", dtype=str, comment="#").apply(lambda c: c.str.strip())
-    missing = [c for c in SHEET_COLUMNS if c not in sheet.columns]
-    if missing:
-        raise FormatError(
-            f"{path}: missing column(s) {', '.join(missing)} (needs {', '.join(SHEET_COLUMNS)})"
-        )
-    return sheet
+    return shared.read_sensor_sheet(path, SHEET_COLUMNS)
 
 
 def import_qmt(

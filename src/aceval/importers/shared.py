@@ -1,4 +1,6 @@
-"""Shared by the importers: format errors, walking bouts from strides, the import report."""
+"""Shared by the importers: format errors, sensor sheets, walking bouts from strides, the import
+report.
+"""
 
 from __future__ import annotations
 
@@ -116,6 +118,33 @@ def straight_strides(
     return [
         (a, b) for a, b in strides if abs(np.degrees(yaw_rate[a:b].sum() / fs_hz)) < max_turn_deg
     ]
+
+
+def first_stretch(strides: list[tuple[int, int]]) -> list[tuple[int, int]]:
+    """The strides of the first straight stretch: from the first up to the first gap (a turn left
+    out of ``strides``).
+    """
+    stretch = strides[:1]
+    for stride in strides[1:]:
+        if stride[0] != stretch[-1][1]:
+            break
+        stretch.append(stride)
+    return stretch
+
+
+def read_sensor_sheet(path: str | Path, columns: list[str]):
+    """An importer's sensor sheet (tab-separated, ``#`` comments, cells stripped) as a DataFrame of
+    strings; FormatError naming the file where it lacks one of ``columns``.
+    """
+    import pandas as pd
+
+    sheet = pd.read_csv(path, sep="\t", dtype=str, comment="#").apply(lambda c: c.str.strip())
+    missing = [c for c in columns if c not in sheet.columns]
+    if missing:
+        raise FormatError(
+            f"{path}: missing column(s) {', '.join(missing)} (needs {', '.join(columns)})"
+        )
+    return sheet
 
 
 def walking_bouts(

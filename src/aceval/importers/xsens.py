@@ -34,6 +34,7 @@ import pandas as pd
 
 from aceval.data.errors import CalibrationError
 from aceval.data.writer import DatasetWriter, write_sheet
+from aceval.importers import shared
 from aceval.importers.lab_trials import SensorSamples, agreed_rate
 from aceval.importers.shared import (
     FormatError,
@@ -248,13 +249,7 @@ def sensor_id_of(path: Path, header: dict) -> str:
 
 def read_sensor_sheet(path: str | Path) -> pd.DataFrame:
     """The sensor sheet (``SHEET_COLUMNS``, tab-separated, ``#`` comments)."""
-    sheet = pd.read_csv(path, sep="\t", dtype=str, comment="#").apply(lambda c: c.str.strip())
-    missing = [c for c in SHEET_COLUMNS if c not in sheet.columns]
-    if missing:
-        raise FormatError(
-            f"{path}: missing column(s) {', '.join(missing)} (needs {', '.join(SHEET_COLUMNS)})"
-        )
-    return sheet
+    return shared.read_sensor_sheet(path, SHEET_COLUMNS)
 
 
 def trial_spans(
@@ -279,11 +274,7 @@ def trial_spans(
     bouts = walking_bouts(strides)
     if bouts:
         spans["T6"] = bouts
-        first = strides[:1]  # the first straight stretch: strides up to the first gap (a turn)
-        for stride in strides[1:]:
-            if stride[0] != first[-1][1]:
-                break
-            first.append(stride)
+        first = shared.first_stretch(strides)
         spans["first_straight"] = [(first[0][0], first[-1][1])]
         spans["strides"] = first  # the truth's per-stride uncertainty reads them
     return spans

@@ -10,6 +10,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from aceval.data.errors import check_axes
+from aceval.methods.interface import AxisProblem
 from aceval.methods.sagittal import SAGITTAL_REFERENCE, AxisMethod, sagittal_axes, usable_axes
 from aceval.methods.sufficient import Pooled
 
@@ -37,6 +38,11 @@ class AlignVectors(AxisMethod):
     """The weighted Wahba optimum (``Rotation.align_vectors``) of each pooled row, flagged as the
     axis methods are (:class:`aceval.methods.sagittal.AxisMethod`).
     """
+
+    @classmethod
+    def fit_functional(cls, problem: AxisProblem) -> dict:
+        """The optimum of the axis pairs (Ricci's functional design)."""
+        return {"R": wahba_fit(problem.v_ref, problem.v_est, problem.rho).as_matrix()}
 
     def _batch(self, pooled: Pooled, rows: np.ndarray) -> tuple[np.ndarray, dict]:
         v_est, weights = sagittal_axes(pooled)

@@ -120,6 +120,8 @@ class Combined(CalibrationMethod):
 
     statistics = (ACC_SCATTER, GYRO_MOMENTS)
     needs = ("kong", "triad")
+    diagnostics = ("weight_kong", "weight_gyro")
+    signal = "acc+gyr"
 
     def fit(self, pooled: Pooled, fitted: Mapping[str, CalibrationMethod]) -> Combined:
         """The combined heading of each row (class docstring)."""
@@ -148,7 +150,7 @@ class Combined(CalibrationMethod):
 def _weight_switches(unit: np.ndarray, w_kong: np.ndarray, w_gyro: np.ndarray) -> np.ndarray:
     """True for every row of a unit whose calibrations (all repetitions and the subsets) do not
     all use the same estimates: one of the two weights 0 in some and not in others. The heading
-    then jumps with the choice of repetitions (issue 28: 10-12 deg on real walking), however
+    then jumps with the choice of repetitions (10-12 deg on real walking), however
     repeatable each estimate is: flagged ``weight_switch``.
     """
     switch = np.zeros(len(unit), dtype=bool)

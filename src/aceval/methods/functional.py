@@ -3,20 +3,14 @@
 Each recording is reduced once to the moments of its unit-normalised samples (accelerometer for a
 static test, trimmed gyroscope for a motion test; :func:`recording_moments`). The axis and the
 reliability index rho of any union of recordings then follow from the summed moments
-(:func:`pool`). Three methods turn axes into a rotation R (sensor -> body/segment frame):
+(:func:`axis_of_recordings`). Every method of the registry with a ``fit_functional`` (Ricci's
+LM, the closed-form optimum, TRIAD: :mod:`aceval.methods.interface`) turns axes into a rotation R
+(sensor -> body/segment frame).
 
-* ``ricci_lm``: Ricci's rho-weighted Levenberg-Marquardt from the identity (Eq. 3-11);
-* ``align_vectors``: the closed-form optimum of the same weighted cost (SciPy, Wahba's problem);
-* ``triad``: two axes, the primary kept exactly.
-
-Two designs say which axes go into one calibration:
-
-* **sagittal** (Kong's protocol): for each motion test, the static z0 (down, from quiet stance)
-  and the gyroscope axis of the motion test as y, oriented along the IMU's ``right_axis``;
-  TRIAD keeps z0 exactly, as Kong's method does (:func:`sagittal_fits`);
-* **functional** (Ricci's protocol, ``functional_axes.tsv``): every axis the sheet lists for the
-  IMU's segment, movement axes oriented by their first phase; TRIAD uses the most reliable axis
-  and the most reliable one whose reference is not parallel to it (:func:`functional_fits`).
+Ricci's functional design (``functional_axes.tsv``): every axis the sheet lists for the IMU's
+segment, movement axes oriented by their first phase; TRIAD uses the most reliable axis and the
+most reliable one whose reference is not parallel to it (:func:`functional_fits`). Kong's
+sagittal design of the same methods is :mod:`aceval.methods.sagittal`'s.
 """
 
 from __future__ import annotations
@@ -25,34 +19,23 @@ import zlib
 
 import numpy as np
 import pandas as pd
-from scipy.spatial.transform import Rotation
 
 from aceval.data.errors import CalibrationError
-from aceval.data.rotations import axis_vector, error_angle_deg
-from aceval.methods.align_vectors import wahba_fit
+from aceval.data.rotations import axis_vector
+from aceval.methods.interface import AxisProblem
 from aceval.methods.moments import (
     MOMENT_COLUMNS,
     AxisEstimate,
     axis_from_moments,
 )
-from aceval.methods.registry import classes, functional_design
-from aceval.methods.ricci import lm_fit, lm_fit_batch
+from aceval.methods.registry import classes, functional_design, paper_method
 from aceval.methods.sagittal import AxisLimits
-from aceval.methods.sufficient import Pooled
-from aceval.methods.triad import triad
-
-#: the axis methods (Ricci's LM, the closed-form optimum, TRIAD): Ricci's functional design fits them
-AXIS_METHODS = functional_design()
 
 #: random starting quaternions per LM fit (Ricci Sec. 3: "converges from random initial values")
 RANDOM_STARTS = 5
-#: a start "reaches the optimum" when its result is within this angle of the closed-form optimum:
-#: Kong's own threshold for a calibration that no longer changes ("after including three
-#: repetitions the change ... is less than one degree", Kong et al. 2016, Sec. 3.3)
-SAME_SOLUTION_DEG = 1.0
 
 
-def pool(recordings: pd.DataFrame, orient: str | np.ndarray = "mean") -> AxisEstimate:
+def axis_of_recordings(recordings: pd.DataFrame, orient: str | np.ndarray = "mean") -> AxisEstimate:
     """Axis and rho of the union of ``recordings`` (rows with ``MOMENT_COLUMNS``).
 
     ``orient``: ``'mean'`` (along the mean sample: static postures), ``'phase'`` (the summed
@@ -60,11 +43,11 @@ def pool(recordings: pd.DataFrame, orient: str | np.ndarray = "mean") -> AxisEst
     vector the axis should point along (e.g. the IMU's right axis).
     """
     summed = recordings[MOMENT_COLUMNS].sum(axis=0, min_count=0)  # NaN phases (static) are skipped
-    return pool_summed(summed.to_numpy(float), orient)
+    return axis_of_sums(summed.to_numpy(float), orient)
 
 
-def pool_summed(summed: np.ndarray, orient: str | np.ndarray = "mean") -> AxisEstimate:
-    """:func:`pool` from the already summed ``MOMENT_COLUMNS`` (one row, in that order)."""
+def axis_of_sums(summed: np.ndarray, orient: str | np.ndarray = "mean") -> AxisEstimate:
+    """:func:`axis_of_recordings` from the already summed ``MOMENT_COLUMNS`` (one row, in that order)."""
     estimate = axis_from_moments(summed[0:3], summed[3:12].reshape(3, 3), int(summed[12]))
     if isinstance(orient, str) and orient == "mean":
         return estimate
@@ -81,11 +64,6 @@ def stable_seed(*key) -> int:
     return zlib.crc32("|".join(map(str, key)).encode())
 
 
-def _distance_deg(R: np.ndarray, optimum: np.ndarray | None) -> float:
-    """Angle (deg) between a fitted rotation and the closed-form optimum (NaN without one)."""
-    return float("nan") if optimum is None else float(error_angle_deg(R, optimum))
-
-
 def _failed(exc: Exception) -> dict:
     """A method's entry when it could not calibrate: no R, the error's code as flag, its message."""
     return {"R": None, "flag": getattr(exc, "code", "calibration_error"), "message": str(exc)}
@@ -100,66 +78,21 @@ def fit_axes(
     seed: int = 0,
     diagnostics: bool = True,
 ) -> dict[str, dict]:
-    """R (sensor -> body) by each of ``AXIS_METHODS`` from axis pairs ``v_ref ~ R v_est``.
-
-    ``rho`` weights the axes (Ricci Eq. 7); ``triad_pair`` = (primary, secondary) row indices.
-    Each method's entry: ``R`` (or None) and ``flag``/``message`` when it failed. The LM entry
-    (adaptive damping) adds its accepted and rejected steps, convergence, final cost, distance to
-    the closed-form optimum (deg), the same three for the fixed-damping LM (``fixed_*``), residual
-    angles (deg) before/after and, with ``random_starts``, how many random starts reach the
-    closed-form optimum and their iterations. ``diagnostics=False`` leaves out the fixed-damping
-    LM (the rotations are the same; for the many subset calibrations of Obj 4).
+    """R (sensor -> body) by every method of the registry that serves Ricci's functional design
+    (:meth:`aceval.methods.interface.CalibrationMethod.fit_functional`), in the registry's order,
+    from axis pairs ``v_ref ~ R v_est`` (:class:`aceval.methods.interface.AxisProblem`: ``rho``
+    weights the axes, Ricci Eq. 7; ``triad_pair`` = (primary, secondary) row indices; with
+    ``random_starts``, the LM's starts from random rotations; ``diagnostics=False`` leaves out the
+    fixed-damping LM). Each method's entry: ``R`` and its diagnostics, or (``R`` None) the
+    error's code as ``flag`` and its ``message`` where it could not calibrate.
     """
+    problem = AxisProblem(v_ref, v_est, rho, triad_pair, random_starts, seed, diagnostics)
     out: dict[str, dict] = {}
-    try:
-        optimum = wahba_fit(v_ref, v_est, rho).as_matrix()
-        out["align_vectors"] = {"R": optimum}
-    except (CalibrationError, ValueError) as exc:
-        optimum = None
-        out["align_vectors"] = _failed(exc)
-    try:
-        fit = lm_fit(v_ref, v_est, rho)  # Hartley & Zisserman's adaptive damping, as Ricci cites
-        entry = {
-            "R": fit.R,
-            "n_iterations": fit.n_iterations,
-            "n_rejected": fit.n_rejected,
-            "converged": fit.converged,
-            "cost": fit.cost,
-            "optimum_distance_deg": _distance_deg(fit.R, optimum),
-            "residual_before_deg": fit.residual_angle_before_deg,
-            "residual_after_deg": fit.residual_angle_after_deg,
-        }
-        if diagnostics:  # lambda fixed at 1e-3: Eq. 9-10 read literally
-            fixed = lm_fit(v_ref, v_est, rho, adaptive=False)
-            entry.update(
-                fixed_n_iterations=fixed.n_iterations,
-                fixed_cost=fixed.cost,
-                fixed_converged=fixed.converged,
-                fixed_optimum_distance_deg=_distance_deg(fixed.R, optimum),
-            )
-        if random_starts and optimum is not None:
-            starts = Rotation.random(random_starts, random_state=seed).as_quat(scalar_first=True)
-            runs = lm_fit_batch(
-                v_ref,
-                np.broadcast_to(v_est, (random_starts, *np.shape(v_est))),
-                np.broadcast_to(rho, (random_starts, len(rho))),
-                q0_wxyz=starts,
-            )
-            reached = error_angle_deg(runs.R, optimum) <= SAME_SOLUTION_DEG
-            entry.update(
-                random_starts=random_starts,
-                random_starts_optimum=int(np.sum(reached)),
-                random_start_iterations_mean=float(np.mean(runs.n_iterations)),
-                random_start_iterations_max=int(np.max(runs.n_iterations)),
-            )
-        out["ricci_lm"] = entry
-    except (CalibrationError, ValueError) as exc:
-        out["ricci_lm"] = _failed(exc)
-    try:
-        primary, secondary = triad_pair
-        out["triad"] = {"R": triad(v_ref[[primary, secondary]], v_est[[primary, secondary]])}
-    except (CalibrationError, ValueError) as exc:
-        out["triad"] = _failed(exc)
+    for name, cls in classes(functional_design()).items():
+        try:
+            out[name] = cls.fit_functional(problem)
+        except (CalibrationError, ValueError) as exc:
+            out[name] = _failed(exc)
     return out
 
 
@@ -168,37 +101,6 @@ def _flag_all(fits: dict[str, dict], code: str, message: str) -> dict[str, dict]
         if not fit.get("flag"):
             fit.update(flag=code, message=message)
     return fits
-
-
-def sagittal_fits(
-    z0: np.ndarray,
-    rho_static: float,
-    motion_axis: np.ndarray,
-    rho_motion: float,
-    spread_deg: float = float("nan"),
-    diagnostics: bool = True,
-) -> dict[str, dict]:
-    """Kong's protocol, the axis methods of one IMU and test (:data:`AXIS_METHODS`, by their
-    modules in :mod:`aceval.methods.registry`): body z (down) <- z0 from quiet stance, body y
-    (right) <- the gyroscope axis of the motion test (already oriented to the right), weighted by
-    their rho. Flagged beyond :class:`aceval.methods.sagittal.AxisLimits`: ``low_rho``,
-    ``axis_near_vertical``, ``axes_disagree`` (``spread_deg``: the median angle of the
-    repetitions' own axes to the pooled one). ``diagnostics``: the LM with lambda fixed too (a
-    calibration from all repetitions). Each method's entry: ``R`` (None where it failed),
-    ``flag`` and its diagnostics.
-    """
-    pooled = Pooled.of_axes(z0, rho_static, motion_axis, rho_motion, spread_deg, diagnostics)
-    out = {}
-    for name, cls in classes(AXIS_METHODS).items():
-        fit = cls().fit(pooled, {})
-        R = fit.rotation_[0] if np.isfinite(fit.rotation_[0]).all() else None
-        values = {k: v[0] for k, v in fit.diagnostics_.items()}
-        out[name] = {"R": R, "flag": fit.flag_[0]} | {
-            k: v
-            for k, v in values.items()
-            if v is not None and not (isinstance(v, float) and np.isnan(v))
-        }
-    return out
 
 
 def triad_pair(v_ref: np.ndarray, rho: np.ndarray, min_angle_deg: float = 30.0) -> tuple[int, int]:
@@ -239,7 +141,7 @@ def functional_fits(
             f"fewer than 2 axes with rho >= {limits.min_rho} "
             f"({', '.join(f'{r:.2f}' for r in rho)})",
         )
-    residual = fits["ricci_lm"].get("residual_after_deg")
+    residual = fits[paper_method("ricci2014")].get("residual_after_deg")
     if residual is not None and np.max(residual) > limits.max_residual_deg:
         return _flag_all(
             fits,

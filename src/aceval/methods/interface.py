@@ -16,8 +16,18 @@ the column names of the calibrations table). It declares what the rest of aceval
   order;
 * ``every_subset``: fitted on every subset of a unit's repetitions (Kong's Obj 3-5), rather than
   on all of them and the Obj 4 test-retest subsets;
+* ``diagnostics``: the columns of the calibrations table its ``diagnostics_`` fills, in their
+  order there (after the columns every calibration has: :mod:`aceval.calibrate.rows`);
+* ``signal``: what its heading comes from ('acc' the accelerations' plane, 'gyr' the gyroscope's
+  axis, 'step' the step's direction, 'acc+gyr' both): estimates from different signals of one
+  unit check each other in its uncertainty (:mod:`aceval.methods.uncertainty`);
+* ``cone_reference``: it is its signal's reference, the one estimate of that signal every other
+  method's cone is compared with (one per signal; a method that is not one leaves the other
+  methods' cones as they are);
 * ``resample``: the same from bootstrap resamples, ``rotation_`` NaN where it would flag one (its
-  uncertainty, :mod:`aceval.methods.uncertainty`); a method without it has no bootstrap cone.
+  uncertainty, :mod:`aceval.methods.uncertainty`); a method without it has no bootstrap cone;
+* ``fit_functional``: its calibration from any set of axis pairs (Ricci's functional design,
+  :func:`aceval.methods.functional.fit_axes`); a method without it is not fitted there.
 
 Its name, order, paper and summary are its line in the registry. Nothing here reads a file or
 knows a dataset: calibration (:mod:`aceval.calibrate.pipeline`) pools the statistics, fits every
@@ -33,6 +43,24 @@ from typing import ClassVar
 import numpy as np
 
 from aceval.methods.sufficient import Pooled, Statistic
+
+
+@dataclass(frozen=True)
+class AxisProblem:
+    """One calibration of Ricci's functional design: axis pairs ``v_ref ~ R v_est`` ((n, 3)
+    each: the body references and the sensor's axes), weighted by ``rho`` (n,) (Ricci Eq. 7);
+    ``triad_pair`` (primary, secondary) the rows a two-axis method keeps; ``random_starts`` and
+    ``seed``: the LM's extra starts from random rotations; ``diagnostics``: the LM with lambda
+    fixed too.
+    """
+
+    v_ref: np.ndarray
+    v_est: np.ndarray
+    rho: np.ndarray
+    triad_pair: tuple[int, int]
+    random_starts: int = 0
+    seed: int = 0
+    diagnostics: bool = True
 
 
 @dataclass
@@ -65,9 +93,10 @@ def combine_flags(*flags: str) -> str:
 class CalibrationMethod:
     """One calibration method of Kong's protocol (module docstring).
 
-    Subclasses set the class attributes ``statistics``, ``needs`` and ``every_subset``, take
-    their parameters in ``__init__`` and implement :meth:`fit` (and :meth:`resample` for an
-    uncertainty); :meth:`applies` when they calibrate only some rows.
+    Subclasses set the class attributes ``statistics``, ``needs``, ``every_subset``,
+    ``diagnostics``, ``signal`` and ``cone_reference``, take their parameters in ``__init__`` and
+    implement :meth:`fit` (and :meth:`resample` for an uncertainty, :meth:`fit_functional` for
+    Ricci's functional design); :meth:`applies` when they calibrate only some rows.
 
     Attributes
     ----------
@@ -82,6 +111,9 @@ class CalibrationMethod:
     statistics: ClassVar[tuple[Statistic, ...]] = ()
     needs: ClassVar[tuple[str, ...]] = ()
     every_subset: ClassVar[bool] = False
+    diagnostics: ClassVar[tuple[str, ...]] = ()
+    signal: ClassVar[str] = ""
+    cone_reference: ClassVar[bool] = False
 
     rotation_: np.ndarray
     flag_: np.ndarray
@@ -98,6 +130,19 @@ class CalibrationMethod:
         where the method would flag one; ``fitted``: the resamples' fits of :attr:`needs`.
         """
         raise NotImplementedError
+
+    @classmethod
+    def fit_functional(cls, problem: AxisProblem) -> dict:
+        """Its calibration of one IMU in Ricci's functional design from the axis pairs of
+        ``problem``: ``{'R': (3, 3), 'flag': str, **diagnostics}`` (raises
+        :class:`aceval.data.errors.CalibrationError` or ValueError where it cannot fit).
+        """
+        raise NotImplementedError
+
+    @classmethod
+    def serves_functional_design(cls) -> bool:
+        """Whether Ricci's functional design fits it (it has :meth:`fit_functional`)."""
+        return cls.fit_functional.__func__ is not CalibrationMethod.fit_functional.__func__
 
     def applies(self, pooled: Pooled) -> np.ndarray:
         """(B,) the rows it calibrates at all (a row it applies to but cannot calibrate has a NaN

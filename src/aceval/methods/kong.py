@@ -260,9 +260,6 @@ def kong_calibrate(
 
 # --- the method's interface (aceval.methods.interface) ------------------------------------------
 
-#: the calibrations table's diagnostics of Kong's method
-DIAGNOSTICS = ["eig1", "eig2", "eig3", "planarity", "normal_ratio", "normal_vertical_angle_deg"]
-
 
 class Kong(CalibrationMethod):
     """Kong's calibration (Eq. 1-6) of each pooled row, on every subset of a unit's repetitions.
@@ -278,10 +275,10 @@ class Kong(CalibrationMethod):
     rotation_, flag_
         R (B, 3, 3) and its flag beyond ``limits``.
     diagnostics_
-        ``n_samples``, the eigenvalues of the second moment (``eig1..3``, m^2/s^4, descending),
-        ``planarity``, ``normal_ratio``, ``normal_vertical_angle_deg``; ``rho_motion`` and
-        ``normal_gyro_angle_deg``: the gyroscope axis of the same repetitions (Ricci Eq. 2) and
-        its angle (deg) to Kong's body y.
+        The eigenvalues of the second moment (``eig1..3``, m^2/s^4, descending),
+        ``planarity``, ``normal_ratio``, ``normal_vertical_angle_deg``;
+        ``normal_gyro_angle_deg``: the angle (deg) of the gyroscope axis of the same repetitions
+        to Kong's body y. The accelerations' reference in the others' cones.
 
     Examples
     --------
@@ -298,6 +295,17 @@ class Kong(CalibrationMethod):
 
     statistics = (ACC_SCATTER, GYRO_MOMENTS)
     every_subset = True
+    diagnostics = (
+        "eig1",
+        "eig2",
+        "eig3",
+        "planarity",
+        "normal_ratio",
+        "normal_vertical_angle_deg",
+        "normal_gyro_angle_deg",
+    )
+    signal = "acc"
+    cone_reference = True
 
     def __init__(self, limits: KongLimits = KongLimits()):
         self.limits = limits
@@ -316,12 +324,10 @@ class Kong(CalibrationMethod):
         gyro_angle = vector_angle_deg(R[:, 1], pooled.gyro_axis, sign_free=True)
         eigenvalues = result.eigenvalues[:, 0]
         columns = {
-            "n_samples": result.n_samples[:, 0],
             **{f"eig{k + 1}": eigenvalues[:, k] for k in range(3)},
             "planarity": result.planarity[:, 0],
             "normal_ratio": result.normal_ratio[:, 0],
             "normal_vertical_angle_deg": result.normal_vertical_angle_deg[:, 0],
-            "rho_motion": pooled.gyro_rho,
             "normal_gyro_angle_deg": gyro_angle,
         }
         return self._set(R, result.flag[:, 0], columns)

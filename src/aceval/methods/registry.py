@@ -1,7 +1,9 @@
 """The one list of calibration methods: aceval's own and the peers beside them, in the order every
 table, figure and summary shows them. Each line is everything the rest of aceval knows about a
 method by its name; aceval's own methods are classes (:mod:`aceval.methods.interface`) that
-declare, besides, the statistics they read, the methods they build on and their subset policy.
+declare, besides, all the rest: the statistics they read, the methods they build on, their
+subset policy, their diagnostics columns, their signal and whether it is that signal's reference
+in the cones, and whether Ricci's functional design fits them.
 
 Adding a method is its module (a :class:`aceval.methods.interface.CalibrationMethod`), one line
 here and a test: calibration, the one pass's statistics, the uncertainty, the tables, the figures,
@@ -40,20 +42,14 @@ class Method:
     """One line of the registry: ``name`` (the ``method`` column of every table), ``summary`` (one
     line, for the command line and the docs), ``implementation`` ('module:Class' of aceval's own
     method; '' for a peer), ``paper`` (the paper whose method it is, e.g. 'kong2016': its
-    analyses read this method's calibrations), ``functional_design`` (Ricci's functional design
-    fits it too: :func:`aceval.methods.functional.fit_axes`), ``peer`` (a peer's facts),
-    ``signal`` (what its heading comes from: 'acc' the accelerations' plane, 'gyr' the
-    gyroscope's axis, 'step' the step's direction, 'acc+gyr' both; estimates from different
-    signals of one unit check each other in its uncertainty, :mod:`aceval.methods.uncertainty`).
+    analyses read this method's calibrations), ``peer`` (a peer's facts).
     """
 
     name: str
     summary: str
     implementation: str = ""
     paper: str = ""
-    functional_design: bool = False
     peer: Peer | None = None
-    signal: str = ""
 
     def load(self) -> type:
         """The method's class (imported on first use)."""
@@ -70,7 +66,6 @@ METHODS: list[Method] = [
         "motion test's accelerations (every subset of repetitions)",
         "aceval.methods.kong:Kong",
         paper="kong2016",
-        signal="acc",
     ),
     Method(
         "ricci_lm",
@@ -78,36 +73,28 @@ METHODS: list[Method] = [
         "principal axis onto body z and y",
         "aceval.methods.ricci:RicciLM",
         paper="ricci2014",
-        functional_design=True,
-        signal="gyr",
     ),
     Method(
         "align_vectors",
         "the closed-form optimum of Ricci's weighted cost (SciPy's Rotation.align_vectors)",
         "aceval.methods.align_vectors:AlignVectors",
-        functional_design=True,
-        signal="gyr",
     ),
     Method(
         "triad",
         "TRIAD: z0 kept exactly, body y from the gyroscope's principal axis",
         "aceval.methods.triad:Triad",
-        functional_design=True,
-        signal="gyr",
     ),
     Method(
         "combined",
         "Kong's plane normal and the gyroscope's principal axis, weighted by their conditioning "
         "(beyond the papers)",
         "aceval.methods.combined:Combined",
-        signal="acc+gyr",
     ),
     Method(
         "step_harmonic",
         "walking: body x from the horizontal acceleration at the step frequency (beyond the "
         "papers)",
         "aceval.methods.step_harmonic:StepHarmonic",
-        signal="step",
     ),
     Method(
         "gaitmap_pca",
@@ -182,8 +169,27 @@ def ordered(found) -> list[str]:
 
 
 def signals() -> dict[str, str]:
-    """What each of aceval's own methods' heading comes from (``signal``), by method name."""
-    return {m.name: m.signal for m in METHODS if m.signal}
+    """What each of aceval's own methods' heading comes from (its class's ``signal``), by method
+    name.
+    """
+    return {name: cls.signal for name, cls in classes().items() if cls.signal}
+
+
+def cone_references() -> dict[str, str]:
+    """Each signal's reference method (the one whose class declares ``cone_reference``): the
+    estimate of that signal every other method's cone is compared with
+    (:func:`aceval.methods.uncertainty.heading_terms`). ValueError where a signal has two.
+    """
+    found: dict[str, str] = {}
+    for name, cls in classes().items():
+        if cls.cone_reference:
+            if cls.signal in found:
+                raise ValueError(
+                    f"{found[cls.signal]} and {name} both declare themselves the cone reference "
+                    f"of signal {cls.signal!r}: one per signal"
+                )
+            found[cls.signal] = name
+    return found
 
 
 def paper_method(paper: str) -> str:
@@ -195,8 +201,17 @@ def paper_method(paper: str) -> str:
 
 
 def functional_design() -> list[str]:
-    """The methods Ricci's functional design fits from its axes."""
-    return [m.name for m in METHODS if m.functional_design]
+    """The methods Ricci's functional design fits from its axes: those whose class has
+    ``fit_functional``, in the registry's order.
+    """
+    return [name for name, cls in classes().items() if cls.serves_functional_design()]
+
+
+def diagnostics() -> list[str]:
+    """Every diagnostics column aceval's methods declare, each once, in the registry's order (the
+    calibrations table's last columns, :mod:`aceval.calibrate.rows`).
+    """
+    return list(dict.fromkeys(c for cls in classes().values() for c in cls.diagnostics))
 
 
 def classes(chosen=None) -> dict[str, type]:

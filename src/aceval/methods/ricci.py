@@ -18,9 +18,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from aceval.data.errors import check_axes
+from aceval.data.errors import CalibrationError, check_axes
 from aceval.data.rotations import error_angle_deg, vector_angle_deg
 from aceval.methods.align_vectors import optimum_resample, wahba_batch, wahba_fit
+from aceval.methods.interface import AxisProblem
 from aceval.methods.sagittal import SAGITTAL_REFERENCE, AxisMethod, sagittal_axes
 from aceval.methods.sufficient import Pooled
 
@@ -397,6 +398,17 @@ class _State:
 # --- the method's interface in Kong's protocol (aceval.methods.interface) -----------------------
 
 
+#: a start "reaches the optimum" when its result is within this angle of the closed-form optimum:
+#: Kong's own threshold for a calibration that no longer changes ("after including three
+#: repetitions the change ... is less than one degree", Kong et al. 2016, Sec. 3.3)
+SAME_SOLUTION_DEG = 1.0
+
+
+def _distance_deg(R: np.ndarray, optimum: np.ndarray | None) -> float:
+    """Angle (deg) between a fitted rotation and the closed-form optimum (NaN without one)."""
+    return float("nan") if optimum is None else float(error_angle_deg(R, optimum))
+
+
 def _optimum_distance_deg(R: np.ndarray, optimum: np.ndarray) -> np.ndarray:
     """Angle (deg) between fitted rotations and the closed-form optima (B, 3, 3 each)."""
     return np.asarray(error_angle_deg(R, optimum), float)
@@ -407,8 +419,77 @@ class RicciLM(AxisMethod):
     axis mapped onto body z and y (:mod:`aceval.methods.sagittal`), with its steps, convergence
     and distance to the closed-form optimum (``n_iterations``, ``n_rejected``, ``converged``,
     ``cost``, ``optimum_distance_deg``; ``fixed_*`` the same with lambda fixed, on the
-    calibrations from all repetitions).
+    calibrations from all repetitions); in Ricci's functional design (:meth:`fit_functional`)
+    also how many random starts reach the optimum. The gyroscope's reference in the others' cones.
     """
+
+    diagnostics = (
+        "n_iterations",
+        "n_rejected",
+        "optimum_distance_deg",
+        "fixed_n_iterations",
+        "fixed_cost",
+        "fixed_optimum_distance_deg",
+        "fixed_converged",
+        "converged",
+        "cost",
+        "random_starts",
+        "random_starts_optimum",
+        "random_start_iterations_mean",
+        "random_start_iterations_max",
+    )
+    cone_reference = True
+
+    @classmethod
+    def fit_functional(cls, problem: AxisProblem) -> dict:
+        """The LM (adaptive damping, Hartley & Zisserman's, as Ricci cites) of the axis pairs: its
+        accepted and rejected steps, convergence, final cost, distance to the closed-form optimum
+        (deg), the residual angles (deg) before and after; with ``problem.diagnostics`` the same
+        for lambda fixed at 1e-3 (``fixed_*``: Eq. 9-10 read literally); with
+        ``problem.random_starts``, how many random starts reach the closed-form optimum
+        (within :data:`SAME_SOLUTION_DEG`) and their iterations.
+        """
+        v_ref, v_est, rho = problem.v_ref, problem.v_est, problem.rho
+        try:
+            optimum = wahba_fit(v_ref, v_est, rho).as_matrix()
+        except (CalibrationError, ValueError):
+            optimum = None
+        fit = lm_fit(v_ref, v_est, rho)
+        entry = {
+            "R": fit.R,
+            "n_iterations": fit.n_iterations,
+            "n_rejected": fit.n_rejected,
+            "converged": fit.converged,
+            "cost": fit.cost,
+            "optimum_distance_deg": _distance_deg(fit.R, optimum),
+            "residual_before_deg": fit.residual_angle_before_deg,
+            "residual_after_deg": fit.residual_angle_after_deg,
+        }
+        if problem.diagnostics:
+            fixed = lm_fit(v_ref, v_est, rho, adaptive=False)
+            entry.update(
+                fixed_n_iterations=fixed.n_iterations,
+                fixed_cost=fixed.cost,
+                fixed_converged=fixed.converged,
+                fixed_optimum_distance_deg=_distance_deg(fixed.R, optimum),
+            )
+        if problem.random_starts and optimum is not None:
+            n = problem.random_starts
+            starts = Rotation.random(n, random_state=problem.seed).as_quat(scalar_first=True)
+            runs = lm_fit_batch(
+                v_ref,
+                np.broadcast_to(v_est, (n, *np.shape(v_est))),
+                np.broadcast_to(rho, (n, len(rho))),
+                q0_wxyz=starts,
+            )
+            reached = error_angle_deg(runs.R, optimum) <= SAME_SOLUTION_DEG
+            entry.update(
+                random_starts=n,
+                random_starts_optimum=int(np.sum(reached)),
+                random_start_iterations_mean=float(np.mean(runs.n_iterations)),
+                random_start_iterations_max=int(np.max(runs.n_iterations)),
+            )
+        return entry
 
     def _batch(self, pooled: Pooled, rows: np.ndarray) -> tuple[np.ndarray, dict]:
         """The LM of the regular rows at once (:func:`lm_fit_batch`), its convergence and distance to

@@ -1,8 +1,9 @@
 """Kong's protocol for the axis methods (Ricci's LM, ``align_vectors``, TRIAD): body z (down) from
 the static z0, body y (right) from the gyroscope's principal axis in the motion test, weighted by
 their reliability rho (Ricci Eq. 1-2, 7), and the limits beyond which such a calibration is
-flagged. Shared by the three methods' modules (:mod:`aceval.methods.ricci`,
-:mod:`aceval.methods.align_vectors`, :mod:`aceval.methods.triad`) and the combined heading.
+flagged (also in Ricci's functional design). Shared by the three methods' modules
+(:mod:`aceval.methods.ricci`, :mod:`aceval.methods.align_vectors`, :mod:`aceval.methods.triad`) and
+the combined heading; :func:`sagittal_fits` fits them all on one IMU and test.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import numpy as np
 
 from aceval.data.errors import CalibrationError
 from aceval.methods.interface import CalibrationMethod
+from aceval.methods.registry import classes
 from aceval.methods.sufficient import GYRO_MOMENTS, Pooled
 
 #: body z (down) and y (right): the references of Kong's protocol for the axis methods
@@ -143,6 +145,7 @@ class AxisMethod(CalibrationMethod):
     """
 
     statistics = (GYRO_MOMENTS,)
+    signal = "gyr"
 
     def _batch(self, pooled: Pooled, rows: np.ndarray) -> tuple[np.ndarray, dict]:
         raise NotImplementedError
@@ -153,3 +156,35 @@ class AxisMethod(CalibrationMethod):
     def fit(self, pooled: Pooled, fitted=None) -> AxisMethod:
         """Every row's calibration, flagged as the axis methods are (:func:`axis_method_fit`)."""
         return self._set(*axis_method_fit(pooled, self._batch, self._single))
+
+
+def sagittal_fits(
+    z0: np.ndarray,
+    rho_static: float,
+    motion_axis: np.ndarray,
+    rho_motion: float,
+    spread_deg: float = float("nan"),
+    diagnostics: bool = True,
+) -> dict[str, dict]:
+    """Every axis method of the registry (:class:`AxisMethod`) on one IMU and test: body z (down)
+    <- z0 from quiet stance, body y (right) <- the gyroscope axis of the motion test (already
+    oriented to the right), weighted by their rho. Flagged beyond :class:`AxisLimits`:
+    ``low_rho``, ``axis_near_vertical``, ``axes_disagree`` (``spread_deg``: the median angle of
+    the repetitions' own axes to the pooled one). ``diagnostics``: the LM with lambda fixed too (a
+    calibration from all repetitions). Each method's entry: ``R`` (None where it failed),
+    ``flag`` and its diagnostics.
+    """
+    pooled = Pooled.of_axes(z0, rho_static, motion_axis, rho_motion, spread_deg, diagnostics)
+    out = {}
+    for name, cls in classes().items():
+        if not issubclass(cls, AxisMethod):
+            continue
+        fit = cls().fit(pooled, {})
+        R = fit.rotation_[0] if np.isfinite(fit.rotation_[0]).all() else None
+        values = {k: v[0] for k, v in fit.diagnostics_.items()}
+        out[name] = {"R": R, "flag": fit.flag_[0]} | {
+            k: v
+            for k, v in values.items()
+            if v is not None and not (isinstance(v, float) and np.isnan(v))
+        }
+    return out

@@ -43,8 +43,8 @@ LEG_SEGMENTS = ("thigh", "shank", "foot")
 #: the segments read at the stride (half the step frequency): the foot swings forward once per
 #: stride. The thigh and shank are read at the step, where their magnitude peaks: on kong_sim
 #: the stride gave them 4.3-7.9 deg median error against 1.4-4.1 deg at the step (the kong_sim of
-#: the assumed walking variability, measured
-#: 2026-11-24 with both rules; the trunk surges once per step, Zijlstra & Hof 2003)
+#: the assumed walking variability, measured with both rules; the trunk surges once per step,
+#: Zijlstra & Hof 2003)
 STRIDE_SEGMENTS = ("foot",)
 #: resolution (Hz) of the acceleration-magnitude spectra that are pooled over repetitions
 SPECTRUM_RESOLUTION_HZ = 0.005
@@ -263,22 +263,20 @@ STEP_SCATTER = Statistic(
     derive=_pooled_steps,
 )
 
-#: why a walking test has no step-harmonic calibration
-TOO_SHORT = (
-    "needs walking of at least two cycles of the slowest step (3.3 s, all repetitions of the "
-    "test together) to find the step frequency; this test's recordings are shorter"
-)
-
 
 class StepHarmonic(CalibrationMethod):
     """The step-harmonic calibration of each walking row from its summed step-band scatter,
     flagged ``no_step_heading`` when no horizontal direction dominates (:data:`MAX_STEP_RATIO`),
     ``step_frequency_disagrees`` when the test's recordings disagree on the step frequency, and
     ``not_applicable`` (with a ``note``) when the test's walking is too short. Diagnostics:
-    ``step_ratio`` (middle / largest horizontal eigenvalue), ``step_hz`` (Hz), ``note``.
+    ``step_ratio`` (middle / largest horizontal eigenvalue), ``step_hz`` (Hz), ``note``. The
+    step's reference in the others' cones.
     """
 
     statistics = (STEP_SCATTER,)
+    diagnostics = ("step_ratio", "step_hz", "note")
+    signal = "step"
+    cone_reference = True
 
     def applies(self, pooled: Pooled) -> np.ndarray:
         """Walking rows: those with a step-band scatter, and (flagged ``not_applicable``) the

@@ -139,18 +139,83 @@ class Units:
         """One unit from its repetitions' arrays (a caller with samples of its own, and the
         tests): z0 and the declared right axis (3,), Kong's scatters (n, 3, 3) and counts (n,),
         the unit gyroscope scatters (n, 3, 3) (each unit sample adds 1 to the trace, which is the
-        count; the sums are taken as 0: movement axes are signed by ``right``).
+        count); every other part of the two statistics as a recording without it has it
+        (:attr:`Part.missing`: the sums 0, the repetitions' own axes NaN; movement axes are then
+        signed by ``right``).
         """
         scatters = np.asarray(scatters, float)
         unit_scatters = np.asarray(unit_scatters, float)
-        n = len(scatters)
-        values = {
-            "scatter": scatters[None],
-            "unit_sum": np.zeros((1, n, 3)),
-            "unit_scatter": unit_scatters[None],
-            "n_unit": np.trace(unit_scatters, axis1=1, axis2=2)[None],
-            "phase": np.full((1, n, 3), np.nan),
+        statistics = (ACC_SCATTER, GYRO_MOMENTS)
+        given = {
+            "scatter": scatters,
+            "unit_scatter": unit_scatters,
+            "n_unit": np.trace(unit_scatters, axis1=1, axis2=2),
         }
+        return cls._one_unit(
+            z0, right, n_samples, statistics, given, rho_static, first_phase, segment
+        )
+
+    @classmethod
+    def of_samples(
+        cls,
+        z0,
+        right,
+        repetitions,
+        fs_hz: float,
+        statistics,
+        rho_static: float = 1.0,
+        first_phase: str = "",
+        segment: str = "",
+    ) -> Units:
+        """One unit from its repetitions' samples, every sample kept (the tests: a statistic
+        declared anywhere reaches them with nothing listed by hand): z0 and the declared right
+        axis (3,), ``repetitions`` a list of (acc (n, 3) m/s^2, gyr (n, 3) rad/s) in the sensor
+        frame, each reduced by every one of ``statistics`` as the one pass reduces a recording
+        (its ``reduce``, or ``reduce_test`` over the unit's repetitions where the test's first
+        phase is the statistic's ``test_phase``).
+        """
+        summaries = {
+            rep: {"kept": f"0:{len(acc)}", "n_samples": len(acc)}
+            for rep, (acc, _) in enumerate(repetitions)
+        }
+        for statistic in statistics:
+            for rep, (acc, gyr) in enumerate(repetitions):
+                if statistic.reduce is not None:
+                    kept = np.ones(len(acc), dtype=bool)
+                    summaries[rep].update(statistic.reduce(acc, gyr, kept, fs_hz))
+            if statistic.reduce_test is not None and statistic.test_phase == first_phase:
+                recordings = [
+                    (rep, acc, np.ones(len(acc), dtype=bool), segment, rep + 1)
+                    for rep, (acc, _) in enumerate(repetitions)
+                ]
+                statistic.reduce_test(recordings, fs_hz, summaries)
+        rows = [summaries[rep] for rep in range(len(repetitions))]
+        given = {
+            name: np.array([[row.get(c, np.nan) for c in part.columns] for row in rows])
+            for statistic in statistics
+            for name, part in statistic.parts.items()
+            if all(part.columns[0] in row for row in rows)
+        }
+        n_samples = [row["n_samples"] for row in rows]
+        return cls._one_unit(
+            z0, right, n_samples, tuple(statistics), given, rho_static, first_phase, segment
+        )
+
+    @classmethod
+    def _one_unit(
+        cls, z0, right, n_samples, statistics, given, rho_static, first_phase, segment
+    ) -> Units:
+        """One unit of ``len(n_samples)`` repetitions: each part of ``statistics`` from
+        ``given`` (name -> (n, ...) values; each part's ``missing`` value where not given).
+        """
+        n = len(n_samples)
+        values = {}
+        for statistic in statistics:
+            for name, part in statistic.parts.items():
+                if name in given:
+                    values[name] = np.asarray(given[name], float).reshape(1, n, *part.shape)
+                elif part.missing is not None:
+                    values[name] = np.full((1, n, *part.shape), part.missing)
         return cls(
             z0=np.asarray(z0, float)[None],
             right=np.asarray(right, float)[None],
@@ -160,7 +225,7 @@ class Units:
             rep=np.arange(1, n + 1)[None],
             present=np.ones((1, n), dtype=bool),
             n_samples=np.asarray(n_samples, float)[None],
-            statistics=(ACC_SCATTER, GYRO_MOMENTS),
+            statistics=tuple(statistics),
             values=values,
         )
 
@@ -226,34 +291,34 @@ class Pooled:
         spread_deg=np.nan,
         all_repetitions=True,
         right=None,
+        statistics=None,
     ) -> Pooled:
         """One row given by its axes alone (the axis methods read no more): z0 (3,), the
-        gyroscope axis (3,) already signed to the right, their rho, the repetitions' spread; the
-        other statistics NaN.
+        gyroscope axis (3,) already signed to the right, their rho, the repetitions' spread; every
+        other part of ``statistics`` (default: every statistic the registry's methods declare)
+        and what they derive, as of one repetition whose recording has none of them
+        (:attr:`Part.missing`).
         """
-        z0, axis = np.asarray(z0, float)[None], np.asarray(gyro_axis, float)[None]
-        nan = np.full(1, np.nan)
+        if statistics is None:
+            from aceval.methods.registry import statistics as declared
+
+            statistics = declared()
+        axis = np.asarray(gyro_axis, float)
+        units = Units._one_unit(
+            z0, axis if right is None else right, [np.nan], statistics, {}, rho_static, "", ""
+        )
+        pooled = pool(units, np.zeros(1, int), np.ones((1, 1)))
+        given = {
+            "gyro_axis": axis[None],
+            "gyro_rho": np.array([gyro_rho], float),
+            "spread_deg": np.array([spread_deg], float),
+        }
         return cls(
-            unit=np.zeros(1, int),
-            weights=np.ones((1, 1)),
-            z0=z0,
-            right=axis if right is None else np.asarray(right, float)[None],
-            rho_static=np.array([rho_static], float),
-            first_phase=np.array([""], dtype=object),
-            all_repetitions=np.array([bool(all_repetitions)]),
-            n_samples=nan,
-            values={
-                "scatter": np.full((1, 3, 3), np.nan),
-                "unit_scatter": np.full((1, 3, 3), np.nan),
-                "n_unit": nan,
-                "gyro_axis": axis,
-                "gyro_rho": np.array([gyro_rho], float),
-                "spread_deg": np.array([spread_deg], float),
-                "steps": np.full((1, 3, 3), np.nan),
-                "step_hz": nan,
-                "step_disagrees": np.zeros(1, dtype=bool),
-                "walking": np.zeros(1, bool),
-            },
+            **pooled.__dict__
+            | {
+                "all_repetitions": np.array([bool(all_repetitions)]),
+                "values": pooled.values | given,
+            }
         )
 
 

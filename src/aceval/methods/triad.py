@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from aceval.data.errors import AlignedAxesError, TooFewAxesError
+from aceval.methods.interface import AxisProblem
 from aceval.methods.sagittal import (
     SAGITTAL_REFERENCE,
     TRIAD_MIN_ANGLE_DEG,
@@ -84,6 +85,14 @@ class Triad(AxisMethod):
     (z0, whose static rho is near 1, in practice), flagged as the axis methods are
     (:class:`aceval.methods.sagittal.AxisMethod`).
     """
+
+    @classmethod
+    def fit_functional(cls, problem: AxisProblem) -> dict:
+        """TRIAD of the problem's ``triad_pair`` of axes, the primary kept exactly (Ricci's
+        functional design).
+        """
+        pair = list(problem.triad_pair)
+        return {"R": triad(problem.v_ref[pair], problem.v_est[pair])}
 
     def _batch(self, pooled: Pooled, rows: np.ndarray) -> tuple[np.ndarray, dict]:
         return triad_batch(

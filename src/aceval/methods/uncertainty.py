@@ -49,7 +49,7 @@ import numpy as np
 
 from aceval.data.rotations import error_angle_deg, relative_rotvec, rotvec_vertical_share
 from aceval.methods.interface import CalibrationMethod
-from aceval.methods.registry import classes, fit_order, signals
+from aceval.methods.registry import classes, cone_references, fit_order, signals
 from aceval.methods.sufficient import Units, pool
 
 #: resamples per calibration (the 95th percentile of 200 angles: its 10th largest)
@@ -135,13 +135,6 @@ def bootstrap_cones(
 
 # --- the cone: what the recording shows, scaled by constants fitted across simulator variants ---
 
-#: which signal each method's heading comes from (the registry's ``signal``): estimates from
-#: different signals of the same unit are independent checks of each other (the combined heading,
-#: between the accelerations' plane and the gyroscope's axis, is checked against both)
-SIGNAL = signals()
-#: the estimate each other method is compared with, per signal: its first method in the
-#: registry's order (Kong's plane, Ricci's LM, the step harmonic)
-REFERENCE = {s: next(m for m, own in SIGNAL.items() if own == s) for s in ("acc", "gyr", "step")}
 #: how far a segment's own plane of motion turns from the body's sagittal plane (deg, RMS), which
 #: no recording of the segment alone shows: the foot's progression angle, 7 +- 3 deg toe-out
 #: (Perry & Burnfield 2010, *Gait Analysis*, Ch. 4; the simulator's, docs/simulation.md)
@@ -154,9 +147,10 @@ class ConeModel:
     + (tests * d_tests)^2 + (conditioning * c)^2)`` (deg): ``d_signals`` and ``d_tests`` the
     disagreements of :func:`heading_terms`, ``c = atan(sqrt(normal_ratio))`` (deg) of Kong's plane,
     ``plane`` :data:`SEGMENT_PLANE_DEG`; ``signals``, ``tests`` and ``conditioning`` their weights.
-    ``q`` per method (``q_other`` for a method without one): the factor that turns the combined RMS
-    into a 95 % cone, split-conformally. Fitted by
-    :func:`aceval.evaluation.cone_fit.fit_cone_model`.
+    ``q`` per method: the factor that turns the combined RMS into a 95 % cone, split-conformally.
+    A method without one (added since the fit) gets ``q_other``, the largest fitted, and its rows
+    say so (``cone_fit`` 'not validated', :meth:`validated`) until the coverage study is run
+    again. Fitted by :func:`aceval.evaluation.cone_fit.fit_cone_model`.
     """
 
     signals: float
@@ -168,6 +162,10 @@ class ConeModel:
     def factor(self, method) -> np.ndarray:
         """``q`` of each method in ``method`` (array of names)."""
         return np.array([self.q.get(m, self.q_other) for m in np.atleast_1d(method)], float)
+
+    def validated(self, method: str) -> bool:
+        """Whether the coverage study fitted this method's ``q`` (its cone's coverage measured)."""
+        return method in self.q
 
 
 #: fitted by ``python -m aceval.evaluation.coverage`` (results/coverage/model.csv, fit 'all';
@@ -228,8 +226,10 @@ def heading_terms(
     labels the units' IMUs) from every method's calibration from all repetitions (``R_full``:
     method -> (U, 3, 3), NaN where none), in deg:
 
-    * ``{method}_signals``: the median angle to the other signals' calibrations of the same unit
-      (:data:`SIGNAL`, :data:`REFERENCE`); NaN where there is none;
+    * ``{method}_signals``: the median angle to the other signals' reference calibrations of the
+      same unit (each signal's method declaring ``cone_reference``,
+      :func:`aceval.methods.registry.cone_references`: a method that is none changes no other
+      method's cone); NaN where there is none;
     * ``{method}_tests``: the median angle to the same method's calibrations of the same IMU from
       its other tests; NaN where it has none;
     * ``conditioning``: ``atan(sqrt(normal_ratio))`` of Kong's plane of the unit (the tilt an
@@ -241,8 +241,9 @@ def heading_terms(
     ok = {m: np.isfinite(R).all(axis=(1, 2)) for m, R in R_full.items()}
     out = {"conditioning": np.degrees(np.arctan(np.sqrt(np.clip(normal_ratio, 0.0, None))))}
     same_imu = imu[:, None] == imu[None, :]
+    signal, reference = signals(), cone_references()
     for method, R in R_full.items():
-        references = [m for s, m in REFERENCE.items() if m in R_full and s != SIGNAL.get(method)]
+        references = [m for s, m in reference.items() if m in R_full and s != signal.get(method)]
         angles = np.full((len(references), n), np.nan)
         for k, other in enumerate(references):
             both = ok[method] & ok[other]

@@ -78,8 +78,10 @@ def _ties(table: pd.DataFrame) -> str:
     )
 
 
-def _choice_lines(table: pd.DataFrame) -> list[str]:
-    """How the calibration is chosen and where its cones come from."""
+def _choice_lines(table: pd.DataFrame, with_peers: bool) -> list[str]:
+    """How the calibration is chosen (``with_peers``: the peers' calibrations among them) and
+    where its cones come from.
+    """
     accuracy = table["basis"].fillna("").str.startswith("accuracy").any()
     evidence = (
         "the smallest median error to the ground truth of the other sensors of its segment "
@@ -92,7 +94,8 @@ def _choice_lines(table: pd.DataFrame) -> list[str]:
     )
     lines = [
         "Each sensor's calibration is chosen among its calibrations from all repetitions (every "
-        "method, the peers too, every test that calibrates it) that no flag takes out ("
+        f"method, {'the peers too' if with_peers else 'no peer: they were left out'}, every test "
+        "that calibrates it) that no flag takes out ("
         + ", ".join(f"`{f}`" for f in ADVISORY_FLAGS)
         + " are shown beside it, not taken out: config/README.md) by "
         + evidence
@@ -120,16 +123,16 @@ def _choice_lines(table: pd.DataFrame) -> list[str]:
     return lines + [""]
 
 
-def decision_section(tables: dict) -> list[str]:
+def decision_section(tables: dict, with_peers: bool = True) -> list[str]:
     """The decision per IMU (every IMU of every subject up to :data:`MAX_LISTED`, else per sensor
     place over the subjects), the tolerance and how many sensors meet it first; empty without
-    the table.
+    the table. ``with_peers``: the peers' calibrations were among those it chose from.
     """
     table = tables.get("decision")
     if table is None or table.empty:
         return []
     lines = ["## Which calibration to use, for each sensor", ""]
-    lines += _first_lines(table) + _choice_lines(table)
+    lines += _first_lines(table) + _choice_lines(table, with_peers)
     if len(table) <= MAX_LISTED:
         return lines + _listed(table) + [""]
     return lines + _by_place(table) + [""]

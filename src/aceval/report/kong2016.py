@@ -158,7 +158,7 @@ def table6(correlations: pd.DataFrame, paper_names: dict) -> pd.DataFrame:
 
 
 #: the terms of the Obj 1-2 factor models: T_ex, T_ap, segment (Obj 2: pair) and the T_ap x
-#: segment (pair) interaction, which the additive model left in its residual (issue 42)
+#: segment (pair) interaction, which the additive model left in its residual
 FACTOR_MODELS = {
     "Obj 1": (["t_ex", "t_ap", "segment"], [("t_ap", "segment")]),
     "Obj 2": (["t_ex", "t_ap", "pair"], [("t_ap", "pair")]),

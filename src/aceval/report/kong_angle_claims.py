@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from aceval.calibrate.table import full_set_rows, kong_rows, usable
+from aceval.calibrate.table import full_set_rows, rows_of_method, usable
 from aceval.report.claims import (
     FAILS,
     HOLDS,
@@ -236,7 +236,7 @@ def recommended_most_accurate(e: Evidence):
     c = e.calibrations
     if c is None or "error_deg" not in c or c["error_deg"].isna().all():
         return UNTESTABLE, "no ground truth"
-    full = usable(full_set_rows(kong_rows(c)))
+    full = usable(full_set_rows(rows_of_method(c)))
     per_subject = full.groupby(["subject", "segment", "test"])["error_deg"].mean().reset_index()
     parts = []
     for segment, (test, _, _) in RECOMMENDED.items():
@@ -268,7 +268,7 @@ def recommended_errors(e: Evidence) -> pd.DataFrame:
     c = e.calibrations
     if c is None or "error_deg" not in c or c["error_deg"].isna().all():
         return pd.DataFrame(columns=["subject", "segment", "test", "error_deg"])
-    full = usable(full_set_rows(kong_rows(c))).dropna(subset=["error_deg"])
+    full = usable(full_set_rows(rows_of_method(c))).dropna(subset=["error_deg"])
     chosen = [
         full[(full["segment"] == segment) & (full["test"] == test)]
         for segment, (test, _, _) in RECOMMENDED.items()

@@ -13,14 +13,15 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Literal, get_args
 
+from aceval.report import builders
 from aceval.report.builders import (
     figure,
     kong_figure,
     kong_markdown,
     kong_table,
     kong_units,
-    named,
     named_markdown,
 )
 
@@ -29,16 +30,12 @@ from aceval.report.builders import (
 #: ground truth (ground_truth_method.tsv) or a loose reference (loose_reference.tsv)
 INPUT_KINDS = ("calibrations", "axes", "correlations", "angles", "truth_method", "loose_reference")
 #: the analyses a dataset can ask for (config ``analyses``), and the ones aceval adds itself
-ANALYSES = (
-    "kong",
-    "box",
-    "ricci",
-    "decision",
-    "methods",
-    "retest",
-    "truth",
-    "loose_reference",
-)
+Analysis = Literal[
+    "kong", "box", "ricci", "decision", "methods", "retest", "truth", "loose_reference"
+]
+ANALYSES: tuple[str, ...] = get_args(Analysis)
+#: an output is a table (CSV and Markdown) or a figure (PNG)
+Kind = Literal["table", "figure"]
 
 
 @dataclass(frozen=True)
@@ -46,14 +43,21 @@ class Output:
     """One table or figure of a dataset's results (``results/<dataset>/<kind>s/<name>``)."""
 
     name: str
-    kind: str  # "table" | "figure"
-    analysis: str  # one of ANALYSES
+    kind: Kind
+    analysis: Analysis
     paper: str  # the paper item it reproduces, or "beyond the papers"
     inputs: tuple[str, ...]  # kinds of INPUT_KINDS
     title: str  # the table's heading, the figure's caption
     unit: str = ""  # tables: what n counts
     build: Callable | None = None  # tables: data -> DataFrame; figures: (data, png, title) -> None
     markdown: Callable | None = None  # tables: (table, output, dataset, simulated) -> str
+
+    def __post_init__(self):
+        if self.kind not in get_args(Kind) or self.analysis not in ANALYSES:
+            raise ValueError(
+                f"output {self.name}: kind {self.kind!r} (one of {get_args(Kind)}), analysis "
+                f"{self.analysis!r} (one of {ANALYSES})"
+            )
 
     @property
     def path(self) -> str:
@@ -168,12 +172,7 @@ _ENTRIES = [
         "subject and IMU (Table 7: side), the mean of the paired values in each sensor set; the "
         "test on subjects averages a subject's cells, the mixed model reads their differences",
         "subject x IMU (Table 7: subject x side), repetitions and subsets averaged inside each",
-        named(
-            "report.set_tests.set_test_units",
-            "sensor_sets",
-            optional=("correlations", "angles"),
-            exact=True,
-        ),
+        builders.set_test_units,
         named_markdown,
     ),
     Output(
@@ -189,7 +188,7 @@ _ENTRIES = [
         "high its 95 % interval from 1,000 resamples of the subjects; aliased: how many of the "
         "factor's contrasts the others span (Obj 2's pairs are each recorded in their own tests: "
         "a factor wholly confounded has no share of its own, shown empty)",
-        named("report.kong2016.correlation_factors", "correlations"),
+        builders.correlation_factors,
         named_markdown,
     ),
     Output(
@@ -201,7 +200,7 @@ _ENTRIES = [
         "What Kong's Obj 1 correlation can detect: the frontal vs lateral acceleration correlation "
         "when the lateral calibration is turned by a known heading error, per correlation mode",
         "subject x IMU x T_ex x T_ap (Table 3's units), each averaged over the repetitions",
-        named("report.kong2016.correlation_sensitivity", "correlations"),
+        builders.correlation_sensitivity,
         named_markdown,
     ),
     Output(
@@ -239,7 +238,7 @@ _ENTRIES = [
         "eigenvalue ratio and planarity of all repetitions' accelerations (Eq. 3), two sensors "
         "on one segment (Obj 1): the same statistics on real and simulated data",
         "subject x test x segment, each the median over the subject's IMUs and sensor sets",
-        named("evaluation.variability.variability_table", "calibrations", "angles", "correlations"),
+        builders.variability_table,
         named_markdown,
     ),
     Output(
@@ -251,7 +250,7 @@ _ENTRIES = [
         "How well each test determines each IMU's heading by Kong's plane: eigenvalue ratio "
         "(smallest/middle; above 0.5 undetermined) and planarity, flagged calibrations included",
         "subject x sensor set x IMU x test (the calibration from all repetitions)",
-        named("evaluation.conditioning.conditioning_table", "calibrations"),
+        builders.conditioning_table,
         named_markdown,
     ),
     *(
@@ -295,7 +294,7 @@ _ENTRIES = [
         ("axes",),
         "Ricci et al. 2014, Table 1: reliability index rho per movement and segment",
         "subjects (each child's rho pooled over its 3 trials, as Ricci: 9-12 repetitions)",
-        named("report.ricci2014.rho_table", "axes", "paper_names"),
+        builders.rho_table,
         named_markdown,
     ),
     Output(
@@ -308,7 +307,7 @@ _ENTRIES = [
         "children, one pair per child and side (rho pooled over the 3 trials); sides tested "
         "separately; p raw and Holm-corrected within each reading; the paper reports only p < "
         "0.05 for each frame",
-        named("report.ricci2014.supported_ttest", "axes"),
+        builders.supported_ttest,
         named_markdown,
     ),
     Output(
@@ -324,7 +323,7 @@ _ENTRIES = [
         "the sphere < 1e-6, converged = that gradient reached; off_optimum: more than 1 deg "
         "from SciPy's closed-form solution; each fit also from random unit quaternions (how many: "
         "random_starts), counted as reaching the optimum when within 1 deg of it (Kong Sec. 3.3)",
-        named("report.ricci2014.lm_table", "calibrations"),
+        builders.lm_table,
         named_markdown,
     ),
     Output(
@@ -336,7 +335,7 @@ _ENTRIES = [
         "Ricci et al. 2014, Fig. 5 / Eq. 13: residual angle between each reference axis and its "
         "estimate, before (identity) and after the LM fit (deg)",
         "IMUs (subject x side)",
-        named("report.ricci2014.residual_table", "axes", "paper_names"),
+        builders.residual_table,
         named_markdown,
     ),
     Output(
@@ -372,13 +371,7 @@ _ENTRIES = [
         "the spread between the methods, the runner-up and the margin, how many calibrations it "
         "rests on, and a verdict against the tolerance (aceval.evaluation.decision)",
         "one row per IMU of a subject",
-        named(
-            "evaluation.decision.decision_table",
-            "calibrations",
-            "test_retest_k",
-            optional=("retest_units", "tolerance_deg"),
-            exact="rotation",
-        ),
+        builders.decision_table,
         named_markdown,
     ),
     Output(
@@ -390,12 +383,7 @@ _ENTRIES = [
         "Every method against the ground truth: error angle to the true mounting (deg)",
         "subjects (each IMU's calibration from all repetitions of the test; Ricci's design: from "
         "all its axes); retest_*: Kong Obj 4 for each method, subject x IMU units (methods_retest)",
-        named(
-            "evaluation.methods_comparison.methods_table",
-            "calibrations",
-            "test_retest_k",
-            optional=("retest_units",),
-        ),
+        builders.methods_table,
         named_markdown,
     ),
     Output(
@@ -407,12 +395,7 @@ _ENTRIES = [
         "Every method's test-retest: error angle (deg) between its calibrations from two distinct "
         "subsets of k repetitions of one test (Kong Eq. 15), no ground truth needed",
         "subject x sensor set x IMU (each the mean over the pairs of k-repetition subsets)",
-        named(
-            "evaluation.methods_comparison.retest_table",
-            "calibrations",
-            "test_retest_k",
-            optional=("retest_units",),
-        ),
+        builders.retest_table,
         named_markdown,
     ),
     Output(
@@ -428,7 +411,7 @@ _ENTRIES = [
         "95 % interval; beside it the coverage of the repetitions' spread alone",
         "calibrations from all repetitions of both sensor sets (unflagged, with a cone); rows "
         "'all': the method over every segment and test",
-        named("evaluation.methods_comparison.uncertainty_table", "calibrations", "truth_method"),
+        builders.uncertainty_table,
         named_markdown,
     ),
     Output(
@@ -445,7 +428,7 @@ _ENTRIES = [
         "calibrations from all repetitions (every method, the peers included); p: one-sided "
         "Mann-Whitney, flagged farther than unflagged (calibrations are not independent units: "
         "a screen, not a verdict)",
-        named("evaluation.flag_value.flag_value_table", "calibrations"),
+        builders.flag_value_table,
         named_markdown,
     ),
     Output(
@@ -457,7 +440,7 @@ _ENTRIES = [
         "Which test to use for which segment: smallest median error per method, beside Kong's "
         "recommendation (T3 upper body, T6 thighs and shanks)",
         "calibrations of both sensor sets",
-        named("evaluation.methods_comparison.best_tests", "calibrations"),
+        builders.best_tests,
         named_markdown,
     ),
     Output(
@@ -472,7 +455,7 @@ _ENTRIES = [
         "set cells: sides and sets inside the subject); mean with its 95 % t-interval; the paired "
         "difference to the first-ranked method with its interval simultaneous over the "
         "comparisons (Bonferroni, difference_level)",
-        named("evaluation.ranking.methods_ranking", "calibrations"),
+        builders.methods_ranking,
         named_markdown,
     ),
     Output(
@@ -495,7 +478,7 @@ _ENTRIES = [
         "uncertainty, the second (marker-frame) truth, and the method's conditioning",
         "one row per sensor, test and method (all repetitions); the truths and their checks are "
         "in the dataset's ground_truth_method.tsv",
-        named("evaluation.methods_comparison.truth_errors", "calibrations", "truth_method"),
+        builders.truth_errors,
         named_markdown,
     ),
     Output(
@@ -509,11 +492,7 @@ _ENTRIES = [
         "the verticals (deg)",
         "one row per sensor, test and method (all repetitions, flagged calibrations included); "
         "the reference and its standing check are in the dataset's loose_reference.tsv",
-        named(
-            "evaluation.methods_comparison.loose_reference_angles",
-            "calibrations",
-            "loose_reference",
-        ),
+        builders.loose_reference_angles,
         named_markdown,
     ),
 ]

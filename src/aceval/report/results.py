@@ -297,6 +297,13 @@ def write_claim_tables(found: list, folder: Path, files: FileSet | None = None) 
         _write_text(folder / f"{name}.csv", text, files)
 
 
+def _has_peers(calibrations) -> bool:
+    """Whether the calibrations (the peers' joined in) hold any peer's."""
+    from aceval.methods import registry
+
+    return calibrations is not None and calibrations["method"].isin(registry.peers()).any()
+
+
 def summary_text(
     found: list, tables: dict, analyses: list[str], data: dict, notes: list[str]
 ) -> str:
@@ -332,7 +339,7 @@ def summary_text(
         meta.get("description", ""),
         bool(meta.get("simulated")),
         notes,
-        decision_section(tables),
+        decision_section(tables, _has_peers(data.get("calibrations"))),
         methods_section(tables)
         + summary.retest_section(tables)
         + summary.uncertainty_section(tables)

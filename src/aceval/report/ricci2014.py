@@ -15,7 +15,7 @@ import pandas as pd
 
 from aceval.evaluation.stats import TTEST_COLUMNS, holm, paired_ttest
 from aceval.methods import registry
-from aceval.methods.functional import SAME_SOLUTION_DEG
+from aceval.methods.ricci import SAME_SOLUTION_DEG
 
 REFERENCE = Path(__file__).parent / "reference" / "ricci2014"
 #: Ricci's supported (with a bar) vs unsupported comparisons: (reading, frame, supported,

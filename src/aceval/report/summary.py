@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from aceval.calibrate.table import kong_rows, unflagged
+from aceval.calibrate.table import rows_of_method, unflagged
 from aceval.evaluation.cone_fit import CELL, MAX_CONE_OVER_ERROR, MIN_CELL, POOLED
 from aceval.evaluation.methods_comparison import (
     MAX_MARKER_FRAME_LONG_AXIS_DEG,
@@ -263,7 +263,7 @@ def truth_section(tables: dict) -> list[str]:
     table = tables.get("truth_errors")
     if table is None or table.empty:
         return []
-    kong = kong_rows(table)
+    kong = rows_of_method(table)
     lines = [
         "## What Kong's method measures on this person (against the marker-based ground truth)",
         "",

@@ -4,8 +4,6 @@ of an aluminium box; rotation about one edge and random hand-held rotation, 5 re
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from aceval.data.units import SIMULATED_SUBJECTS
@@ -18,10 +16,10 @@ from aceval.simulate.engine import (
     fine_time,
     small_rotations,
 )
-from aceval.simulate.kong_dataset import ACC_RANGE_G, GYR_RANGE_DPS, IMUS, SENSOR_SETS, UNITS
+from aceval.simulate.kong_dataset import ACC_RANGE_G, IMUS, SENSOR_META
 from aceval.simulate.motion import bell
 from aceval.simulate.options import SimOptions, sensor_signals
-from aceval.simulate.simulation import Simulation, write_simulation
+from aceval.simulate.simulation import Simulation, written
 
 #: box size (m): Kong does not give it; a hand-held aluminium box of this size is assumed
 BOX = np.array([0.30, 0.20, 0.15])
@@ -83,17 +81,6 @@ TESTS = {
 }
 
 
-def simulate_box(
-    out: Path,
-    seed: int,
-    n_subjects: int = SIMULATED_SUBJECTS["box"],
-    options: SimOptions = SimOptions(),
-    name: str = "box_sim",
-) -> Path:
-    """Write the SIMULATED rigid-box dataset (Kong Sec. 3) into ``out``, named ``name``; returns ``out``."""
-    return write_simulation(box_simulation(seed, n_subjects, options, name), out, options)
-
-
 def box_simulation(
     seed: int,
     n_subjects: int = SIMULATED_SUBJECTS["box"],
@@ -101,17 +88,8 @@ def box_simulation(
     name: str = "box_sim",
 ) -> Simulation:
     """The SIMULATED rigid-box dataset (Kong Sec. 3) named ``name``, before it is written."""
-    meta = simulated_meta(
-        name,
-        "the rigid aluminium box of Kong et al. 2016 Sec. 3",
-        "box",
-        seed,
-        options.fs_hz,
-        units=UNITS,
-        sensor_sets=SENSOR_SETS,
-        acc_range_g=ACC_RANGE_G,
-        gyr_range_dps=GYR_RANGE_DPS,
-    )
+    description = "the rigid aluminium box of Kong et al. 2016 Sec. 3"
+    meta = simulated_meta(name, description, "box", seed, options.fs_hz, **SENSOR_META)
     placements = _placements()
     subjects = [f"BOX{k + 1}" for k in range(n_subjects)]
     repetitions = {test: 1 if test == "T0" else options.repetitions for test in TESTS}
@@ -168,3 +146,7 @@ def box_simulation(
                     writer.recording(subject, sensor_set, test, rep, imu, gyr, acc)
 
     return Simulation(meta, subjects, sheets, write_subject, "box_sim")
+
+
+#: writes :func:`box_simulation` into a folder: ``simulate_box(out, seed, n_subjects, options, name)``
+simulate_box = written(box_simulation)

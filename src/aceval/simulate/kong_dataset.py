@@ -21,7 +21,7 @@ from aceval.simulate.options import (
     heel_strike_shaking,
     sensor_signals,
 )
-from aceval.simulate.simulation import Simulation, write_simulation
+from aceval.simulate.simulation import Simulation, written
 
 IMUS = [  # Kong Sec. 2.3 and Fig. 4
     ("IMU1", "head", "center", "upper_body"),
@@ -53,6 +53,10 @@ ACC_RANGE_G = {"upper_body": 4.0, "lower_body": 8.0}  # Kong Sec. 2.3
 GYR_RANGE_DPS = 400.0  # Kong Sec. 2.3
 UNITS = {"acc": "g", "gyr": "deg/s"}
 SENSOR_SETS = ["frontal", "lateral"]
+#: dataset.yaml's facts of Kong's sensors (the rigid box's too)
+SENSOR_META = dict(
+    units=UNITS, sensor_sets=SENSOR_SETS, acc_range_g=ACC_RANGE_G, gyr_range_dps=GYR_RANGE_DPS
+)
 #: soft-tissue wobble RMS (deg) by segment and set: stiffer over bone (head, shank front, foot
 #: dorsum), larger over fat and muscle (lateral waist, thighs); see docs/simulation.md
 WOBBLE_DEG = {
@@ -91,17 +95,6 @@ def _stance_offsets(rng, offplane: float) -> dict[str, np.ndarray]:
     return offsets
 
 
-def simulate_kong(
-    out: Path,
-    seed: int,
-    n_subjects: int = SIMULATED_SUBJECTS["kong"],
-    options: SimOptions = SimOptions(),
-    name: str = "kong_sim",
-) -> Path:
-    """Write the SIMULATED Kong protocol dataset into ``out``, named ``name``; returns ``out``."""
-    return write_simulation(kong_simulation(seed, n_subjects, options, name), out, options)
-
-
 def kong_simulation(
     seed: int,
     n_subjects: int = SIMULATED_SUBJECTS["kong"],
@@ -109,17 +102,7 @@ def kong_simulation(
     name: str = "kong_sim",
 ) -> Simulation:
     """The SIMULATED Kong protocol dataset named ``name``, before it is written."""
-    meta = simulated_meta(
-        name,
-        "Kong et al. 2016",
-        "kong",
-        seed,
-        options.fs_hz,
-        units=UNITS,
-        sensor_sets=SENSOR_SETS,
-        acc_range_g=ACC_RANGE_G,
-        gyr_range_dps=GYR_RANGE_DPS,
-    )
+    meta = simulated_meta(name, "Kong et al. 2016", "kong", seed, options.fs_hz, **SENSOR_META)
     subjects = _subjects(n_subjects, np.random.default_rng([seed, 0]))
     repetitions = {test: 1 if test == "T0" else options.repetitions for test in PROTOCOL}
 
@@ -214,3 +197,7 @@ def _shaking(rng, posture, segment: str, scale: float):
     if scale <= 0 or kind not in SHAKING_PEAK_G or strikes is None or not len(strikes):
         return None
     return heel_strike_shaking(rng, posture.t, strikes, scale * SHAKING_PEAK_G[kind])
+
+
+#: writes :func:`kong_simulation` into a folder: ``simulate_kong(out, seed, n_subjects, options, name)``
+simulate_kong = written(kong_simulation)

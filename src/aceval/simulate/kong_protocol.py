@@ -175,7 +175,7 @@ def _gait_angles(phase):
 
 
 #: the lower leg's out-of-sagittal motion over the stride (deg, amplitudes of sinusoids at the
-#: stride frequency; 2026-11-24, issue 30): knee ab/adduction 3 and tibial rotation 4 (the
+#: stride frequency): knee ab/adduction 3 and tibial rotation 4 (the
 #: tibiofemoral arcs of about 6 and 8-10 deg in walking, Lafortune et al. 1992, J Biomech
 #: 25:347), subtalar eversion/inversion 5 (about 10 deg in all, Perry & Burnfield 2010, Ch. 4).
 #: The shank and foot also inherit the thigh's frontal tilt (hip ab/adduction), as the chain does
@@ -185,7 +185,7 @@ KNEE_ADDUCTION_DEG, TIBIAL_ROTATION_DEG, SUBTALAR_DEG = 3.0, 4.0, 5.0
 #: calibration of the shank turns 1.82 deg from all of them (median over HuGaDB's 9 sessions,
 #: range 0.55-3.61; table variability, repetition_heading_deg). The shank's plane turns by less
 #: than its heading, since its acceleration also follows the knee's path: 4.2 deg gives 1.5-1.7
-#: on seeds 0-1 (measured 2026-11-24 with tools like aceval.evaluation.variability)
+#: on seeds 0-1 (measured with aceval.evaluation.variability's tools)
 LOWER_LEG_HEADING_SD_DEG = 4.2
 
 

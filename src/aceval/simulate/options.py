@@ -35,7 +35,8 @@ class SimOptions:
     #: planarity sits in the real recordings' range, docs/simulation.md)
     impacts: float = 0.0
     #: the walk's lower-leg variability: 'measured' (set from real walking, docs/simulation.md)
-    #: or 'assumed' (a sagittal lower leg, as before 2026-11-24: the old datasets exactly)
+    #: or 'assumed' (a sagittal lower leg, as before the variability was measured: the datasets
+    #: simulated then, exactly)
     variability: str = "measured"
     misalignment_sd_deg: float = 10.0
     repetitions: int = 5

@@ -10,8 +10,6 @@ posture, the direction of the specific force), for the Ricci LM fit.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from aceval.data.units import SIMULATED_SUBJECTS
@@ -27,7 +25,7 @@ from aceval.simulate.engine import (
 )
 from aceval.simulate.motion import bell
 from aceval.simulate.options import SimOptions, sensor_signals
-from aceval.simulate.simulation import Simulation, write_simulation
+from aceval.simulate.simulation import Simulation, written
 
 SEGMENTS = ["thorax", "upper_arm_r", "upper_arm_l", "forearm_r", "forearm_l"]
 IMUS = [  # Ricci Fig. 2: 1 thorax, 2/3 right/left upper arm, 4/5 right/left forearm
@@ -103,7 +101,7 @@ def _axis_rotvec(axis: str, angle):
 
 def _compose(A, B):
     """``A @ B`` of two stacks of rotations, where ``None`` is the identity: its product is
-    skipped (a product with the identity gives the other factor's values; issue 43).
+    skipped (a product with the identity gives the other factor's values).
     """
     if A is None:
         return B
@@ -231,17 +229,6 @@ def functional_axes() -> list[list[str]]:
     return rows
 
 
-def simulate_ricci(
-    out: Path,
-    seed: int,
-    n_subjects: int = SIMULATED_SUBJECTS["ricci"],
-    options: SimOptions = SimOptions(),
-    name: str = "ricci_sim",
-) -> Path:
-    """Write the SIMULATED Ricci et al. 2014 children into ``out``, named ``name``; returns ``out``."""
-    return write_simulation(ricci_simulation(seed, n_subjects, options, name), out, options)
-
-
 def ricci_simulation(
     seed: int,
     n_subjects: int = SIMULATED_SUBJECTS["ricci"],
@@ -321,3 +308,7 @@ def ricci_simulation(
                 writer.recording(subject, "main", test, trial, imu, gyr, acc)
 
     return Simulation(meta, [s[0] for s in subjects], sheets, write_subject, "ricci_sim")
+
+
+#: writes :func:`ricci_simulation` into a folder: ``simulate_ricci(out, seed, n_subjects, options, name)``
+simulate_ricci = written(ricci_simulation)

@@ -6,6 +6,7 @@ recordings it has just simulated (:mod:`aceval.batches`).
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -39,3 +40,22 @@ def write_simulation(simulation: Simulation, out: Path, options: SimOptions) -> 
     writer.each_subject(simulation.subject, count, options.jobs, f"{simulation.label} {out}")
     writer.close()
     return Path(out)
+
+
+def written(simulation: Callable[..., Simulation]) -> Callable[..., Path]:
+    """The function that writes ``simulation``'s dataset into a folder (:func:`write_simulation`):
+    ``(out, seed, ...) -> out``, its other arguments ``simulation``'s (their defaults too).
+    """
+    signature = inspect.signature(simulation)
+
+    def simulate(out: Path, *args, **kwargs) -> Path:
+        bound = signature.bind(*args, **kwargs)
+        bound.apply_defaults()
+        options = bound.arguments["options"]
+        return write_simulation(simulation(*bound.args, **bound.kwargs), out, options)
+
+    simulate.__doc__ = (
+        f"Write :func:`{simulation.__name__}` into ``out`` (then its other arguments); returns "
+        "``out``."
+    )
+    return simulate
