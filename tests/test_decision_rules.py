@@ -217,9 +217,10 @@ def test_the_summary_by_place_names_the_choice_made_most_often_of_its_subjects()
         )
         == MAX_LISTED
     )
-    # 9 IMUs: 7 chosen, 2 of them tied (k 1 and 5), both with evidence (evidence_n 1 and 2)
-    assert "(2 of 7 sensors chosen by the tie rule, 0 of them without any evidence)" in "\n".join(
-        decision_section({"decision": _table(9)})
+    # 9 IMUs: 7 chosen, 2 of them tied (k 1 and 5), k 1's evidence without a standard error
+    assert (
+        "(2 of 7 sensors chosen by the tie rule, 1 of them with evidence from fewer than 2 other "
+        "sensors" in "\n".join(decision_section({"decision": _table(9)}))
     )
 
 
@@ -266,7 +267,7 @@ def _listed_row_says(shown: dict, r: pd.Series) -> None:
     assert _deg_cell(shown["spread (deg)"], r["methods_spread_deg"])
     behind = r["n_behind"]
     assert shown["within T"] == ("-" if not np.isfinite(behind) else str(int(behind)))
-    assert shown["unflagged of N"] == f"{int(r['n_unflagged'])} of {int(r['n_calibrations'])}"
+    assert shown["kept of N"] == f"{int(r['n_unflagged'])} of {int(r['n_calibrations'])}"
     if isinstance(r["runner_up"], str):
         margin = f"({r['margin_deg']:+.1f})" if np.isfinite(r["margin_deg"]) else "(-)"
         assert shown["runner-up (margin, deg)"] == f"{r['runner_up']} {margin}"
@@ -283,7 +284,7 @@ def _place_row_says(shown: dict, group: pd.DataFrame) -> None:
     assert _deg_cell(shown["uncertainty, median (deg)"], group["cone_deg"].median())
     assert _deg_cell(shown["spread, median (deg)"], group["methods_spread_deg"].median())
     total = f"{group['n_unflagged'].sum()} of {group['n_calibrations'].sum()}"
-    assert shown["unflagged of N"] == total
+    assert shown["kept of N"] == total
     counts = group["verdict_kind"].value_counts()
     assert shown["verdicts"] == ", ".join(f"{counts.get(k, 0)} {k}" for k in VERDICT_KINDS)
 
