@@ -430,8 +430,14 @@ def _import(args, root: Path) -> None:
     from aceval.importers.run import run_import
 
     what = args.import_format
-    options = dict(format=what, src=args.source, sensors=args.sensors, name=args.name)
-    options |= dict(subject=args.import_subject, vicon=args.vicon)
+    options = dict(
+        format=what,
+        src=args.source,
+        sensors=args.sensors,
+        name=args.name,
+        subject=args.import_subject,
+        vicon=args.vicon,
+    )
     try:
         report = run_import(root, options)
     except (FormatError, CalibrationError, OSError) as exc:

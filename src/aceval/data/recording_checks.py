@@ -250,15 +250,15 @@ def _noisy(signal: np.ndarray) -> bool:
     )
 
 
-def acc_spikes(acc: np.ndarray, gyr: np.ndarray, scale: float = 1.0, gyr_scale: float = 1.0):
-    """(N,) True at the single-sample spikes (:data:`SPIKE_G`) of an (N, 3) acceleration, with
-    the (N, 3) angular velocity of the same sensor (``scale``, ``gyr_scale``: their units in
-    m/s^2 and rad/s). Axis by axis: a few arrays of one axis at a time.
+def acc_spikes(acc: np.ndarray, gyr: np.ndarray):
+    """(N,) True at the single-sample spikes (:data:`SPIKE_G`) of an (N, 3) acceleration (m/s^2),
+    with the (N, 3) angular velocity of the same sensor (rad/s). Axis by axis: a few arrays of
+    one axis at a time.
     """
     out = np.zeros(len(acc), dtype=bool)
     if len(acc) < 3:
         return out
-    limit = SPIKE_G * GRAVITY / abs(scale)  # in the signal's units
+    limit = SPIKE_G * GRAVITY
     candidate = np.zeros(len(acc) - 2, dtype=bool)
     for k in range(3):
         before, after = acc[:-2, k], acc[2:, k]
@@ -266,7 +266,7 @@ def acc_spikes(acc: np.ndarray, gyr: np.ndarray, scale: float = 1.0, gyr_scale: 
         candidate |= (jump > limit) & (np.abs(before - after) < jump / 2)
     if candidate.any():
         at = np.flatnonzero(candidate) + 1
-        rate = np.degrees(np.asarray(gyr, dtype=float)[np.stack([at - 1, at, at + 1])] * gyr_scale)
+        rate = np.degrees(np.asarray(gyr, dtype=float)[np.stack([at - 1, at, at + 1])])
         jolt = np.linalg.norm(rate[1] - (rate[0] + rate[2]) / 2, axis=1)
         out[at] = jolt < SPIKE_GYRO_DEG_S
     return out

@@ -245,8 +245,8 @@ def check_declared_rate(recordings: list[dict], fs_hz: float, report: ImportRepo
         f"their movement repeats (a stride, or a step) {strides:.2f} times a second at "
         f"{fs_hz:g} Hz, {strides * implied / fs_hz:.2f} at {implied:.3g} Hz)"
     )
-    if max(implied / fs_hz, fs_hz / implied) > RATE_MISMATCH:
-        factor = max(implied / fs_hz, fs_hz / implied)
+    factor = max(implied / fs_hz, fs_hz / implied)
+    if factor > RATE_MISMATCH:
         units = (
             f" Or the gyroscope's units: {factor:.3g} is near {DEG_PER_RAD:.1f}, the degrees in a "
             "radian (rad/s read as deg/s, or the reverse: check the mapping's or the exports' "
